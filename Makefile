@@ -1,0 +1,62 @@
+# mprt: C library, C tests, Python package, demo and benchmark.
+CC ?= gcc
+PYTHON ?= python3
+B ?= build
+WARN = -std=c99 -pedantic -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
+# -ffp-contract=off: no fused multiply-add, so the watertight edge tests stay
+# exactly antisymmetric and results do not depend on the compiler's choices.
+OPT ?= -O2 -g
+CFLAGS = $(OPT) $(WARN) $(EXTRA) -ffp-contract=off -D_POSIX_C_SOURCE=200809L -Ic/include -Ic/src
+LDLIBS = -lm -lpthread $(EXTRA_LD)
+
+SRC := $(wildcard c/src/*.c)
+HDR := c/include/mprt.h $(wildcard c/src/*.h)
+TESTS := $(patsubst tests/c/%.c,$(B)/%,$(wildcard tests/c/test_*.c))
+
+.PHONY: all test ctest pytest demo bench asan single clean install
+
+all: $(B)/libmprt.a $(TESTS)
+
+$(B)/obj/%.o: c/src/%.c $(HDR)
+	@mkdir -p $(dir $@)
+	$(CC) $(CFLAGS) -c $< -o $@
+
+$(B)/libmprt.a: $(patsubst c/src/%.c,$(B)/obj/%.o,$(SRC))
+	ar rcs $@ $^
+
+$(B)/test_%: tests/c/test_%.c $(B)/libmprt.a tests/c/check.h
+	$(CC) $(CFLAGS) $< $(B)/libmprt.a -o $@ $(LDLIBS)
+
+# C tests run from tests/c (they find ../../../shared/spd-reference).
+ctest: $(TESTS)
+	@set -e; for t in $(TESTS); do (cd tests/c && ../../$$t); done
+
+# The Python package (editable), rebuilt when a C or build file changes.
+install: build/.installed
+build/.installed: $(SRC) $(HDR) python/mprt/_build.py pyproject.toml setup.py
+	$(PYTHON) -m pip install -q -e '.[test]'
+	@mkdir -p build && touch $@
+
+pytest: build/.installed
+	$(PYTHON) -m pytest -q tests
+
+test: ctest pytest
+
+demo: build/.installed
+	$(PYTHON) -m mprt render balls -o balls.png --stats balls-stats.json
+
+bench: build/.installed
+	$(PYTHON) -m pip install -q embreex
+	$(PYTHON) studies/bench.py
+
+# The C tests under AddressSanitizer and UndefinedBehaviorSanitizer.
+asan:
+	$(MAKE) B=build/asan OPT="-O1 -g" EXTRA="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all" \
+	    EXTRA_LD="-fsanitize=address,undefined" ctest
+
+# The C tests with float geometry (MPRT_SINGLE).
+single:
+	$(MAKE) B=build/single EXTRA="-DMPRT_SINGLE" ctest
+
+clean:
+	rm -rf build

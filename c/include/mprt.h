@@ -1,0 +1,222 @@
+/* mprt.h: the whole public C API of mprt, a ray tracer built as the 3MPRT
+ * macropipeline (object search OS, intersection calculation IC, shading SC).
+ *
+ * Usage:
+ *
+ *     mprt_scene *scene;  mprt_grid *grid;  mprt_render_desc rd;  mprt_counters c;
+ *     mprt_scene_create(&scene);
+ *     if (mprt_scene_spd(scene, "balls", 2) != MPRT_OK)       // or mprt_scene_load_nff
+ *         fprintf(stderr, "%s\n", mprt_scene_errmsg(scene));
+ *     mprt_grid_create(scene, 32, 32, 32, &grid);              // builds the voxel grid
+ *     mprt_render_desc_init(&rd);                              // defaults: paper rules
+ *     rd.width = rd.height = 256;
+ *     float *rgb = malloc(sizeof(float) * 3 * 256 * 256);
+ *     if (mprt_grid_render(grid, &rd, rgb, 3 * 256 * 256, &c) != MPRT_OK)
+ *         fprintf(stderr, "%s\n", mprt_grid_errmsg(grid));
+ *     mprt_image_write_png("balls.png", 256, 256, rgb);
+ *     mprt_grid_destroy(grid);  mprt_scene_destroy(scene);  free(rgb);
+ *
+ * Limitations: one uniform grid per render; no textures, no area lights, no
+ * instancing; NFF is the only scene format; polygons must be planar.
+ *
+ * Ownership and threads: the caller owns every handle it creates and destroys
+ * it with the matching *_destroy (which accepts NULL).  A grid keeps a pointer
+ * to its scene: destroy grids before their scene, and do not change a scene
+ * that has grids.  The library owns error message strings; one stays valid
+ * until the next call on the same handle.  There is no global mutable state:
+ * different handles may be used from different threads at once, and one grid
+ * may be rendered or intersected by several threads at once.  The library
+ * never prints, never exits, never aborts on bad input.
+ *
+ * Numbers are double precision unless the library is built with MPRT_SINGLE,
+ * in which case all internal geometry is float (the API stays in double).
+ */
+#ifndef MPRT_H
+#define MPRT_H
+
+#include <stddef.h>
+#include <stdint.h>
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+#define MPRT_VERSION "0.1.0"
+
+/* Status codes: 0 is success, every error is negative. */
+typedef enum {
+    MPRT_OK = 0,
+    MPRT_ERR_INVALID_ARG = -1,   /* an argument is out of range, NaN or malformed */
+    MPRT_ERR_OUT_OF_MEMORY = -2, /* an allocation failed or would exceed a limit */
+    MPRT_ERR_STATE = -3,         /* the call is not allowed in the handle's state */
+    MPRT_ERR_CAPACITY = -4,      /* a caller buffer is too small; the needed size is reported */
+    MPRT_ERR_PARSE = -5,         /* malformed scene text; message names file and line */
+    MPRT_ERR_IO = -6             /* a file could not be opened, read or written */
+} mprt_status;
+
+/* Primitive kinds, in the order the counters use. */
+typedef enum {
+    MPRT_SPHERE = 0,
+    MPRT_POLYGON = 1,
+    MPRT_CYLINDER = 2,
+    MPRT_CONE = 3,
+    MPRT_NKINDS = 4
+} mprt_kind;
+
+/* Shading rule sets. */
+typedef enum {
+    MPRT_RULES_PAPER = 0, /* 3MPRT: one ray per pixel centre, contribution cutoff */
+    MPRT_RULES_SPD = 1    /* SPD test procedure: pixel corners, depth 5, no cutoff */
+} mprt_rules;
+
+typedef struct mprt_scene mprt_scene;
+typedef struct mprt_grid mprt_grid;
+
+/* Generic text for a status code. */
+const char *mprt_status_str(int status);
+
+/* ---- Scene ------------------------------------------------------------ */
+
+/* Create an empty scene (default view, black background, no lights). OUT: scene. */
+int mprt_scene_create(mprt_scene **out);
+/* Destroy a scene; NULL is allowed. */
+void mprt_scene_destroy(mprt_scene *scene);
+/* Message of the last failed call on this scene ("" if none). */
+const char *mprt_scene_errmsg(const mprt_scene *scene);
+
+/* First warning of the scene ("" if none): an entity dropped by the NFF
+ * reader, with file and line.  mprt_scene_info.dropped counts them all. */
+const char *mprt_scene_warning(const mprt_scene *scene);
+
+/* Append the contents of an NFF file. */
+int mprt_scene_load_nff(mprt_scene *scene, const char *path);
+/* Append NFF text; name is used in error messages (e.g. the file name). */
+int mprt_scene_parse_nff(mprt_scene *scene, const char *text, size_t len, const char *name);
+/* Write the scene as NFF text into buf (cap bytes, NUL included). OUT: needed
+ * (bytes incl. NUL); MPRT_ERR_CAPACITY when cap < needed. */
+int mprt_scene_write_nff(const mprt_scene *scene, char *buf, size_t cap, size_t *needed);
+/* Append SPD scene name (balls, gears, mount, rings, tetra, tree) at SPD size
+ * factor size; size <= 0 selects the SPD default for that scene. */
+int mprt_scene_spd(mprt_scene *scene, const char *name, int size);
+
+/* Set the view: eye, look-at point, up vector, field angle in degrees (NFF
+ * "angle": between the centres of the first and last pixel column, and of
+ * the first and last row), hither distance, resolution. */
+int mprt_scene_set_view(mprt_scene *scene, const double from[3], const double at[3],
+                        const double up[3], double angle, double hither, int width,
+                        int height);
+/* Set the background colour. */
+int mprt_scene_set_background(mprt_scene *scene, const double rgb[3]);
+/* Add a point light; rgb may be NULL (NFF default intensity). */
+int mprt_scene_add_light(mprt_scene *scene, const double pos[3], const double *rgb);
+/* Set the material used by primitives added after this call (NFF "f"). */
+int mprt_scene_set_material(mprt_scene *scene, const double rgb[3], double kd, double ks,
+                            double shine, double t, double ior);
+/* Add a sphere. */
+int mprt_scene_add_sphere(mprt_scene *scene, const double center[3], double radius);
+/* Add a planar polygon of n >= 3 vertices (xyz triples); normals (n triples)
+ * may be NULL, else it is a polygon patch with interpolated vertex normals. */
+int mprt_scene_add_polygon(mprt_scene *scene, int n, const double *verts, const double *normals);
+/* Add an open cone frustum or cylinder (equal radii) between two discs. */
+int mprt_scene_add_cone(mprt_scene *scene, const double base[3], double base_r,
+                        const double apex[3], double apex_r);
+
+/* Summary of a scene. */
+typedef struct {
+    long long prims;             /* all primitives */
+    long long count[MPRT_NKINDS];/* by kind */
+    long long patches;           /* polygons with vertex normals */
+    long long vertices;          /* polygon vertices in all */
+    long long lights;
+    long long materials;
+    long long dropped;           /* entities dropped with a warning (e.g. degenerate) */
+    double lo[3], hi[3];         /* bounding box of all primitives */
+    double from[3], at[3], up[3], angle, hither;
+    int width, height;
+    double background[3];
+} mprt_scene_info;
+
+/* Fill a summary of the scene. OUT: info. */
+int mprt_scene_get_info(const mprt_scene *scene, mprt_scene_info *info);
+
+/* ---- Grid --------------------------------------------------------------- */
+
+/* Build a uniform grid of nx*ny*nz voxels (each 1..1024) over the scene's
+ * bounding box.  OUT: grid.  On failure *out still holds a grid in a failed
+ * state whose errmsg says why (or NULL when even that could not be
+ * allocated); destroy it.  max_bytes bounds the memory the grid may use
+ * (0 selects the default, 4 GiB). */
+int mprt_grid_create(const mprt_scene *scene, int nx, int ny, int nz, size_t max_bytes,
+                     mprt_grid **out);
+/* Destroy a grid; NULL is allowed. */
+void mprt_grid_destroy(mprt_grid *grid);
+/* Message of the last failed call on this grid ("" if none). */
+const char *mprt_grid_errmsg(const mprt_grid *grid);
+
+typedef struct {
+    int n[3];                    /* voxels per axis */
+    long long voxels;            /* n[0]*n[1]*n[2] */
+    long long nonempty;          /* voxels whose list is not empty */
+    long long refs;              /* list entries in all */
+    long long max_len;           /* longest list */
+    double mean_len;             /* refs / nonempty (0 if none) */
+    long long bytes;             /* memory of the grid's arrays */
+    double lo[3], hi[3];         /* box the grid covers */
+} mprt_grid_stats;
+
+/* Statistics of the grid. OUT: stats. */
+int mprt_grid_get_stats(const mprt_grid *grid, mprt_grid_stats *stats);
+
+/* ---- Rendering ---------------------------------------------------------- */
+
+/* Counters of one render or one intersect batch. */
+typedef struct {
+    long long eye_rays;          /* primary rays */
+    long long eye_hits;          /* primary rays that hit a primitive */
+    long long reflect_rays;      /* reflection rays traced */
+    long long refract_rays;      /* refraction rays traced */
+    long long shadow_rays;       /* shadow rays traced */
+    long long suppressed_rays;   /* rays not traced: contribution under the threshold or depth limit */
+    long long voxels_traversed;  /* voxels entered by 3DDDA, over all rays */
+    long long tests[MPRT_NKINDS];/* ray/primitive intersection tests by kind */
+    long long polygon_vertices;  /* vertices touched by polygon tests */
+    long long hits;              /* rays that hit a primitive (shadow rays: blocked) */
+    long long os_visits;         /* OS stage visits */
+    long long ic_visits;         /* IC stage visits */
+    long long sc_visits;         /* SC stage visits */
+} mprt_counters;
+
+typedef struct {
+    int width, height;   /* image size; 0 = the scene's view resolution */
+    int rules;           /* MPRT_RULES_PAPER or MPRT_RULES_SPD */
+    double threshold;    /* contribution cutoff (paper rules only) */
+    int max_depth;       /* deepest ray tree level, eye ray = 1 (0 = rules' default) */
+    int threads;         /* worker threads; 0 = 1 */
+    int tile;            /* tile edge in pixels for the thread work split */
+    double ambient;      /* ambient light level multiplying the surface colour */
+} mprt_render_desc;
+
+/* Fill a render description with defaults. OUT: desc. */
+void mprt_render_desc_init(mprt_render_desc *desc);
+
+/* Render the grid's scene.  rgb receives width*height*3 floats, row-major
+ * from the top row; cap is its length in floats.  OUT: rgb, counters
+ * (counters may be NULL). */
+int mprt_grid_render(mprt_grid *grid, const mprt_render_desc *desc, float *rgb, size_t cap,
+                     mprt_counters *counters);
+
+/* Closest hit of n arbitrary rays (origins and directions as xyz triples;
+ * directions need not be unit).  OUT: t[i] (distance in units of the given
+ * direction, +inf for a miss) and prim[i] (primitive id or -1); counters may be
+ * NULL. */
+int mprt_grid_intersect(mprt_grid *grid, size_t n, const double *origins,
+                        const double *directions, double *t, int32_t *prim,
+                        mprt_counters *counters);
+
+/* Write rgb (width*height*3 floats in [0,1], clamped) as an 8-bit PNG. */
+int mprt_image_write_png(const char *path, int width, int height, const float *rgb);
+
+#ifdef __cplusplus
+}
+#endif
+#endif

@@ -1,0 +1,236 @@
+/* grid.c: the uniform voxel grid over the scene's bounding box.
+ *
+ * Voxel data (the OS stage's database) is a compressed-sparse-row pair: for
+ * voxel v, its primitive list is ids[start[v] .. start[v+1]); a voxel's flag
+ * ("holds primitives") is start[v+1] > start[v].  A primitive is listed in
+ * every voxel its surface may touch, by the primitives' conservative box
+ * tests against the voxel box grown by a small relative margin, so that
+ * rounding in the 3DDDA's voxel boundaries can never hide a primitive. */
+#include "grid.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define DEFAULT_MAX_BYTES ((size_t)4 << 30)
+
+static int grid_fail(mprt_grid *g, int status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+
+static int grid_fail(mprt_grid *g, int status, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    mprt__vformat(g->errmsg, sizeof g->errmsg, fmt, ap);
+    va_end(ap);
+    g->failed = 1;
+    return status;
+}
+
+const char *mprt_grid_errmsg(const mprt_grid *g) { return g ? g->errmsg : "no grid"; }
+
+void mprt_grid_destroy(mprt_grid *g)
+{
+    if (!g) return;
+    free(g->start);
+    free(g->ids);
+    free(g);
+}
+
+/* Surface of primitive i may touch the box [lo, hi]. */
+static int prim_box(const mprt_scene *s, long long i, vec3 lo, vec3 hi)
+{
+    const mprt__prim *p = &s->prims[i];
+    switch (p->kind) {
+    case MPRT_SPHERE: return mprt__sphere_box(&s->spheres[p->index], lo, hi);
+    case MPRT_POLYGON: return mprt__polygon_box(&s->polygons[p->index], s->verts, lo, hi);
+    default: return mprt__cone_box(&s->cones[p->index], lo, hi);
+    }
+}
+
+static int clampi(long long v, int n) { return v < 0 ? 0 : v >= n ? n - 1 : (int)v; }
+
+/* Voxel index along one axis of coordinate x (clamped into the grid). */
+static int axis_cell(const mprt_grid *g, int a, real x)
+{
+    real f = (x - vget(g->lo, a)) * vget(g->inv_cell, a);
+    if (!(f > 0)) return 0;
+    if (f >= (real)g->n[a]) return g->n[a] - 1;
+    return clampi((long long)f, g->n[a]);
+}
+
+vec3 mprt__grid_voxel_lo(const mprt_grid *g, int i, int j, int k)
+{
+    return v3(g->lo.x + (real)i * g->cell.x, g->lo.y + (real)j * g->cell.y, g->lo.z + (real)k * g->cell.z);
+}
+
+/* (voxel, primitive) pairs, filled while testing, then sorted by voxel. */
+typedef struct {
+    uint32_t *vox;
+    int32_t *prim;
+    size_t n, cap;
+} pairs;
+
+static int pairs_push(pairs *p, uint32_t v, int32_t id, size_t limit)
+{
+    if (p->n == p->cap) {
+        size_t nc = p->cap ? p->cap * 2 : 1024;
+        uint32_t *a;
+        int32_t *b;
+        if (nc > limit) nc = limit;
+        if (nc <= p->n) return -1;
+        a = realloc(p->vox, nc * sizeof *a);
+        if (!a) return -1;
+        p->vox = a;
+        b = realloc(p->prim, nc * sizeof *b);
+        if (!b) return -1;
+        p->prim = b;
+        p->cap = nc;
+    }
+    p->vox[p->n] = v;
+    p->prim[p->n] = id;
+    p->n++;
+    return 0;
+}
+
+static int build(mprt_grid *g, size_t max_bytes)
+{
+    const mprt_scene *s = g->scene;
+    long long i, nvox = g->voxels;
+    pairs P = {NULL, NULL, 0, 0};
+    size_t pair_limit, fixed;
+    uint32_t *count = NULL;
+    real margin;
+    int st = MPRT_OK;
+
+    fixed = (size_t)(nvox + 1) * sizeof *g->start;
+    if (fixed > max_bytes)
+        return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY,
+                         "grid %dx%dx%d needs %zu bytes for its voxel table alone, more than the %zu allowed",
+                         g->n[0], g->n[1], g->n[2], fixed, max_bytes);
+    /* Pairs cost 8 bytes while building and 4 in the final list. */
+    pair_limit = (max_bytes - fixed) / 8;
+    g->start = calloc((size_t)nvox + 1, sizeof *g->start);
+    if (!g->start) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory allocating %zu bytes of voxel table", fixed);
+
+    /* Margin: a few thousand ulps of the scene's extent. */
+    margin = (real)(vmaxabs(vsub(g->hi, g->lo)) + vmaxabs(g->lo) + vmaxabs(g->hi)) * REAL_EPS * R(4096);
+    g->pad = margin;
+
+    for (i = 0; i < s->nprims; i++) {
+        vec3 blo, bhi;
+        int a0[3], a1[3], x, y, z, a;
+        mprt__prim_bounds(s, i, &blo, &bhi);
+        for (a = 0; a < 3; a++) {
+            a0[a] = axis_cell(g, a, vget(blo, a) - margin);
+            a1[a] = axis_cell(g, a, vget(bhi, a) + margin);
+        }
+        for (z = a0[2]; z <= a1[2]; z++)
+            for (y = a0[1]; y <= a1[1]; y++)
+                for (x = a0[0]; x <= a1[0]; x++) {
+                    vec3 lo = mprt__grid_voxel_lo(g, x, y, z);
+                    vec3 hi = mprt__grid_voxel_lo(g, x + 1, y + 1, z + 1);
+                    lo = v3(lo.x - margin, lo.y - margin, lo.z - margin);
+                    hi = v3(hi.x + margin, hi.y + margin, hi.z + margin);
+                    if (!prim_box(s, i, lo, hi)) continue;
+                    if (pairs_push(&P, (uint32_t)(((long long)z * g->n[1] + y) * g->n[0] + x), (int32_t)i,
+                                   pair_limit)) {
+                        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY,
+                                       "grid %dx%dx%d: the primitive lists exceed the %zu bytes allowed "
+                                       "(or memory ran out) at primitive %lld",
+                                       g->n[0], g->n[1], g->n[2], max_bytes, i);
+                        goto done;
+                    }
+                }
+    }
+    if (P.n > 0xffffffffu) {
+        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "grid: %zu list entries exceed 2^32", P.n);
+        goto done;
+    }
+
+    /* Counting sort by voxel; primitives stay in id order within a voxel. */
+    for (i = 0; i < (long long)P.n; i++) g->start[P.vox[i] + 1]++;
+    for (i = 0; i < nvox; i++) g->start[i + 1] += g->start[i];
+    g->ids = malloc((P.n ? P.n : 1) * sizeof *g->ids);
+    count = malloc((size_t)nvox * sizeof *count);
+    if (!g->ids || !count) {
+        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory sorting %zu list entries", P.n);
+        goto done;
+    }
+    memcpy(count, g->start, (size_t)nvox * sizeof *count);
+    for (i = 0; i < (long long)P.n; i++) g->ids[count[P.vox[i]]++] = P.prim[i];
+    g->refs = (long long)P.n;
+
+done:
+    free(count);
+    free(P.vox);
+    free(P.prim);
+    return st;
+}
+
+int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, mprt_grid **out)
+{
+    mprt_grid *g;
+    mprt_scene_info info;
+    int a;
+    real ext;
+    if (!out) return MPRT_ERR_INVALID_ARG;
+    *out = NULL;
+    g = calloc(1, sizeof *g);
+    if (!g) return MPRT_ERR_OUT_OF_MEMORY;
+    *out = g;
+    g->scene = s;
+    if (!s) return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: no scene");
+    if (nx < 1 || ny < 1 || nz < 1 || nx > 1024 || ny > 1024 || nz > 1024)
+        return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: subdivision %dx%dx%d is not in 1..1024 per axis", nx, ny, nz);
+    if (s->nprims == 0) return grid_fail(g, MPRT_ERR_STATE, "grid: the scene has no primitives");
+    g->n[0] = nx;
+    g->n[1] = ny;
+    g->n[2] = nz;
+    g->voxels = (long long)nx * ny * nz;
+    mprt_scene_get_info(s, &info);
+    g->lo = v3((real)info.lo[0], (real)info.lo[1], (real)info.lo[2]);
+    g->hi = v3((real)info.hi[0], (real)info.hi[1], (real)info.hi[2]);
+    /* A flat scene still needs a box of some thickness on every axis. */
+    ext = vmaxabs(vsub(g->hi, g->lo));
+    if (ext == 0) ext = vmaxabs(g->lo) > 0 ? vmaxabs(g->lo) : 1;
+    for (a = 0; a < 3; a++) {
+        real lo = vget(g->lo, a), hi = vget(g->hi, a);
+        if (hi - lo < ext * R(1e-6)) {
+            lo -= ext * R(1e-6);
+            hi += ext * R(1e-6);
+        }
+        if (a == 0) { g->lo.x = lo; g->hi.x = hi; }
+        if (a == 1) { g->lo.y = lo; g->hi.y = hi; }
+        if (a == 2) { g->lo.z = lo; g->hi.z = hi; }
+    }
+    g->cell = v3((g->hi.x - g->lo.x) / (real)nx, (g->hi.y - g->lo.y) / (real)ny, (g->hi.z - g->lo.z) / (real)nz);
+    g->inv_cell = v3(1 / g->cell.x, 1 / g->cell.y, 1 / g->cell.z);
+    return build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES);
+}
+
+int mprt_grid_get_stats(const mprt_grid *g, mprt_grid_stats *st)
+{
+    long long v;
+    if (!g || !st) return MPRT_ERR_INVALID_ARG;
+    if (g->failed) return MPRT_ERR_STATE;
+    memset(st, 0, sizeof *st);
+    st->n[0] = g->n[0];
+    st->n[1] = g->n[1];
+    st->n[2] = g->n[2];
+    st->voxels = g->voxels;
+    st->refs = g->refs;
+    for (v = 0; v < g->voxels; v++) {
+        long long len = (long long)(g->start[v + 1] - g->start[v]);
+        if (len) st->nonempty++;
+        if (len > st->max_len) st->max_len = len;
+    }
+    st->mean_len = st->nonempty ? (double)st->refs / (double)st->nonempty : 0;
+    st->bytes = (long long)((g->voxels + 1) * (long long)sizeof *g->start + g->refs * (long long)sizeof *g->ids);
+    st->lo[0] = g->lo.x; st->lo[1] = g->lo.y; st->lo[2] = g->lo.z;
+    st->hi[0] = g->hi.x; st->hi[1] = g->hi.y; st->hi[2] = g->hi.z;
+    return MPRT_OK;
+}

@@ -1,0 +1,199 @@
+/* mprt_internal.h: types and functions shared by the library's files.
+ * Nothing here is public API; internal symbols are prefixed mprt__. */
+#ifndef MPRT_INTERNAL_H
+#define MPRT_INTERNAL_H
+
+#include "mprt.h"
+
+#include <math.h>
+#include <stdarg.h>
+#include <stddef.h>
+
+#ifdef MPRT_SINGLE
+typedef float real;
+#define R(x) ((float)(x))
+#define REAL_EPS 1.1920929e-07f
+#define REAL_MAX 3.40282347e+38f
+#else
+typedef double real;
+#define R(x) ((double)(x))
+#define REAL_EPS 2.220446049250313e-16
+#define REAL_MAX 1.7976931348623157e+308
+#endif
+
+typedef struct { real x, y, z; } vec3;
+
+static inline vec3 v3(real x, real y, real z) { vec3 r; r.x = x; r.y = y; r.z = z; return r; }
+static inline vec3 vadd(vec3 a, vec3 b) { return v3(a.x + b.x, a.y + b.y, a.z + b.z); }
+static inline vec3 vsub(vec3 a, vec3 b) { return v3(a.x - b.x, a.y - b.y, a.z - b.z); }
+static inline vec3 vscale(vec3 a, real s) { return v3(a.x * s, a.y * s, a.z * s); }
+static inline vec3 vmadd(vec3 a, vec3 b, real s) { return v3(a.x + b.x * s, a.y + b.y * s, a.z + b.z * s); }
+static inline real vdot(vec3 a, vec3 b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
+static inline vec3 vcross(vec3 a, vec3 b)
+{
+    return v3(a.y * b.z - a.z * b.y, a.z * b.x - a.x * b.z, a.x * b.y - a.y * b.x);
+}
+static inline real vlen(vec3 a) { return (real)sqrt((double)vdot(a, a)); }
+static inline vec3 vnorm(vec3 a)
+{
+    real l = vlen(a);
+    return l > 0 ? vscale(a, 1 / l) : a;
+}
+static inline real vget(vec3 a, int axis) { return axis == 0 ? a.x : axis == 1 ? a.y : a.z; }
+static inline real vmaxabs(vec3 a)
+{
+    real x = (real)fabs((double)a.x), y = (real)fabs((double)a.y), z = (real)fabs((double)a.z);
+    return x > y ? (x > z ? x : z) : (y > z ? y : z);
+}
+
+/* ---- Scene storage ------------------------------------------------------ */
+
+typedef struct {
+    double rgb[3];
+    double kd, ks, shine, t, ior;
+} mprt__material;
+
+typedef struct {
+    vec3 pos;
+    double rgb[3];
+    int has_rgb;
+} mprt__light;
+
+typedef struct {
+    vec3 c;
+    real r;
+} mprt__sphere;
+
+/* A planar polygon; its vertices are scene->verts[first .. first+n), and when
+ * has_normals, its vertex normals are scene->vnormals at the same indices. */
+typedef struct {
+    int first, n;
+    int has_normals;
+    vec3 normal;  /* unit geometric normal, right-handed from the vertex order */
+    real d;       /* plane: dot(normal, p) == d */
+} mprt__polygon;
+
+/* An open cone frustum (NFF "c"), or a cylinder when rb == ra. */
+typedef struct {
+    vec3 base, apex;
+    real rb, ra;
+    /* derived by mprt__cone_prepare */
+    vec3 w;       /* unit axis from base to apex */
+    vec3 u, v;    /* unit vectors completing a right-handed frame */
+    real len;     /* |apex - base| */
+    real slope;   /* (ra - rb) / len */
+} mprt__cone;
+
+/* Primitive table entry: kind (mprt_kind), index into the kind's array,
+ * material index. */
+typedef struct {
+    int kind;
+    int index;
+    int material;
+} mprt__prim;
+
+#define MPRT__ERRMSG 512
+
+struct mprt_scene {
+    mprt__prim *prims;       long long nprims, capprims;
+    mprt__sphere *spheres;   long long nspheres, capspheres;
+    mprt__polygon *polygons; long long npolygons, cappolygons;
+    mprt__cone *cones;       long long ncones, capcones;
+    vec3 *verts;             long long nverts, capverts;
+    vec3 *vnormals;          long long capvnormals; /* parallel to verts; allocated lazily */
+    mprt__material *materials; long long nmaterials, capmaterials;
+    mprt__light *lights;     long long nlights, caplights;
+    long long ncylinders;    /* cones with equal radii */
+    long long npatches;
+    long long dropped;
+    int material;            /* current material, -1 before the first set */
+    vec3 from, at, up;
+    double angle, hither;
+    int width, height;
+    double background[3];
+    char errmsg[MPRT__ERRMSG];
+    char warning[MPRT__ERRMSG]; /* first dropped entity */
+};
+
+/* Record an error message on the scene; returns status. printf-style. */
+int mprt__scene_fail(mprt_scene *scene, int status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
+/* Format into a fixed buffer (always NUL-terminated). */
+void mprt__vformat(char *buf, size_t cap, const char *fmt, va_list ap);
+
+/* Record that an entity was dropped (counted; the first message is kept). */
+void mprt__scene_warn(mprt_scene *scene, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* mprt_scene_add_polygon with the reason for a rejection: *reason (may be
+ * NULL) is set to the value mprt__polygon_prepare returned (0 when accepted
+ * or rejected for another cause). */
+int mprt__scene_add_polygon(mprt_scene *scene, int n, const double *verts, const double *normals,
+                            int *reason);
+
+/* Bounds of primitive i. */
+void mprt__prim_bounds(const mprt_scene *scene, long long i, vec3 *lo, vec3 *hi);
+
+/* ---- Geometry: preparation and validation (prim_*.c) --------------------- */
+/* Each *_prepare checks its input and fills derived fields; on bad input it
+ * writes a message (no trailing period) into err and returns nonzero:
+ * MPRT__DEGENERATE for zero area (a polygon the NFF reader may drop with a
+ * warning), MPRT__NONPLANAR for a polygon off its plane beyond tolerance,
+ * MPRT__BAD for anything else (e.g. a cone with coincident ends). */
+#define MPRT__DEGENERATE 1
+#define MPRT__NONPLANAR 2
+#define MPRT__BAD 3
+int mprt__polygon_prepare(mprt__polygon *p, const vec3 *verts, char *err, size_t errcap);
+int mprt__cone_prepare(mprt__cone *c, char *err, size_t errcap);
+
+/* ---- Rays --------------------------------------------------------------- */
+
+/* A ray with the precomputation that intersection routines share.  The
+ * ray-space transform (kx, ky, kz, sx, sy, sz) maps a point p to shear
+ * coordinates where the ray runs along +z from the origin; polygons use it
+ * for a watertight inside test (Woop, Benthin, Wald 2013). */
+typedef struct {
+    vec3 o, d;        /* origin, direction (not necessarily unit) */
+    vec3 inv;         /* 1/d per axis (+-inf for 0) */
+    int kx, ky, kz;   /* axis permutation: kz = largest |d| component */
+    real sx, sy, sz;  /* shear constants */
+} mprt__ray;
+
+/* Fill the derived fields of a ray from o and d. */
+void mprt__ray_prepare(mprt__ray *ray, vec3 o, vec3 d);
+
+/* ---- Intersection (prim_*.c) ---------------------------------------------
+ * *_hit: nearest intersection with tmin < t <= tmax; returns 1 and sets *t,
+ * else 0.  *_normal: unit outward/geometric normal at point p on the surface
+ * (not flipped toward the ray).  *_box: nonzero when the primitive's surface
+ * may touch the closed box [lo, hi]; never zero when it does (conservative). */
+int mprt__sphere_hit(const mprt__sphere *s, const mprt__ray *ray, real tmin, real tmax, real *t);
+vec3 mprt__sphere_normal(const mprt__sphere *s, vec3 p);
+int mprt__sphere_box(const mprt__sphere *s, vec3 lo, vec3 hi);
+void mprt__sphere_bounds(const mprt__sphere *s, vec3 *lo, vec3 *hi);
+
+int mprt__polygon_hit(const mprt__polygon *p, const vec3 *verts, const mprt__ray *ray, real tmin,
+                      real tmax, real *t);
+/* Shading normal: interpolated from vertex normals for patches, else geometric. */
+vec3 mprt__polygon_normal(const mprt__polygon *p, const vec3 *verts, const vec3 *vnormals, vec3 point);
+int mprt__polygon_box(const mprt__polygon *p, const vec3 *verts, vec3 lo, vec3 hi);
+void mprt__polygon_bounds(const mprt__polygon *p, const vec3 *verts, vec3 *lo, vec3 *hi);
+
+int mprt__cylinder_hit(const mprt__cone *c, const mprt__ray *ray, real tmin, real tmax, real *t);
+int mprt__cone_hit(const mprt__cone *c, const mprt__ray *ray, real tmin, real tmax, real *t);
+vec3 mprt__cone_normal(const mprt__cone *c, vec3 p);
+int mprt__cone_box(const mprt__cone *c, vec3 lo, vec3 hi);
+void mprt__cone_bounds(const mprt__cone *c, vec3 *lo, vec3 *hi);
+
+/* ---- NFF and SPD (nff.c, spd*.c) ----------------------------------------- */
+int mprt__nff_parse(mprt_scene *scene, const char *text, size_t len, const char *name);
+int mprt__nff_write(const mprt_scene *scene, char *buf, size_t cap, size_t *needed);
+int mprt__spd_generate(mprt_scene *scene, const char *name, int size);
+
+#endif

@@ -1,0 +1,623 @@
+/* render.c: the 3MPRT loop.  Every ray moves through the paper's three
+ * stages: OS (object search) walks voxels with the 3DDDA until one holds
+ * primitives and hands the ray to IC; IC (intersection calculation) tests
+ * that voxel's primitives and either sends the ray to SC (a hit), kills it
+ * (a blocked shadow ray) or returns it to OS; SC (shading calculation)
+ * shades, makes the shadow, reflection and refraction rays and sends them to
+ * OS.  A ray leaving the grid at OS dies (primary and secondary rays: the
+ * background) or, for a shadow ray, reaches its light and goes to SC.
+ *
+ * Grid independence: IC keeps the nearest hit it has found so far, also when
+ * that hit lies beyond the current voxel's stretch of the ray, and accepts
+ * it only in the voxel whose stretch reaches it.  Ties in t go to the lower
+ * primitive id.  The accepted hit is therefore the nearest hit over all
+ * primitives, whatever the subdivision, and so are the image and every ray
+ * count. */
+#include "grid.h"
+
+#include <pthread.h>
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+#define INF_REAL ((real)INFINITY)
+
+/* ---- 3DDDA ---------------------------------------------------------------- */
+
+static real boundary(const mprt_grid *g, int a, int i)
+{
+    return vget(g->lo, a) + (real)i * vget(g->cell, a);
+}
+
+static real min3(real a, real b, real c) { return a < b ? (a < c ? a : c) : (b < c ? b : c); }
+
+/* t where the ray crosses the far boundary of its current cell on axis a. */
+static real crossing(const mprt_grid *g, const mprt__ray *ray, const mprt__dda *w, int a)
+{
+    real d = vget(ray->d, a);
+    if (d == 0) return INF_REAL;
+    return (boundary(g, a, w->cell[a] + (w->step[a] > 0)) - vget(ray->o, a)) * vget(ray->inv, a);
+}
+
+int mprt__dda_start(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, mprt__dda *w)
+{
+    real t0 = tmin, t1 = tmax;
+    int a;
+    /* Clip the ray to the grid box (slabs) */
+    for (a = 0; a < 3; a++) {
+        real o = vget(ray->o, a), d = vget(ray->d, a), inv = vget(ray->inv, a);
+        real lo = vget(g->lo, a) - g->pad, hi = vget(g->hi, a) + g->pad;
+        if (d == 0) {
+            if (!(o >= lo && o <= hi)) return 0;
+            continue;
+        }
+        {
+            real ta = (lo - o) * inv, tb = (hi - o) * inv;
+            if (ta > tb) { real tmp = ta; ta = tb; tb = tmp; }
+            if (ta > t0) t0 = ta;
+            if (tb < t1) t1 = tb;
+        }
+    }
+    if (!(t0 <= t1)) return 0;
+    /* First voxel: the cell holding the entry point */
+    for (a = 0; a < 3; a++) {
+        real x = vget(ray->o, a) + t0 * vget(ray->d, a);
+        real f = (x - vget(g->lo, a)) * vget(g->inv_cell, a);
+        int c = f > 0 ? (f >= (real)g->n[a] ? g->n[a] - 1 : (int)f) : 0;
+        w->cell[a] = c;
+        w->step[a] = vget(ray->d, a) < 0 ? -1 : 1;
+    }
+    for (a = 0; a < 3; a++) w->tnext[a] = crossing(g, ray, w, a);
+    w->t_enter = t0;
+    w->t_end = t1;
+    w->t_exit = min3(w->tnext[0], w->tnext[1], w->tnext[2]);
+    if (w->t_exit > t1) w->t_exit = t1;
+    if (w->t_exit < t0) w->t_exit = t0;
+    w->voxel = ((long long)w->cell[2] * g->n[1] + w->cell[1]) * g->n[0] + w->cell[0];
+    return 1;
+}
+
+int mprt__dda_next(const mprt_grid *g, const mprt__ray *ray, mprt__dda *w)
+{
+    int a;
+    real t;
+    if (w->t_exit >= w->t_end) return 0;
+    /* Step the axis whose boundary comes first (lowest axis on ties) */
+    a = w->tnext[0] <= w->tnext[1] ? (w->tnext[0] <= w->tnext[2] ? 0 : 2) : (w->tnext[1] <= w->tnext[2] ? 1 : 2);
+    w->cell[a] += w->step[a];
+    if (w->cell[a] < 0 || w->cell[a] >= g->n[a]) return 0;
+    /* The new stretch starts where the old one ended */
+    w->t_enter = w->t_exit;
+    w->tnext[a] = crossing(g, ray, w, a);
+    t = min3(w->tnext[0], w->tnext[1], w->tnext[2]);
+    if (t > w->t_end) t = w->t_end;
+    w->t_exit = t < w->t_enter ? w->t_enter : t;
+    w->voxel = ((long long)w->cell[2] * g->n[1] + w->cell[1]) * g->n[0] + w->cell[0];
+    return 1;
+}
+
+/* ---- IC: one voxel's primitives ------------------------------------------- */
+
+typedef struct {
+    real t;
+    int32_t prim;
+} hit;
+
+/* Test one primitive; counts the test. */
+static int test_prim(const mprt_scene *s, int32_t id, const mprt__ray *ray, real tmin, real tmax, real *t,
+                     mprt_counters *c)
+{
+    const mprt__prim *p = &s->prims[id];
+    c->tests[p->kind]++;
+    switch (p->kind) {
+    case MPRT_SPHERE: return mprt__sphere_hit(&s->spheres[p->index], ray, tmin, tmax, t);
+    case MPRT_POLYGON:
+        c->polygon_vertices += s->polygons[p->index].n;
+        return mprt__polygon_hit(&s->polygons[p->index], s->verts, ray, tmin, tmax, t);
+    case MPRT_CYLINDER: return mprt__cylinder_hit(&s->cones[p->index], ray, tmin, tmax, t);
+    default: return mprt__cone_hit(&s->cones[p->index], ray, tmin, tmax, t);
+    }
+}
+
+/* IC visit: test the voxel's list.  For a shadow ray (any_hit) return 1 on
+ * any hit in (tmin, tmax].  Otherwise update the nearest hit *best and
+ * return 1 when it lies within this voxel's stretch (accepted). */
+static int ic_visit(const mprt_grid *g, const mprt__dda *w, const mprt__ray *ray, real tmin, real tmax,
+                    int any_hit, hit *best, mprt_counters *c)
+{
+    const mprt_scene *s = g->scene;
+    uint32_t k, k1 = g->start[w->voxel + 1];
+    c->ic_visits++;
+    for (k = g->start[w->voxel]; k < k1; k++) {
+        int32_t id = g->ids[k];
+        real t;
+        real limit = any_hit ? tmax : best->t;
+        if (!test_prim(s, id, ray, tmin, limit, &t, c)) continue;
+        if (any_hit) {
+            best->t = t;
+            best->prim = id;
+            return 1;
+        }
+        if (t < best->t || (t == best->t && id < best->prim)) {
+            best->t = t;
+            best->prim = id;
+        }
+    }
+    return !any_hit && best->prim >= 0 && best->t <= w->t_exit;
+}
+
+/* OS + IC: walk until a hit is accepted or the ray leaves.  Returns 1 with
+ * *best set for a hit (for a shadow ray: blocked), 0 when the ray left. */
+static int os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int any_hit, hit *best,
+                 mprt_counters *c)
+{
+    mprt__dda w;
+    best->t = tmax;
+    best->prim = -1;
+    c->os_visits++;
+    if (!mprt__dda_start(g, ray, tmin, tmax, &w)) return 0;
+    c->voxels_traversed++;
+    for (;;) {
+        if (g->start[w.voxel + 1] > g->start[w.voxel]) {
+            /* OS hands the ray to IC */
+            if (ic_visit(g, &w, ray, tmin, tmax, any_hit, best, c)) return 1;
+            /* a return ray: back to OS */
+            c->os_visits++;
+        }
+        if (!mprt__dda_next(g, ray, &w)) break;
+        c->voxels_traversed++;
+    }
+    /* The walk has tested every voxel the ray crosses, so the nearest
+     * candidate is the nearest hit even when rounding put it past the
+     * last stretch (a primitive lying on the grid box's face). */
+    return !any_hit && best->prim >= 0;
+}
+
+/* ---- Batch closest hit ------------------------------------------------------ */
+
+int mprt_grid_intersect(mprt_grid *g, size_t n, const double *org, const double *dir, double *t,
+                        int32_t *prim, mprt_counters *counters)
+{
+    size_t i;
+    mprt_counters c;
+    if (!g) return MPRT_ERR_INVALID_ARG;
+    if (g->failed) return MPRT_ERR_STATE;
+    if (n && (!org || !dir || !t || !prim)) return MPRT_ERR_INVALID_ARG;
+    memset(&c, 0, sizeof c);
+    for (i = 0; i < n; i++) {
+        mprt__ray ray;
+        hit h;
+        const double *o = org + 3 * i, *d = dir + 3 * i;
+        if (!(isfinite(o[0]) && isfinite(o[1]) && isfinite(o[2]) && isfinite(d[0]) && isfinite(d[1]) &&
+              isfinite(d[2])) ||
+            (d[0] == 0 && d[1] == 0 && d[2] == 0)) {
+            snprintf(g->errmsg, sizeof g->errmsg,
+                     "intersect: ray %zu has a NaN or infinite component or a zero direction", i);
+            return MPRT_ERR_INVALID_ARG;
+        }
+        mprt__ray_prepare(&ray, v3((real)o[0], (real)o[1], (real)o[2]), v3((real)d[0], (real)d[1], (real)d[2]));
+        if (os_ic(g, &ray, 0, INF_REAL, 0, &h, &c)) {
+            t[i] = (double)h.t;
+            prim[i] = h.prim;
+            c.hits++;
+        } else {
+            t[i] = INFINITY;
+            prim[i] = -1;
+        }
+    }
+    if (counters) *counters = c;
+    return MPRT_OK;
+}
+
+/* ---- Rendering ------------------------------------------------------------ */
+
+enum { RAY_PRIMARY = 0, RAY_REFLECT = 1, RAY_REFRACT = 2, RAY_SHADOW = 3 };
+
+/* A ray waiting for OS, with what SC needs when it comes back. */
+typedef struct {
+    vec3 o, d;        /* d is unit length */
+    real tmin, tmax;
+    double contrib;   /* how much the ray can still add to its pixel */
+    double rgb[3];    /* shadow rays: light it carries to the pixel */
+    int kind, depth;
+} job;
+
+typedef struct {
+    vec3 from, u, v, w;   /* eye and camera frame: right, up, forward */
+    double pitch;         /* pixel spacing on the image plane at distance 1 */
+    int width, height;
+    int corners;          /* SPD rules: sample the (W+1)x(H+1) pixel corners */
+    int sw, sh;           /* samples per row and column */
+} camera;
+
+typedef struct {
+    const mprt_grid *grid;
+    const mprt_render_desc *desc;
+    camera cam;
+    double light_rgb_default; /* intensity of lights without colour */
+    double *samples;          /* sw*sh*3 sample colours */
+    int tiles_x, tiles_y, next_tile;
+    mprt_counters *tile_counters;
+    pthread_mutex_t lock;
+    int failed;
+} render_ctx;
+
+/* Offset that keeps a secondary ray off the surface it starts on: scaled to
+ * the hit point's magnitude, so it works at any scene scale. */
+static real surface_offset(vec3 p) { return (vmaxabs(p) + R(1e-30)) * REAL_EPS * R(512); }
+
+static vec3 reflect_dir(vec3 d, vec3 n) { return vnorm(vsub(d, vscale(n, 2 * vdot(d, n)))); }
+
+static vec3 shading_normal(const mprt_scene *s, int32_t id, vec3 p)
+{
+    const mprt__prim *pr = &s->prims[id];
+    switch (pr->kind) {
+    case MPRT_SPHERE: return mprt__sphere_normal(&s->spheres[pr->index], p);
+    case MPRT_POLYGON: return mprt__polygon_normal(&s->polygons[pr->index], s->verts, s->vnormals, p);
+    default: return mprt__cone_normal(&s->cones[pr->index], p);
+    }
+}
+
+/* Decide whether a child ray is traced; counts the suppressed ones. */
+static int keep_child(const render_ctx *x, double contrib, int depth, mprt_counters *c)
+{
+    const mprt_render_desc *rd = x->desc;
+    if (depth > rd->max_depth || (rd->rules == MPRT_RULES_PAPER && contrib < rd->threshold)) {
+        c->suppressed_rays++;
+        return 0;
+    }
+    return 1;
+}
+
+/* SC for a primary or secondary ray that hit primitive h at distance t:
+ * add the ambient term, push shadow, reflection and refraction rays. */
+static void sc_shade(const render_ctx *x, const job *r, hit h, double acc[3], job *stack, int *sp,
+                     mprt_counters *c)
+{
+    const mprt_scene *s = x->grid->scene;
+    const mprt_render_desc *rd = x->desc;
+    const mprt__material *m = &s->materials[s->prims[h.prim].material];
+    vec3 p = vmadd(r->o, r->d, h.t);
+    vec3 n = shading_normal(s, h.prim, p);
+    real off = surface_offset(p);
+    int entering = 1, l, spd = rd->rules == MPRT_RULES_SPD;
+    double cosi;
+    job *kids = stack + *sp;
+    int nk = 0;
+
+    c->sc_visits++;
+    /* Face the normal toward the incoming ray */
+    if (vdot(n, r->d) > 0) {
+        n = vscale(n, -1);
+        entering = 0;
+    }
+    cosi = -(double)vdot(n, r->d);
+    acc[0] += r->contrib * rd->ambient * m->rgb[0];
+    acc[1] += r->contrib * rd->ambient * m->rgb[1];
+    acc[2] += r->contrib * rd->ambient * m->rgb[2];
+
+    /* Shadow rays, one per light */
+    for (l = 0; l < (int)s->nlights; l++) {
+        const mprt__light *L = &s->lights[l];
+        vec3 to = vsub(L->pos, p);
+        real dist = vlen(to);
+        double ndl, lum, spec = 0, rgb[3];
+        int i;
+        if (!(dist > off)) continue;
+        to = vscale(to, 1 / dist);
+        ndl = (double)vdot(n, to);
+        if (spd && ndl <= 0) continue; /* SPD: no shadow ray toward a light behind the surface */
+        lum = (ndl > 0 ? ndl : 0) * m->kd * r->contrib;
+        if (spd && m->ks > 0) {
+            double rv = (double)vdot(reflect_dir(r->d, n), to);
+            if (rv > 0) spec = m->ks * pow(rv, m->shine) * r->contrib;
+        }
+        if (!spd && !keep_child(x, lum * (L->has_rgb ? (L->rgb[0] + L->rgb[1] + L->rgb[2]) / 3 : x->light_rgb_default),
+                                r->depth, c))
+            continue;
+        for (i = 0; i < 3; i++) {
+            double li = L->has_rgb ? L->rgb[i] : x->light_rgb_default;
+            rgb[i] = li * (lum * m->rgb[i] + spec);
+        }
+        kids[nk].o = p;
+        kids[nk].d = to;
+        kids[nk].tmin = off;
+        kids[nk].tmax = dist;
+        kids[nk].contrib = r->contrib;
+        kids[nk].rgb[0] = rgb[0];
+        kids[nk].rgb[1] = rgb[1];
+        kids[nk].rgb[2] = rgb[2];
+        kids[nk].kind = RAY_SHADOW;
+        kids[nk].depth = r->depth;
+        nk++;
+        c->shadow_rays++;
+    }
+    /* Reflection */
+    if (m->ks > 0 && keep_child(x, r->contrib * m->ks, r->depth + 1, c)) {
+        memset(&kids[nk], 0, sizeof kids[nk]);
+        kids[nk].o = p;
+        kids[nk].d = reflect_dir(r->d, n);
+        kids[nk].tmin = off;
+        kids[nk].tmax = INF_REAL;
+        kids[nk].contrib = r->contrib * m->ks;
+        kids[nk].kind = RAY_REFLECT;
+        kids[nk].depth = r->depth + 1;
+        nk++;
+        c->reflect_rays++;
+    }
+    /* Refraction (Snell); total internal reflection makes a reflection ray */
+    if (m->t > 0 && keep_child(x, r->contrib * m->t, r->depth + 1, c)) {
+        double eta = entering ? 1 / m->ior : m->ior;
+        double k = 1 - eta * eta * (1 - cosi * cosi);
+        memset(&kids[nk], 0, sizeof kids[nk]);
+        kids[nk].o = p;
+        if (k < 0) {
+            kids[nk].d = reflect_dir(r->d, n);
+            kids[nk].kind = RAY_REFLECT;
+            c->reflect_rays++;
+        } else {
+            vec3 d = vadd(vscale(r->d, (real)eta), vscale(n, (real)(eta * cosi - sqrt(k))));
+            kids[nk].d = vnorm(d);
+            kids[nk].kind = RAY_REFRACT;
+            c->refract_rays++;
+        }
+        kids[nk].tmin = off;
+        kids[nk].tmax = INF_REAL;
+        kids[nk].contrib = r->contrib * m->t;
+        kids[nk].depth = r->depth + 1;
+        nk++;
+    }
+    /* Push in reverse so the children are traced in the order made */
+    {
+        int i;
+        for (i = 0; i < nk / 2; i++) {
+            job tmp = kids[i];
+            kids[i] = kids[nk - 1 - i];
+            kids[nk - 1 - i] = tmp;
+        }
+    }
+    *sp += nk;
+}
+
+/* Trace the whole ray tree of one sample; returns its colour in acc. */
+static void trace_sample(const render_ctx *x, job first, double acc[3], job *stack, mprt_counters *c)
+{
+    const mprt_scene *s = x->grid->scene;
+    int sp = 0;
+    stack[sp++] = first;
+    acc[0] = acc[1] = acc[2] = 0;
+    while (sp > 0) {
+        job r = stack[--sp];
+        mprt__ray ray;
+        hit h;
+        int any = r.kind == RAY_SHADOW;
+        mprt__ray_prepare(&ray, r.o, r.d);
+        if (os_ic(x->grid, &ray, r.tmin, r.tmax, any, &h, c)) {
+            c->hits++;
+            if (r.kind == RAY_PRIMARY) c->eye_hits++;
+            if (any) continue; /* blocked shadow ray dies at IC */
+            sc_shade(x, &r, h, acc, stack, &sp, c);
+        } else if (any) {
+            /* unblocked shadow ray: OS -> SC, adds its light */
+            c->sc_visits++;
+            acc[0] += r.rgb[0];
+            acc[1] += r.rgb[1];
+            acc[2] += r.rgb[2];
+        } else {
+            /* left the space: the background */
+            acc[0] += r.contrib * s->background[0];
+            acc[1] += r.contrib * s->background[1];
+            acc[2] += r.contrib * s->background[2];
+        }
+    }
+}
+
+static job primary(const camera *cam, double hither, double sx, double sy)
+{
+    job j;
+    vec3 d = vadd(cam->w, vadd(vscale(cam->u, (real)sx), vscale(cam->v, (real)sy)));
+    memset(&j, 0, sizeof j);
+    d = vnorm(d);
+    j.o = cam->from;
+    j.d = d;
+    j.tmin = (real)(hither / (double)vdot(d, cam->w));
+    j.tmax = INF_REAL;
+    j.contrib = 1;
+    j.kind = RAY_PRIMARY;
+    j.depth = 1;
+    return j;
+}
+
+static void render_tile(render_ctx *x, int tile, job *stack)
+{
+    const camera *cam = &x->cam;
+    int tx = tile % x->tiles_x, ty = tile / x->tiles_x, ts = x->desc->tile;
+    int i0 = tx * ts, j0 = ty * ts, i1 = i0 + ts, j1 = j0 + ts, i, j;
+    mprt_counters *c = &x->tile_counters[tile];
+    double hither = x->grid->scene->hither;
+    if (i1 > cam->sw) i1 = cam->sw;
+    if (j1 > cam->sh) j1 = cam->sh;
+    for (j = j0; j < j1; j++)
+        for (i = i0; i < i1; i++) {
+            double ox = cam->corners ? (double)i - 0.5 : (double)i;
+            double oy = cam->corners ? (double)j - 0.5 : (double)j;
+            double sx = (ox - (cam->width - 1) * 0.5) * cam->pitch;
+            double sy = ((cam->height - 1) * 0.5 - oy) * cam->pitch;
+            double *acc = x->samples + 3 * ((size_t)j * (size_t)cam->sw + (size_t)i);
+            c->eye_rays++;
+            trace_sample(x, primary(cam, hither, sx, sy), acc, stack, c);
+        }
+}
+
+static void *worker(void *arg)
+{
+    render_ctx *x = arg;
+    const mprt_scene *s = x->grid->scene;
+    size_t cap = (size_t)(x->desc->max_depth + 2) * (size_t)(s->nlights + 2) + 8;
+    job *stack = malloc(cap * sizeof *stack);
+    int ntiles = x->tiles_x * x->tiles_y;
+    if (!stack) {
+        pthread_mutex_lock(&x->lock);
+        x->failed = 1;
+        pthread_mutex_unlock(&x->lock);
+        return NULL;
+    }
+    for (;;) {
+        int tile;
+        pthread_mutex_lock(&x->lock);
+        tile = x->failed ? ntiles : x->next_tile++;
+        pthread_mutex_unlock(&x->lock);
+        if (tile >= ntiles) break;
+        render_tile(x, tile, stack);
+    }
+    free(stack);
+    return NULL;
+}
+
+void mprt_render_desc_init(mprt_render_desc *d)
+{
+    if (!d) return;
+    memset(d, 0, sizeof *d);
+    d->rules = MPRT_RULES_PAPER;
+    d->threshold = 1.0 / 512;
+    d->max_depth = 0;
+    d->threads = 1;
+    d->tile = 16;
+    d->ambient = 0.1;
+}
+
+static void setup_camera(const mprt_scene *s, int width, int height, int corners, camera *cam)
+{
+    int span = height > 1 ? height - 1 : 1;
+    cam->from = s->from;
+    cam->w = vnorm(vsub(s->at, s->from));
+    cam->u = vnorm(vcross(cam->w, s->up));
+    cam->v = vcross(cam->u, cam->w);
+    cam->pitch = 2 * tan(s->angle * 0.5 * 3.14159265358979323846 / 180) / span;
+    cam->width = width;
+    cam->height = height;
+    cam->corners = corners;
+    cam->sw = width + (corners ? 1 : 0);
+    cam->sh = height + (corners ? 1 : 0);
+}
+
+int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, size_t cap, mprt_counters *counters)
+{
+    render_ctx x;
+    mprt_render_desc rd;
+    const mprt_scene *s;
+    pthread_t th[64];
+    int nth, i, started = 0, ntiles, w, h;
+    size_t nsamples;
+    if (!g || !desc || !rgb) return MPRT_ERR_INVALID_ARG;
+    if (g->failed) return MPRT_ERR_STATE;
+    s = g->scene;
+    rd = *desc;
+    w = rd.width ? rd.width : s->width;
+    h = rd.height ? rd.height : s->height;
+    if (w < 1 || h < 1 || w > 65536 || h > 65536) {
+        snprintf(g->errmsg, sizeof g->errmsg, "render: resolution %dx%d is not in 1..65536", w, h);
+        return MPRT_ERR_INVALID_ARG;
+    }
+    if (rd.rules != MPRT_RULES_PAPER && rd.rules != MPRT_RULES_SPD) {
+        snprintf(g->errmsg, sizeof g->errmsg, "render: unknown rule set %d (0 paper, 1 spd)", rd.rules);
+        return MPRT_ERR_INVALID_ARG;
+    }
+    if (!(rd.threshold >= 0 && rd.threshold < 1)) {
+        snprintf(g->errmsg, sizeof g->errmsg, "render: threshold %g is not in [0, 1)", rd.threshold);
+        return MPRT_ERR_INVALID_ARG;
+    }
+    if (!(rd.ambient >= 0 && rd.ambient <= 1)) {
+        snprintf(g->errmsg, sizeof g->errmsg, "render: ambient %g is not in [0, 1]", rd.ambient);
+        return MPRT_ERR_INVALID_ARG;
+    }
+    if (rd.max_depth < 0 || rd.max_depth > 1000) {
+        snprintf(g->errmsg, sizeof g->errmsg, "render: max_depth %d is not in 0..1000", rd.max_depth);
+        return MPRT_ERR_INVALID_ARG;
+    }
+    if (rd.max_depth == 0) rd.max_depth = rd.rules == MPRT_RULES_SPD ? 5 : 64;
+    if (rd.tile <= 0) rd.tile = 16;
+    if (rd.threads < 0 || rd.threads > 64) {
+        snprintf(g->errmsg, sizeof g->errmsg, "render: threads %d is not in 0..64", rd.threads);
+        return MPRT_ERR_INVALID_ARG;
+    }
+    if (cap < (size_t)w * (size_t)h * 3) {
+        snprintf(g->errmsg, sizeof g->errmsg, "render: image buffer holds %zu floats, %zu needed", cap,
+                 (size_t)w * (size_t)h * 3);
+        return MPRT_ERR_CAPACITY;
+    }
+    memset(&x, 0, sizeof x);
+    x.grid = g;
+    x.desc = &rd;
+    setup_camera(s, w, h, rd.rules == MPRT_RULES_SPD, &x.cam);
+    x.light_rgb_default = s->nlights ? 1 / sqrt((double)s->nlights) : 1;
+    nsamples = (size_t)x.cam.sw * (size_t)x.cam.sh;
+    x.tiles_x = (x.cam.sw + rd.tile - 1) / rd.tile;
+    x.tiles_y = (x.cam.sh + rd.tile - 1) / rd.tile;
+    ntiles = x.tiles_x * x.tiles_y;
+    x.samples = malloc(nsamples * 3 * sizeof *x.samples);
+    x.tile_counters = calloc((size_t)ntiles, sizeof *x.tile_counters);
+    if (!x.samples || !x.tile_counters || pthread_mutex_init(&x.lock, NULL) != 0) {
+        free(x.samples);
+        free(x.tile_counters);
+        snprintf(g->errmsg, sizeof g->errmsg, "render: out of memory for %zu samples", nsamples);
+        return MPRT_ERR_OUT_OF_MEMORY;
+    }
+    nth = rd.threads > 0 ? rd.threads : 1;
+    for (i = 1; i < nth; i++) {
+        if (pthread_create(&th[i], NULL, worker, &x) != 0) break;
+        started++;
+    }
+    worker(&x);
+    for (i = 1; i <= started; i++) pthread_join(th[i], NULL);
+    pthread_mutex_destroy(&x.lock);
+    if (x.failed) {
+        free(x.samples);
+        free(x.tile_counters);
+        snprintf(g->errmsg, sizeof g->errmsg, "render: out of memory for a worker's ray stack");
+        return MPRT_ERR_OUT_OF_MEMORY;
+    }
+    /* Pixels: samples as they are, or the mean of each pixel's four corners */
+    {
+        int px, py;
+        for (py = 0; py < h; py++)
+            for (px = 0; px < w; px++) {
+                float *o = rgb + 3 * ((size_t)py * (size_t)w + (size_t)px);
+                int k;
+                for (k = 0; k < 3; k++) {
+                    double v;
+                    if (x.cam.corners) {
+                        size_t a = (size_t)py * (size_t)x.cam.sw + (size_t)px, b = a + (size_t)x.cam.sw;
+                        v = 0.25 * (x.samples[3 * a + k] + x.samples[3 * (a + 1) + k] + x.samples[3 * b + k] +
+                                    x.samples[3 * (b + 1) + k]);
+                    } else {
+                        v = x.samples[3 * ((size_t)py * (size_t)w + (size_t)px) + k];
+                    }
+                    o[k] = (float)v;
+                }
+            }
+    }
+    if (counters) {
+        int t, k;
+        memset(counters, 0, sizeof *counters);
+        for (t = 0; t < ntiles; t++) {
+            const mprt_counters *tc = &x.tile_counters[t];
+            counters->eye_rays += tc->eye_rays;
+            counters->eye_hits += tc->eye_hits;
+            counters->reflect_rays += tc->reflect_rays;
+            counters->refract_rays += tc->refract_rays;
+            counters->shadow_rays += tc->shadow_rays;
+            counters->suppressed_rays += tc->suppressed_rays;
+            counters->voxels_traversed += tc->voxels_traversed;
+            for (k = 0; k < MPRT_NKINDS; k++) counters->tests[k] += tc->tests[k];
+            counters->polygon_vertices += tc->polygon_vertices;
+            counters->hits += tc->hits;
+            counters->os_visits += tc->os_visits;
+            counters->ic_visits += tc->ic_visits;
+            counters->sc_visits += tc->sc_visits;
+        }
+    }
+    free(x.samples);
+    free(x.tile_counters);
+    return MPRT_OK;
+}

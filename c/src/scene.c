@@ -1,0 +1,395 @@
+/* scene.c: scene storage, validation of every entity added, summary. */
+#include "mprt_internal.h"
+
+#include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
+
+const char *mprt_status_str(int status)
+{
+    switch (status) {
+    case MPRT_OK: return "ok";
+    case MPRT_ERR_INVALID_ARG: return "invalid argument";
+    case MPRT_ERR_OUT_OF_MEMORY: return "out of memory";
+    case MPRT_ERR_STATE: return "call not allowed in this state";
+    case MPRT_ERR_CAPACITY: return "buffer too small";
+    case MPRT_ERR_PARSE: return "parse error";
+    case MPRT_ERR_IO: return "input/output error";
+    default: return "unknown status";
+    }
+}
+
+void mprt__vformat(char *buf, size_t cap, const char *fmt, va_list ap)
+{
+    if (cap == 0) return;
+    vsnprintf(buf, cap, fmt, ap);
+    buf[cap - 1] = '\0';
+}
+
+int mprt__scene_fail(mprt_scene *scene, int status, const char *fmt, ...)
+{
+    va_list ap;
+    va_start(ap, fmt);
+    mprt__vformat(scene->errmsg, sizeof scene->errmsg, fmt, ap);
+    va_end(ap);
+    return status;
+}
+
+/* Grow an array so it holds at least need elements. */
+static int grow(void **ptr, long long *cap, long long need, size_t elem)
+{
+    long long n;
+    void *p;
+    if (need <= *cap) return 0;
+    n = *cap ? *cap : 16;
+    while (n < need) n *= 2;
+    if ((unsigned long long)n > (unsigned long long)(SIZE_MAX / elem)) return -1;
+    p = realloc(*ptr, (size_t)n * elem);
+    if (!p) return -1;
+    *ptr = p;
+    *cap = n;
+    return 0;
+}
+
+#define GROW(scene, arr, count, cap, extra)                                                  \
+    (grow((void **)&(scene)->arr, &(scene)->cap, (scene)->count + (extra), sizeof *(scene)->arr) \
+         ? mprt__scene_fail((scene), MPRT_ERR_OUT_OF_MEMORY, "out of memory growing " #arr)   \
+         : MPRT_OK)
+
+int mprt_scene_create(mprt_scene **out)
+{
+    mprt_scene *s;
+    if (!out) return MPRT_ERR_INVALID_ARG;
+    *out = NULL;
+    s = calloc(1, sizeof *s);
+    if (!s) return MPRT_ERR_OUT_OF_MEMORY;
+    s->material = -1;
+    s->from = v3(0, 0, 1);
+    s->at = v3(0, 0, 0);
+    s->up = v3(0, 1, 0);
+    s->angle = 45;
+    s->hither = 0;
+    s->width = s->height = 512;
+    *out = s;
+    return MPRT_OK;
+}
+
+void mprt_scene_destroy(mprt_scene *s)
+{
+    if (!s) return;
+    free(s->prims);
+    free(s->spheres);
+    free(s->polygons);
+    free(s->cones);
+    free(s->verts);
+    free(s->vnormals);
+    free(s->materials);
+    free(s->lights);
+    free(s);
+}
+
+const char *mprt_scene_errmsg(const mprt_scene *s) { return s ? s->errmsg : "no scene"; }
+const char *mprt_scene_warning(const mprt_scene *s) { return s ? s->warning : "no scene"; }
+
+void mprt__scene_warn(mprt_scene *s, const char *fmt, ...)
+{
+    va_list ap;
+    if (s->dropped++ == 0) {
+        va_start(ap, fmt);
+        mprt__vformat(s->warning, sizeof s->warning, fmt, ap);
+        va_end(ap);
+    }
+}
+
+static int finite3(const double *p) { return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]); }
+static vec3 tovec(const double *p) { return v3((real)p[0], (real)p[1], (real)p[2]); }
+
+int mprt_scene_set_view(mprt_scene *s, const double from[3], const double at[3],
+                        const double up[3], double angle, double hither, int width, int height)
+{
+    vec3 f, a, u, dir;
+    if (!s || !from || !at || !up) return MPRT_ERR_INVALID_ARG;
+    if (!finite3(from) || !finite3(at) || !finite3(up) || !isfinite(angle) || !isfinite(hither))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: NaN or infinite value");
+    if (!(angle > 0 && angle < 180))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: angle %g is not in (0, 180) degrees", angle);
+    if (hither < 0)
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: hither %g is negative", hither);
+    if (width < 1 || height < 1 || width > 65536 || height > 65536)
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: resolution %dx%d is not in 1..65536", width, height);
+    f = tovec(from);
+    a = tovec(at);
+    u = tovec(up);
+    dir = vsub(a, f);
+    if (vdot(dir, dir) == 0)
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: 'from' and 'at' are the same point");
+    if (vdot(vcross(dir, u), vcross(dir, u)) == 0)
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: 'up' is zero or parallel to the view direction");
+    s->from = f;
+    s->at = a;
+    s->up = u;
+    s->angle = angle;
+    s->hither = hither;
+    s->width = width;
+    s->height = height;
+    return MPRT_OK;
+}
+
+int mprt_scene_set_background(mprt_scene *s, const double rgb[3])
+{
+    if (!s || !rgb) return MPRT_ERR_INVALID_ARG;
+    if (!finite3(rgb)) return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "background: NaN or infinite colour");
+    memcpy(s->background, rgb, sizeof s->background);
+    return MPRT_OK;
+}
+
+int mprt_scene_add_light(mprt_scene *s, const double pos[3], const double *rgb)
+{
+    int st;
+    mprt__light *l;
+    if (!s || !pos) return MPRT_ERR_INVALID_ARG;
+    if (!finite3(pos) || (rgb && !finite3(rgb)))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "light: NaN or infinite value");
+    if ((st = GROW(s, lights, nlights, caplights, 1)) != MPRT_OK) return st;
+    l = &s->lights[s->nlights++];
+    l->pos = tovec(pos);
+    l->has_rgb = rgb != NULL;
+    if (rgb) memcpy(l->rgb, rgb, sizeof l->rgb);
+    else l->rgb[0] = l->rgb[1] = l->rgb[2] = 1;
+    return MPRT_OK;
+}
+
+int mprt_scene_set_material(mprt_scene *s, const double rgb[3], double kd, double ks,
+                            double shine, double t, double ior)
+{
+    int st;
+    mprt__material *m;
+    if (!s || !rgb) return MPRT_ERR_INVALID_ARG;
+    if (!finite3(rgb) || !isfinite(kd) || !isfinite(ks) || !isfinite(shine) || !isfinite(t) || !isfinite(ior))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "material: NaN or infinite value");
+    if (kd < 0 || ks < 0 || t < 0 || shine < 0)
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG,
+                                "material: Kd %g, Ks %g, Shine %g and T %g must not be negative", kd, ks, shine, t);
+    if (t > 0 && !(ior > 0))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG,
+                                "material: index of refraction %g must be positive for a transmissive surface", ior);
+    if ((st = GROW(s, materials, nmaterials, capmaterials, 1)) != MPRT_OK) return st;
+    m = &s->materials[s->nmaterials];
+    memcpy(m->rgb, rgb, sizeof m->rgb);
+    m->kd = kd;
+    m->ks = ks;
+    m->shine = shine;
+    m->t = t;
+    m->ior = ior;
+    s->material = (int)s->nmaterials++;
+    return MPRT_OK;
+}
+
+/* Every primitive gets a material; before the first "f" a white diffuse one. */
+static int need_material(mprt_scene *s)
+{
+    static const double white[3] = {1, 1, 1};
+    if (s->material >= 0) return MPRT_OK;
+    return mprt_scene_set_material(s, white, 1, 0, 0, 0, 1);
+}
+
+static int add_prim(mprt_scene *s, int kind, long long index)
+{
+    int st = GROW(s, prims, nprims, capprims, 1);
+    if (st != MPRT_OK) return st;
+    if (s->nprims >= 0x7fffffff) return mprt__scene_fail(s, MPRT_ERR_OUT_OF_MEMORY, "too many primitives");
+    s->prims[s->nprims].kind = kind;
+    s->prims[s->nprims].index = (int)index;
+    s->prims[s->nprims].material = s->material;
+    s->nprims++;
+    return MPRT_OK;
+}
+
+int mprt_scene_add_sphere(mprt_scene *s, const double center[3], double radius)
+{
+    int st;
+    if (!s || !center) return MPRT_ERR_INVALID_ARG;
+    if (!finite3(center) || !isfinite(radius))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "sphere: NaN or infinite value");
+    if (!(radius > 0))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "sphere: radius %g is not positive", radius);
+    if ((st = need_material(s)) != MPRT_OK) return st;
+    if ((st = GROW(s, spheres, nspheres, capspheres, 1)) != MPRT_OK) return st;
+    s->spheres[s->nspheres].c = tovec(center);
+    s->spheres[s->nspheres].r = (real)radius;
+    if ((st = add_prim(s, MPRT_SPHERE, s->nspheres)) != MPRT_OK) return st;
+    s->nspheres++;
+    return MPRT_OK;
+}
+
+int mprt_scene_add_polygon(mprt_scene *s, int n, const double *verts, const double *normals)
+{
+    return mprt__scene_add_polygon(s, n, verts, normals, NULL);
+}
+
+int mprt__scene_add_polygon(mprt_scene *s, int n, const double *verts, const double *normals, int *reason)
+{
+    int st, i, why;
+    mprt__polygon p;
+    char err[200];
+    if (!s || !verts) return MPRT_ERR_INVALID_ARG;
+    if (n < 3) return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "polygon: %d vertices, at least 3 needed", n);
+    for (i = 0; i < n; i++) {
+        if (!finite3(verts + 3 * i) || (normals && !finite3(normals + 3 * i)))
+            return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "polygon: NaN or infinite value at vertex %d", i + 1);
+    }
+    if ((st = need_material(s)) != MPRT_OK) return st;
+    if ((st = GROW(s, verts, nverts, capverts, n)) != MPRT_OK) return st;
+    if (normals || s->vnormals) {
+        /* vnormals is parallel to verts once any patch exists */
+        if (grow((void **)&s->vnormals, &s->capvnormals, s->capverts, sizeof *s->vnormals))
+            return mprt__scene_fail(s, MPRT_ERR_OUT_OF_MEMORY, "out of memory growing vnormals");
+    }
+    for (i = 0; i < n; i++) {
+        s->verts[s->nverts + i] = tovec(verts + 3 * i);
+        if (s->vnormals) s->vnormals[s->nverts + i] = normals ? vnorm(tovec(normals + 3 * i)) : v3(0, 0, 0);
+    }
+    memset(&p, 0, sizeof p);
+    p.first = (int)s->nverts;
+    p.n = n;
+    p.has_normals = normals != NULL;
+    if (reason) *reason = 0;
+    if ((why = mprt__polygon_prepare(&p, s->verts, err, sizeof err)) != 0) {
+        if (reason) *reason = why;
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "polygon: %s", err);
+    }
+    if (normals) {
+        for (i = 0; i < n; i++) {
+            vec3 vn = s->vnormals[s->nverts + i];
+            if (vdot(vn, vn) == 0)
+                return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "polygon patch: zero normal at vertex %d", i + 1);
+        }
+    }
+    if ((st = GROW(s, polygons, npolygons, cappolygons, 1)) != MPRT_OK) return st;
+    s->polygons[s->npolygons] = p;
+    if ((st = add_prim(s, MPRT_POLYGON, s->npolygons)) != MPRT_OK) return st;
+    s->npolygons++;
+    s->nverts += n;
+    if (normals) s->npatches++;
+    return MPRT_OK;
+}
+
+int mprt_scene_add_cone(mprt_scene *s, const double base[3], double base_r, const double apex[3],
+                        double apex_r)
+{
+    int st;
+    mprt__cone c;
+    char err[200];
+    if (!s || !base || !apex) return MPRT_ERR_INVALID_ARG;
+    if (!finite3(base) || !finite3(apex) || !isfinite(base_r) || !isfinite(apex_r))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "cone: NaN or infinite value");
+    memset(&c, 0, sizeof c);
+    c.base = tovec(base);
+    c.apex = tovec(apex);
+    c.rb = (real)base_r;
+    c.ra = (real)apex_r;
+    if (mprt__cone_prepare(&c, err, sizeof err))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "cone: %s", err);
+    if ((st = need_material(s)) != MPRT_OK) return st;
+    if ((st = GROW(s, cones, ncones, capcones, 1)) != MPRT_OK) return st;
+    s->cones[s->ncones] = c;
+    if ((st = add_prim(s, c.rb == c.ra ? MPRT_CYLINDER : MPRT_CONE, s->ncones)) != MPRT_OK) return st;
+    s->ncones++;
+    if (c.rb == c.ra) s->ncylinders++;
+    return MPRT_OK;
+}
+
+void mprt__prim_bounds(const mprt_scene *s, long long i, vec3 *lo, vec3 *hi)
+{
+    const mprt__prim *p = &s->prims[i];
+    switch (p->kind) {
+    case MPRT_SPHERE: mprt__sphere_bounds(&s->spheres[p->index], lo, hi); break;
+    case MPRT_POLYGON: mprt__polygon_bounds(&s->polygons[p->index], s->verts, lo, hi); break;
+    default: mprt__cone_bounds(&s->cones[p->index], lo, hi); break;
+    }
+}
+
+int mprt_scene_get_info(const mprt_scene *s, mprt_scene_info *info)
+{
+    long long i;
+    vec3 lo = v3(0, 0, 0), hi = v3(0, 0, 0);
+    if (!s || !info) return MPRT_ERR_INVALID_ARG;
+    memset(info, 0, sizeof *info);
+    info->prims = s->nprims;
+    info->count[MPRT_SPHERE] = s->nspheres;
+    info->count[MPRT_POLYGON] = s->npolygons;
+    info->count[MPRT_CYLINDER] = s->ncylinders;
+    info->count[MPRT_CONE] = s->ncones - s->ncylinders;
+    info->patches = s->npatches;
+    info->vertices = s->nverts;
+    info->lights = s->nlights;
+    info->materials = s->nmaterials;
+    info->dropped = s->dropped;
+    for (i = 0; i < s->nprims; i++) {
+        vec3 a, b;
+        mprt__prim_bounds(s, i, &a, &b);
+        if (i == 0) { lo = a; hi = b; continue; }
+        lo = v3(a.x < lo.x ? a.x : lo.x, a.y < lo.y ? a.y : lo.y, a.z < lo.z ? a.z : lo.z);
+        hi = v3(b.x > hi.x ? b.x : hi.x, b.y > hi.y ? b.y : hi.y, b.z > hi.z ? b.z : hi.z);
+    }
+    info->lo[0] = lo.x; info->lo[1] = lo.y; info->lo[2] = lo.z;
+    info->hi[0] = hi.x; info->hi[1] = hi.y; info->hi[2] = hi.z;
+    info->from[0] = s->from.x; info->from[1] = s->from.y; info->from[2] = s->from.z;
+    info->at[0] = s->at.x; info->at[1] = s->at.y; info->at[2] = s->at.z;
+    info->up[0] = s->up.x; info->up[1] = s->up.y; info->up[2] = s->up.z;
+    info->angle = s->angle;
+    info->hither = s->hither;
+    info->width = s->width;
+    info->height = s->height;
+    memcpy(info->background, s->background, sizeof info->background);
+    return MPRT_OK;
+}
+
+int mprt_scene_load_nff(mprt_scene *s, const char *path)
+{
+    FILE *f;
+    char *buf;
+    long len;
+    size_t got;
+    int st;
+    if (!s || !path) return MPRT_ERR_INVALID_ARG;
+    f = fopen(path, "rb");
+    if (!f) return mprt__scene_fail(s, MPRT_ERR_IO, "%s: cannot open for reading", path);
+    if (fseek(f, 0, SEEK_END) != 0 || (len = ftell(f)) < 0 || fseek(f, 0, SEEK_SET) != 0) {
+        fclose(f);
+        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: cannot determine the file size", path);
+    }
+    buf = malloc((size_t)len + 1);
+    if (!buf) {
+        fclose(f);
+        return mprt__scene_fail(s, MPRT_ERR_OUT_OF_MEMORY, "%s: out of memory reading %ld bytes", path, len);
+    }
+    got = fread(buf, 1, (size_t)len, f);
+    fclose(f);
+    if (got != (size_t)len) {
+        free(buf);
+        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: read failed", path);
+    }
+    buf[len] = '\0';
+    st = mprt__nff_parse(s, buf, (size_t)len, path);
+    free(buf);
+    return st;
+}
+
+int mprt_scene_parse_nff(mprt_scene *s, const char *text, size_t len, const char *name)
+{
+    if (!s || (!text && len)) return MPRT_ERR_INVALID_ARG;
+    return mprt__nff_parse(s, text ? text : "", len, name ? name : "<string>");
+}
+
+int mprt_scene_write_nff(const mprt_scene *s, char *buf, size_t cap, size_t *needed)
+{
+    if (!s || !needed || (!buf && cap)) return MPRT_ERR_INVALID_ARG;
+    return mprt__nff_write(s, buf, cap, needed);
+}
+
+int mprt_scene_spd(mprt_scene *s, const char *name, int size)
+{
+    if (!s || !name) return MPRT_ERR_INVALID_ARG;
+    return mprt__spd_generate(s, name, size);
+}

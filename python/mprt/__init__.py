@@ -1,0 +1,54 @@
+"""mprt: explore the design of the Nesshisen 3MPRT ray-tracing machine.
+
+The C library (bound here with cffi) loads NFF scenes and generates Haines'
+SPD scenes, builds a uniform voxel grid, and traces rays through the three
+stages of the paper's macropipeline: object search (OS, the 3DDDA walk),
+intersection calculation (IC) and shading calculation (SC).
+
+    >>> import mprt
+    >>> scene = mprt.Scene.spd("balls", size=1)
+    >>> grid = scene.grid(16)
+    >>> image, counters = grid.render(width=64, height=64)
+"""
+from __future__ import annotations
+
+from importlib.metadata import PackageNotFoundError, version as _dist_version
+
+from ._core import (
+    KINDS,
+    SPD_DEFAULT_SIZES,
+    SPD_SCENES,
+    Grid,
+    InvalidArgument,
+    MprtError,
+    Scene,
+    SceneParseError,
+    SceneStateError,
+    write_png,
+)
+from . import _core
+
+__version__ = _core.EXT_VERSION
+
+try:  # the compiled extension must match the installed package
+    _pkg = _dist_version("mprt")
+except PackageNotFoundError:  # running from a source tree without metadata
+    _pkg = __version__
+if _pkg != __version__:
+    raise ImportError(
+        f"mprt: the compiled extension is version {__version__} but the package is {_pkg}; "
+        "rebuild with 'pip install -e .'"
+    )
+
+__all__ = [
+    "KINDS",
+    "SPD_DEFAULT_SIZES",
+    "SPD_SCENES",
+    "Grid",
+    "InvalidArgument",
+    "MprtError",
+    "Scene",
+    "SceneParseError",
+    "SceneStateError",
+    "write_png",
+]

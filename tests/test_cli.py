@@ -1,0 +1,45 @@
+"""The mprt command."""
+import json
+import subprocess
+import sys
+
+import mprt
+
+
+def run(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "mprt", *args], capture_output=True, text=True, cwd=cwd)
+
+
+def test_render_writes_png_and_stats(tmp_path):
+    """mprt render writes a PNG of the asked size and a JSON with the named counters."""
+    png, stats = tmp_path / "b.png", tmp_path / "b.json"
+    r = run("render", "balls:1", "--grid", "6", "--res", "40x30", "-o", str(png), "--stats", str(stats))
+    assert r.returncode == 0, r.stderr
+    data = png.read_bytes()
+    assert data[:8] == b"\x89PNG\r\n\x1a\n"
+    assert int.from_bytes(data[16:20], "big") == 40 and int.from_bytes(data[20:24], "big") == 30
+    c = json.loads(stats.read_text())
+    assert set(c) == {"eye_rays", "eye_hits", "reflect_rays", "refract_rays", "shadow_rays", "suppressed_rays",
+                      "voxels_traversed", "hits", "tests"}
+    assert set(c["tests"]) == {"sphere", "polygon", "cylinder", "cone"}
+    assert c["eye_rays"] == 1200
+
+
+def test_scene_command_writes_nff_that_reads_back(tmp_path):
+    """mprt scene NAME writes NFF (stdout or -o) that loads to the same scene."""
+    r = run("scene", "tetra", "--size", "1")
+    assert r.returncode == 0
+    s = mprt.Scene.from_text(r.stdout, "stdout.nff")
+    assert s.info()["count"]["polygon"] == 16
+    out = tmp_path / "t.nff"
+    assert run("scene", "tetra", "--size", "1", "-o", str(out)).returncode == 0
+    assert out.read_text() == r.stdout
+
+
+def test_errors_are_one_line_and_nonzero(tmp_path):
+    """A malformed scene file gives exit status 1 and a message with file and line."""
+    bad = tmp_path / "bad.nff"
+    bad.write_text("s 0 0 0 1\ns 1 2\n")
+    r = run("render", str(bad))
+    assert r.returncode == 1
+    assert "bad.nff:2" in r.stderr and "Traceback" not in r.stderr

@@ -1,0 +1,151 @@
+"""Grid walking and intersection against brute force, hard cases, scale."""
+import numpy as np
+import pytest
+
+import mprt
+
+
+def random_rays(scene, n, seed):
+    """Rays from random points around the scene's box toward random points inside it."""
+    info = scene.info()
+    lo, hi = np.array(info["lo"]), np.array(info["hi"])
+    ext = hi - lo
+    rng = np.random.default_rng(seed)
+    o = lo - 0.25 * ext + 1.5 * ext * rng.random((n, 3))
+    target = lo + ext * rng.random((n, 3))
+    d = target - o
+    # a fifth of the rays run exactly along axes, another fifth from inside
+    k = n // 5
+    d[:k] = 0
+    d[np.arange(k), rng.integers(0, 3, k)] = rng.choice([-1.0, 1.0], k)
+    o[k:2 * k] = lo + ext * rng.random((k, 3))
+    return o, d
+
+
+def camera_rays(scene, w, h):
+    info = scene.info()
+    eye, at, up = (np.array(info[k]) for k in ("from", "at", "up"))
+    fwd = (at - eye) / np.linalg.norm(at - eye)
+    right = np.cross(fwd, up)
+    right /= np.linalg.norm(right)
+    upv = np.cross(right, fwd)
+    pitch = 2 * np.tan(np.radians(info["angle"]) / 2) / (h - 1)
+    ii, jj = np.meshgrid(np.arange(w), np.arange(h))
+    sx = (ii - (w - 1) / 2) * pitch
+    sy = ((h - 1) / 2 - jj) * pitch
+    d = fwd + sx[..., None] * right + sy[..., None] * upv
+    d = d.reshape(-1, 3)
+    return np.broadcast_to(eye, d.shape).copy(), d
+
+
+@pytest.mark.parametrize("name", mprt.SPD_SCENES)
+def test_grid_hits_equal_brute_force(name):
+    """For every SPD scene, closest hits through several grids equal the one-voxel grid's (brute force), bit for bit."""
+    scene = mprt.Scene.spd(name, 2 if name != "tree" else 5)
+    o, d = random_rays(scene, 4000, seed=hash(name) % 1000)
+    co, cd = camera_rays(scene, 48, 48)
+    o, d = np.vstack([o, co]), np.vstack([d, cd])
+    t_ref, p_ref = scene.grid(1).intersect(o, d)
+    assert np.isfinite(t_ref).sum() > 500, "too few hits to mean anything"
+    for n in (4, 17, (3, 29, 8), 60):
+        t, p = scene.grid(n).intersect(o, d)
+        assert np.array_equal(p, p_ref), f"grid {n}: {np.sum(p != p_ref)} rays hit another primitive"
+        assert np.array_equal(t, t_ref), f"grid {n}"
+
+
+@pytest.mark.parametrize("name", ["tetra", "mount", "gears"])
+def test_rays_through_shared_vertices_and_edges_do_not_leak(name):
+    """Rays aimed exactly at mesh vertices and edge midpoints from outside hit the mesh: 0 leaks."""
+    scene = mprt.Scene.spd(name, 2)
+    text = scene.to_nff().splitlines()
+    verts = []
+    i = 0
+    while i < len(text):
+        parts = text[i].split()
+        if parts and parts[0] == "p":
+            n = int(parts[1])
+            poly = [tuple(map(float, text[i + 1 + k].split())) for k in range(n)]
+            verts.extend(poly)
+            verts.extend(tuple((np.array(poly[k]) + np.array(poly[(k + 1) % n])) / 2) for k in range(n))
+            i += n + 1
+        else:
+            i += 1
+    targets = np.unique(np.array(verts), axis=0)
+    info = scene.info()
+    eye = np.array(info["from"])
+    d = targets - eye
+    grid = scene.grid(16)
+    t, p = grid.intersect(np.broadcast_to(eye, d.shape).copy(), d)
+    # every target lies on the mesh, so every ray must hit at or before it (t <= 1)
+    leaks = int(np.sum(~(t <= 1 + 1e-9)))
+    assert leaks == 0, f"{leaks} of {len(d)} rays slipped through the mesh"
+
+
+def test_tangent_and_grazing_rays_on_a_sphere():
+    """Rays tangent to a sphere and grazing past it are decided consistently by grid and brute force."""
+    s = mprt.Scene()
+    s.add_sphere((0, 0, 0), 1.0)
+    s.add_sphere((3, 0, 0), 0.5)
+    y = np.linspace(0.999999, 1.000001, 201)
+    o = np.stack([np.full_like(y, -5), y, np.zeros_like(y)], axis=1)
+    d = np.tile([1.0, 0, 0], (len(y), 1))
+    t1, p1 = s.grid(1).intersect(o, d)
+    t9, p9 = s.grid(9).intersect(o, d)
+    assert np.array_equal(p1, p9) and np.array_equal(t1, t9)
+    assert np.all(p1[y < 1] == 0) and np.all(p1[y > 1.0000001] != 0)
+    hit = y < 1
+    np.testing.assert_allclose(t1[hit], 5 - np.sqrt(1 - y[hit] ** 2), rtol=0, atol=2e-6)
+
+
+@pytest.mark.parametrize("scale", [1e-6, 1e6])
+def test_scaled_scene_hits_the_same_primitives(scale):
+    """The same scene scaled by 1e-6 or 1e6 gives the same hit primitives and scaled distances."""
+    base = mprt.Scene.spd("balls", 2)
+    text = base.to_nff()
+    out = []
+    for line in text.splitlines():
+        parts = line.split()
+        if parts and parts[0] == "s":
+            x, yy, z, r = map(float, parts[1:])
+            out.append(f"s {x * scale!r} {yy * scale!r} {z * scale!r} {r * scale!r}")
+        elif parts and parts[0] in ("from", "at"):
+            out.append(parts[0] + " " + " ".join(repr(float(v) * scale) for v in parts[1:]))
+        elif parts and parts[0] == "hither":
+            out.append(f"hither {float(parts[1]) * scale!r}")
+        elif len(parts) == 3 and parts[0][0] in "-0123456789":
+            out.append(" ".join(repr(float(v) * scale) for v in parts))
+        elif parts and parts[0] == "l":
+            out.append("l " + " ".join(repr(float(v) * scale) for v in parts[1:4]))
+        else:
+            out.append(line)
+    scaled = mprt.Scene.from_text("\n".join(out) + "\n", "scaled.nff")
+    o, d = camera_rays(base, 64, 64)
+    so, sd = camera_rays(scaled, 64, 64)
+    t0, p0 = base.grid(12).intersect(o, d)
+    t1, p1 = scaled.grid(12).intersect(so, sd)
+    assert np.mean(p0 == p1) > 0.999
+    both = (p0 == p1) & np.isfinite(t0)
+    np.testing.assert_allclose(t1[both] / scale, t0[both], rtol=1e-9)
+
+
+def test_grid_stats_and_bad_subdivisions():
+    """Grid statistics add up, and impossible subdivisions are clear errors."""
+    scene = mprt.Scene.spd("balls", 1)
+    st = scene.grid((4, 5, 6)).stats()
+    assert st["voxels"] == 120 and st["n"] == [4, 5, 6]
+    assert 0 < st["nonempty"] <= 120
+    assert st["mean_len"] == pytest.approx(st["refs"] / st["nonempty"])
+    with pytest.raises(mprt.InvalidArgument, match="1..1024"):
+        scene.grid(2000)
+    with pytest.raises(MemoryError, match="allowed"):
+        scene.grid(1024, max_bytes=1 << 20)
+
+
+def test_intersect_rejects_nan_and_zero_directions():
+    """A NaN origin or a zero direction is an InvalidArgument naming the ray."""
+    scene = mprt.Scene.spd("balls", 1)
+    g = scene.grid(4)
+    with pytest.raises(mprt.InvalidArgument, match="ray 1"):
+        g.intersect([[0, 0, 5], [np.nan, 0, 5]], [[0, 0, -1], [0, 0, -1]])
+    with pytest.raises(mprt.InvalidArgument, match="ray 0"):
+        g.intersect([[0, 0, 5]], [[0, 0, 0]])
