@@ -88,9 +88,10 @@ const char *mprt_scene_errmsg(const mprt_scene *scene);
  * reader, with file and line.  mprt_scene_info.dropped counts them all. */
 const char *mprt_scene_warning(const mprt_scene *scene);
 
-/* Append the contents of an NFF file. */
+/* Append the contents of an NFF file (on error the scene is unchanged). */
 int mprt_scene_load_nff(mprt_scene *scene, const char *path);
-/* Append NFF text; name is used in error messages (e.g. the file name). */
+/* Append NFF text; name is used in error messages (e.g. the file name).
+ * On error the scene is left as it was before the call. */
 int mprt_scene_parse_nff(mprt_scene *scene, const char *text, size_t len, const char *name);
 /* Write the scene as NFF text into buf (cap bytes, NUL included). OUT: needed
  * (bytes incl. NUL); MPRT_ERR_CAPACITY when cap < needed. */

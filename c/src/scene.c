@@ -101,15 +101,27 @@ void mprt__scene_warn(mprt_scene *s, const char *fmt, ...)
     }
 }
 
-static int finite3(const double *p) { return isfinite(p[0]) && isfinite(p[1]) && isfinite(p[2]); }
 static vec3 tovec(const double *p) { return v3((real)p[0], (real)p[1], (real)p[2]); }
+
+/* Finite, and representable in the build's precision (float for MPRT_SINGLE). */
+static int finite1(double x) { return isfinite(x) && fabs(x) <= (double)REAL_MAX; }
+static int finite3(const double *p) { return finite1(p[0]) && finite1(p[1]) && finite1(p[2]); }
+
+/* A vertex normal, normalised unless it already is (so NFF round trips are exact). */
+static vec3 unit_normal(const double *p)
+{
+    vec3 n = tovec(p);
+    real l2 = vdot(n, n);
+    if (fabs((double)l2 - 1) <= 4 * (double)REAL_EPS) return n;
+    return vnorm(n);
+}
 
 int mprt_scene_set_view(mprt_scene *s, const double from[3], const double at[3],
                         const double up[3], double angle, double hither, int width, int height)
 {
     vec3 f, a, u, dir;
     if (!s || !from || !at || !up) return MPRT_ERR_INVALID_ARG;
-    if (!finite3(from) || !finite3(at) || !finite3(up) || !isfinite(angle) || !isfinite(hither))
+    if (!finite3(from) || !finite3(at) || !finite3(up) || !isfinite(angle) || !finite1(hither))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: NaN or infinite value");
     if (!(angle > 0 && angle < 180))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: angle %g is not in (0, 180) degrees", angle);
@@ -209,7 +221,7 @@ int mprt_scene_add_sphere(mprt_scene *s, const double center[3], double radius)
 {
     int st;
     if (!s || !center) return MPRT_ERR_INVALID_ARG;
-    if (!finite3(center) || !isfinite(radius))
+    if (!finite3(center) || !finite1(radius))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "sphere: NaN or infinite value");
     if (!(radius > 0))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "sphere: radius %g is not positive", radius);
@@ -241,13 +253,15 @@ int mprt__scene_add_polygon(mprt_scene *s, int n, const double *verts, const dou
     if ((st = need_material(s)) != MPRT_OK) return st;
     if ((st = GROW(s, verts, nverts, capverts, n)) != MPRT_OK) return st;
     if (normals || s->vnormals) {
-        /* vnormals is parallel to verts once any patch exists */
+        /* vnormals is parallel to verts once any patch exists; zero before it */
+        int fresh = s->vnormals == NULL;
         if (grow((void **)&s->vnormals, &s->capvnormals, s->capverts, sizeof *s->vnormals))
             return mprt__scene_fail(s, MPRT_ERR_OUT_OF_MEMORY, "out of memory growing vnormals");
+        if (fresh && s->nverts) memset(s->vnormals, 0, (size_t)s->nverts * sizeof *s->vnormals);
     }
     for (i = 0; i < n; i++) {
         s->verts[s->nverts + i] = tovec(verts + 3 * i);
-        if (s->vnormals) s->vnormals[s->nverts + i] = normals ? vnorm(tovec(normals + 3 * i)) : v3(0, 0, 0);
+        if (s->vnormals) s->vnormals[s->nverts + i] = normals ? unit_normal(normals + 3 * i) : v3(0, 0, 0);
     }
     memset(&p, 0, sizeof p);
     p.first = (int)s->nverts;
@@ -281,7 +295,7 @@ int mprt_scene_add_cone(mprt_scene *s, const double base[3], double base_r, cons
     mprt__cone c;
     char err[200];
     if (!s || !base || !apex) return MPRT_ERR_INVALID_ARG;
-    if (!finite3(base) || !finite3(apex) || !isfinite(base_r) || !isfinite(apex_r))
+    if (!finite3(base) || !finite3(apex) || !finite1(base_r) || !finite1(apex_r))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "cone: NaN or infinite value");
     memset(&c, 0, sizeof c);
     c.base = tovec(base);
