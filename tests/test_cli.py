@@ -30,7 +30,7 @@ def test_scene_command_writes_nff_that_reads_back(tmp_path):
     r = run("scene", "tetra", "--size", "1")
     assert r.returncode == 0
     s = mprt.Scene.from_text(r.stdout, "stdout.nff")
-    assert s.info()["count"]["polygon"] == 16
+    assert s.info()["count"]["polygon"] == 4  # 4^size triangles
     out = tmp_path / "t.nff"
     assert run("scene", "tetra", "--size", "1", "-o", str(out)).returncode == 0
     assert out.read_text() == r.stdout

@@ -53,32 +53,75 @@ def test_grid_hits_equal_brute_force(name):
         assert np.array_equal(t, t_ref), f"grid {n}"
 
 
-@pytest.mark.parametrize("name", ["tetra", "mount", "gears"])
-def test_rays_through_shared_vertices_and_edges_do_not_leak(name):
-    """Rays aimed exactly at mesh vertices and edge midpoints from outside hit the mesh: 0 leaks."""
-    scene = mprt.Scene.spd(name, 2)
-    text = scene.to_nff().splitlines()
-    verts = []
-    i = 0
-    while i < len(text):
-        parts = text[i].split()
+def polygon_groups(scene):
+    """Polygons of the scene's NFF text, grouped by material (one group per 'f' line)."""
+    groups, i = [], 0
+    lines = scene.to_nff().splitlines()
+    while i < len(lines):
+        parts = lines[i].split()
+        if parts and parts[0] == "f":
+            groups.append([])
         if parts and parts[0] == "p":
             n = int(parts[1])
-            poly = [tuple(map(float, text[i + 1 + k].split())) for k in range(n)]
-            verts.extend(poly)
-            verts.extend(tuple((np.array(poly[k]) + np.array(poly[(k + 1) % n])) / 2) for k in range(n))
+            groups[-1].append(np.array([[float(v) for v in lines[i + 1 + k].split()] for k in range(n)]))
             i += n + 1
         else:
             i += 1
-    targets = np.unique(np.array(verts), axis=0)
-    info = scene.info()
-    eye = np.array(info["from"])
-    d = targets - eye
-    grid = scene.grid(16)
-    t, p = grid.intersect(np.broadcast_to(eye, d.shape).copy(), d)
-    # every target lies on the mesh, so every ray must hit at or before it (t <= 1)
-    leaks = int(np.sum(~(t <= 1 + 1e-9)))
-    assert leaks == 0, f"{leaks} of {len(d)} rays slipped through the mesh"
+    return groups
+
+
+def edge_points(polys):
+    """Every vertex and every edge midpoint of the polygons."""
+    pts = [v for p in polys for v in p]
+    pts += [(p[k] + p[(k + 1) % len(p)]) / 2 for p in polys for k in range(len(p))]
+    return np.unique(np.array(pts), axis=0)
+
+
+def closed_solids(name):
+    scene = mprt.Scene.spd(name, 4 if name == "tetra" else 3)
+    groups = polygon_groups(scene)
+    if name == "tetra":  # one material; every 4 consecutive triangles close a tetrahedron
+        polys = groups[0]
+        return scene, [polys[k:k + 4] for k in range(0, len(polys), 4)]
+    return scene, groups[1:]  # gears: one material per gear; the first group is the floor
+
+
+@pytest.mark.parametrize("name", ["tetra", "gears"])
+def test_rays_from_inside_a_closed_mesh_through_its_edges_and_vertices_never_leak(name):
+    """From inside each closed solid, rays aimed exactly at its vertices and edge midpoints hit it: 0 leaks."""
+    scene, solids = closed_solids(name)
+    grid = scene.grid(13)
+    origins, dirs = [], []
+    for polys in solids:
+        pts = edge_points(polys)
+        centre = np.mean(np.vstack(polys), axis=0)
+        origins.append(np.broadcast_to(centre, pts.shape))
+        dirs.append(pts - centre)
+        # and from outside, through the same points, toward the centre: the rays enter the solid there
+        origins.append(pts - 2 * (centre - pts))
+        dirs.append(centre - pts)
+    o, d = np.vstack(origins), np.vstack(dirs)
+    t, _ = grid.intersect(o, d)
+    # the inside rays must stop by t = 1 (the target point); the outside ones by t = 2
+    limit = np.concatenate([np.full(len(x), 1.0 if k % 2 == 0 else 2.0) for k, x in enumerate(dirs)])
+    leaks = int(np.sum(~(t <= limit * (1 + 1e-12))))
+    assert len(o) > 500
+    assert leaks == 0, f"{leaks} of {len(o)} rays slipped through the mesh"
+
+
+def test_vertical_rays_through_the_mount_heightfield_never_leak():
+    """Vertical rays through every interior vertex and edge midpoint of mount's terrain hit it: 0 leaks."""
+    scene = mprt.Scene.spd("mount", 5)
+    terrain = polygon_groups(scene)[1]
+    pts = edge_points(terrain)
+    inner = (np.abs(pts[:, 0]) < 1 - 1e-9) & (np.abs(pts[:, 1]) < 1 - 1e-9)
+    pts = pts[inner]
+    o = pts.copy()
+    o[:, 2] = 10.0
+    d = np.tile([0.0, 0.0, -1.0], (len(o), 1))
+    t, p = scene.grid(9).intersect(o, d)
+    assert len(o) > 1000
+    assert int(np.sum(~np.isfinite(t))) == 0, "rays slipped between terrain triangles"
 
 
 def test_tangent_and_grazing_rays_on_a_sphere():

@@ -56,7 +56,7 @@ def test_nff_round_trip_is_exact(name):
         ("v\nfrom 0 0 1\nat 0 0 0\nup 0 1 0\nangle 45\nhither 0\nresolution 8 8\ns 0 0 0 nan\n", 8, ""),
         ("s 0 0 0 0\n", 1, "radius"),
         ("s 0 0 0 -1\n", 1, "radius"),
-        ("p 3\n0 0 0\n1 0 0\n", 4, ""),
+        ("p 3\n0 0 0\n1 0 0\n", 3, "end of file"),
         ("q 1 2 3\n", 1, "q"),
         ("c 0 0 0 1 0 0 0 1\n", 1, ""),
         ("p 4\n0 0 0\n1 0 0\n1 1 0\n0 1 1\n", 1, "planar"),

@@ -349,13 +349,18 @@ static int gear_make(mprt_scene *s, const double center[3], double offset_angle,
         SPD_TRY(out_polygon(s, 4, side));
     }
 
-    /* Bottom face, wound the other way */
-    outer[2] = inner[2] = -thickness;
-    for (t = 0; t < GEAR_TEETH; t++) {
-        double ga = offset_angle - 2.0 * SPD_PI * (double)t / (double)GEAR_TEETH;
-        gear_tooth(ga, -tooth_angle, center, outer, inner, &pts[t * 4]);
+    /* Bottom face, wound the other way.  The original rotates its vertices
+     * afresh by negative angles; those are the side walls' lower vertices in
+     * reverse order (bottom j = top 1-j), equal to within an ulp.  Reusing
+     * the walls' values makes each gear a closed, crack-free mesh. */
+    {
+        double bottom[4 * GEAR_TEETH][3];
+        for (k = 0; k < 4 * GEAR_TEETH; k++) {
+            memcpy(bottom[k], pts[(1 - k + 4 * GEAR_TEETH) % (4 * GEAR_TEETH)], sizeof bottom[k]);
+            bottom[k][2] -= thickness;
+        }
+        return out_polygon(s, 4 * GEAR_TEETH, bottom);
     }
-    return out_polygon(s, 4 * GEAR_TEETH, pts);
 }
 
 /* Fractional part by truncation toward zero, as the SPD macro does. */
