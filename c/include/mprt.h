@@ -195,6 +195,9 @@ typedef struct {
     int threads;         /* worker threads; 0 = 1 */
     int tile;            /* tile edge in pixels for the thread work split */
     double ambient;      /* ambient light level multiplying the surface colour */
+    int mailbox;         /* 1: IC skips primitives this ray already tested in an
+                          * earlier voxel (fewer tests, same image); 0: test every
+                          * listed primitive in every voxel, as the paper's IC does */
 } mprt_render_desc;
 
 /* Fill a render description with defaults. OUT: desc. */
@@ -207,7 +210,7 @@ int mprt_grid_render(mprt_grid *grid, const mprt_render_desc *desc, float *rgb, 
                      mprt_counters *counters);
 
 /* Closest hit of n arbitrary rays (origins and directions as xyz triples;
- * directions need not be unit).  OUT: t[i] (distance in units of the given
+ * directions need not be unit), with mailboxing.  OUT: t[i] (distance in units of the given
  * direction, +inf for a miss) and prim[i] (primitive id or -1); counters may be
  * NULL. */
 int mprt_grid_intersect(mprt_grid *grid, size_t n, const double *origins,

@@ -36,6 +36,7 @@ void mprt_grid_destroy(mprt_grid *g)
 {
     if (!g) return;
     free(g->start);
+    free(g->flag);
     free(g->ids);
     free(g);
 }
@@ -106,7 +107,7 @@ static int build(mprt_grid *g, size_t max_bytes)
     real margin;
     int st = MPRT_OK;
 
-    fixed = (size_t)(nvox + 1) * sizeof *g->start;
+    fixed = (size_t)(nvox + 1) * sizeof *g->start + (size_t)nvox;
     if (fixed > max_bytes)
         return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY,
                          "grid %dx%dx%d needs %zu bytes for its voxel table alone, more than the %zu allowed",
@@ -163,6 +164,12 @@ static int build(mprt_grid *g, size_t max_bytes)
     memcpy(count, g->start, (size_t)nvox * sizeof *count);
     for (i = 0; i < (long long)P.n; i++) g->ids[count[P.vox[i]]++] = P.prim[i];
     g->refs = (long long)P.n;
+    g->flag = malloc((size_t)nvox);
+    if (!g->flag) {
+        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %lld voxel flags", nvox);
+        goto done;
+    }
+    for (i = 0; i < nvox; i++) g->flag[i] = g->start[i + 1] > g->start[i];
 
 done:
     free(count);
@@ -229,7 +236,8 @@ int mprt_grid_get_stats(const mprt_grid *g, mprt_grid_stats *st)
         if (len > st->max_len) st->max_len = len;
     }
     st->mean_len = st->nonempty ? (double)st->refs / (double)st->nonempty : 0;
-    st->bytes = (long long)((g->voxels + 1) * (long long)sizeof *g->start + g->refs * (long long)sizeof *g->ids);
+    st->bytes = (long long)((g->voxels + 1) * (long long)sizeof *g->start + g->voxels +
+                            g->refs * (long long)sizeof *g->ids);
     st->lo[0] = g->lo.x; st->lo[1] = g->lo.y; st->lo[2] = g->lo.z;
     st->hi[0] = g->hi.x; st->hi[1] = g->hi.y; st->hi[2] = g->hi.z;
     return MPRT_OK;

@@ -13,6 +13,7 @@ struct mprt_grid {
     vec3 lo, hi, cell, inv_cell;
     real pad;          /* the walk clips rays to the box grown by pad */
     uint32_t *start;   /* voxels + 1 offsets into ids */
+    uint8_t *flag;     /* per voxel: 1 when its list is not empty (the OS flag) */
     int32_t *ids;      /* primitive ids, voxel by voxel */
     long long refs;
     int failed;
@@ -29,7 +30,9 @@ vec3 mprt__grid_voxel_lo(const mprt_grid *g, int i, int j, int k);
 typedef struct {
     int cell[3];       /* current voxel */
     int step[3];       /* +1 or -1 per axis */
+    long long stride[3]; /* change of the linear voxel id per step on each axis */
     real tnext[3];     /* t at which the ray crosses the next boundary per axis */
+    real tdelta[3];    /* t between boundaries per axis */
     real t_enter;      /* start of the current voxel's stretch */
     real t_exit;       /* end of the current voxel's stretch */
     real t_end;        /* where the walk stops: min(ray tmax, grid exit) */

@@ -163,6 +163,8 @@ typedef struct {
     vec3 inv;         /* 1/d per axis (+-inf for 0) */
     int kx, ky, kz;   /* axis permutation: kz = largest |d| component */
     real sx, sy, sz;  /* shear constants */
+    vec3 mx, my;      /* shear x = dot(mx, p - o), y = dot(my, p - o): the same
+                       * bits as p[kx] + sx p[kz] (the other terms are zeros) */
 } mprt__ray;
 
 /* Fill the derived fields of a ray from o and d. */

@@ -18,7 +18,8 @@
  * antisymmetric bit for bit without fused multiply-add), and vertices use a
  * half-open rule in y, so across a mesh the winding numbers add up to the
  * outline's: a ray through a shared edge or vertex inside a mesh hits at
- * least one face, whatever the faces' orientations. */
+ * least one face, whatever the faces' orientations.  The fill rule is
+ * nonzero winding (the same as even-odd for simple polygons). */
 #include "mprt_internal.h"
 
 #include <stdio.h>
@@ -128,10 +129,10 @@ int mprt__polygon_hit(const mprt__polygon *p, const vec3 *verts, const mprt__ray
                       real tmax, real *t)
 {
     const vec3 *v = verts + p->first;
-    const int n = p->n, kx = ray->kx, ky = ray->ky, kz = ray->kz;
-    const real sx = ray->sx, sy = ray->sy;
-    const vec3 o = ray->o;
-    real dn, tt, q[3], ax, ay, bx, by, e;
+    const int n = p->n;
+    const vec3 o = ray->o, mx = ray->mx, my = ray->my;
+    vec3 q;
+    real dn, tt, ax, ay, bx, by, e;
     int i, wn = 0;
 
     /* Plane: reject parallel rays and hits outside (tmin, tmax] first */
@@ -141,19 +142,15 @@ int mprt__polygon_hit(const mprt__polygon *p, const vec3 *verts, const mprt__ray
     if (!(tt > tmin && tt <= tmax)) return 0;
 
     /* Shear-space coordinates of the last vertex (start of the first edge) */
-    q[0] = v[n - 1].x - o.x;
-    q[1] = v[n - 1].y - o.y;
-    q[2] = v[n - 1].z - o.z;
-    ax = q[kx] + sx * q[kz];
-    ay = q[ky] + sy * q[kz];
+    q = vsub(v[n - 1], o);
+    ax = vdot(q, mx);
+    ay = vdot(q, my);
 
     /* Winding number of the ray (the origin of shear space); half-open in y */
     for (i = 0; i < n; i++) {
-        q[0] = v[i].x - o.x;
-        q[1] = v[i].y - o.y;
-        q[2] = v[i].z - o.z;
-        bx = q[kx] + sx * q[kz];
-        by = q[ky] + sy * q[kz];
+        q = vsub(v[i], o);
+        bx = vdot(q, mx);
+        by = vdot(q, my);
         if (ay <= 0) {
             if (by > 0) { /* upward crossing: count when the origin is left of a->b */
                 e = ax * by - ay * bx;

@@ -49,4 +49,14 @@ void mprt__ray_prepare(mprt__ray *ray, vec3 o, vec3 d)
         ray->sx = ray->sy = 0;
         ray->sz = 0;
     }
+    /* The shear rows as vectors, for branch-free dot products */
+    {
+        real mxa[3] = {0, 0, 0}, mya[3] = {0, 0, 0};
+        mxa[kx] = 1;
+        mxa[kz] = ray->sx;
+        mya[ky] = 1;
+        mya[kz] = ray->sy;
+        ray->mx = v3(mxa[0], mxa[1], mxa[2]);
+        ray->my = v3(mya[0], mya[1], mya[2]);
+    }
 }

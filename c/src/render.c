@@ -29,71 +29,102 @@ static real boundary(const mprt_grid *g, int a, int i)
     return vget(g->lo, a) + (real)i * vget(g->cell, a);
 }
 
-static real min3(real a, real b, real c) { return a < b ? (a < c ? a : c) : (b < c ? b : c); }
-
-/* t where the ray crosses the far boundary of its current cell on axis a. */
-static real crossing(const mprt_grid *g, const mprt__ray *ray, const mprt__dda *w, int a)
+static inline int dda_begin(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, mprt__dda *w)
 {
-    real d = vget(ray->d, a);
-    if (d == 0) return INF_REAL;
-    return (boundary(g, a, w->cell[a] + (w->step[a] > 0)) - vget(ray->o, a)) * vget(ray->inv, a);
-}
-
-int mprt__dda_start(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, mprt__dda *w)
-{
-    real t0 = tmin, t1 = tmax;
+    real t0 = tmin, t1 = tmax, o[3], d[3], inv[3];
     int a;
-    /* Clip the ray to the grid box (slabs) */
+    o[0] = ray->o.x; o[1] = ray->o.y; o[2] = ray->o.z;
+    d[0] = ray->d.x; d[1] = ray->d.y; d[2] = ray->d.z;
+    inv[0] = ray->inv.x; inv[1] = ray->inv.y; inv[2] = ray->inv.z;
+    /* Clip the ray to the grid box, grown by pad (slabs) */
     for (a = 0; a < 3; a++) {
-        real o = vget(ray->o, a), d = vget(ray->d, a), inv = vget(ray->inv, a);
         real lo = vget(g->lo, a) - g->pad, hi = vget(g->hi, a) + g->pad;
-        if (d == 0) {
-            if (!(o >= lo && o <= hi)) return 0;
+        if (d[a] == 0) {
+            if (!(o[a] >= lo && o[a] <= hi)) return 0;
             continue;
         }
         {
-            real ta = (lo - o) * inv, tb = (hi - o) * inv;
+            real ta = (lo - o[a]) * inv[a], tb = (hi - o[a]) * inv[a];
             if (ta > tb) { real tmp = ta; ta = tb; tb = tmp; }
             if (ta > t0) t0 = ta;
             if (tb < t1) t1 = tb;
         }
     }
     if (!(t0 <= t1)) return 0;
-    /* First voxel: the cell holding the entry point */
+    /* First voxel: the cell holding the entry point; then per axis the
+     * first boundary crossing and the spacing of the following ones */
+    w->voxel = 0;
     for (a = 0; a < 3; a++) {
-        real x = vget(ray->o, a) + t0 * vget(ray->d, a);
+        real x = o[a] + t0 * d[a];
         real f = (x - vget(g->lo, a)) * vget(g->inv_cell, a);
         int c = f > 0 ? (f >= (real)g->n[a] ? g->n[a] - 1 : (int)f) : 0;
+        long long stride = a == 0 ? 1 : a == 1 ? g->n[0] : (long long)g->n[0] * g->n[1];
         w->cell[a] = c;
-        w->step[a] = vget(ray->d, a) < 0 ? -1 : 1;
+        w->voxel += c * stride;
+        if (d[a] == 0) {
+            w->step[a] = 1;
+            w->tnext[a] = (real)INFINITY;
+            w->tdelta[a] = (real)INFINITY;
+        } else {
+            w->step[a] = d[a] < 0 ? -1 : 1;
+            w->tnext[a] = (boundary(g, a, c + (d[a] > 0)) - o[a]) * inv[a];
+            w->tdelta[a] = vget(g->cell, a) * (inv[a] < 0 ? -inv[a] : inv[a]);
+        }
+        w->stride[a] = w->step[a] * stride;
     }
-    for (a = 0; a < 3; a++) w->tnext[a] = crossing(g, ray, w, a);
     w->t_enter = t0;
     w->t_end = t1;
-    w->t_exit = min3(w->tnext[0], w->tnext[1], w->tnext[2]);
+    w->t_exit = w->tnext[0] < w->tnext[1] ? (w->tnext[0] < w->tnext[2] ? w->tnext[0] : w->tnext[2])
+                                          : (w->tnext[1] < w->tnext[2] ? w->tnext[1] : w->tnext[2]);
     if (w->t_exit > t1) w->t_exit = t1;
     if (w->t_exit < t0) w->t_exit = t0;
-    w->voxel = ((long long)w->cell[2] * g->n[1] + w->cell[1]) * g->n[0] + w->cell[0];
     return 1;
+}
+
+/* The smallest of three. */
+static inline real min3(real a, real b, real c) { return a < b ? (a < c ? a : c) : (b < c ? b : c); }
+
+/* One step of the walk: the axis whose boundary comes first (the lowest
+ * axis on ties, so a ray through an edge or corner visits the voxels that
+ * only touch it, one axis at a time).  Written with constant indices so the
+ * state can live in registers. */
+static inline int dda_step(const mprt_grid *g, mprt__dda *w)
+{
+    real t;
+    if (w->t_exit >= w->t_end) return 0;
+    if (w->tnext[0] <= w->tnext[1] && w->tnext[0] <= w->tnext[2]) {
+        w->cell[0] += w->step[0];
+        if ((unsigned)w->cell[0] >= (unsigned)g->n[0]) return 0;
+        w->voxel += w->stride[0];
+        w->tnext[0] += w->tdelta[0];
+    } else if (w->tnext[1] <= w->tnext[2]) {
+        w->cell[1] += w->step[1];
+        if ((unsigned)w->cell[1] >= (unsigned)g->n[1]) return 0;
+        w->voxel += w->stride[1];
+        w->tnext[1] += w->tdelta[1];
+    } else {
+        w->cell[2] += w->step[2];
+        if ((unsigned)w->cell[2] >= (unsigned)g->n[2]) return 0;
+        w->voxel += w->stride[2];
+        w->tnext[2] += w->tdelta[2];
+    }
+    /* The new stretch starts where the old one ended */
+    w->t_enter = w->t_exit;
+    t = min3(w->tnext[0], w->tnext[1], w->tnext[2]);
+    if (t > w->t_end) t = w->t_end;
+    w->t_exit = t < w->t_enter ? w->t_enter : t;
+    return 1;
+}
+
+int mprt__dda_start(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, mprt__dda *w)
+{
+    return dda_begin(g, ray, tmin, tmax, w);
 }
 
 int mprt__dda_next(const mprt_grid *g, const mprt__ray *ray, mprt__dda *w)
 {
-    int a;
-    real t;
-    if (w->t_exit >= w->t_end) return 0;
-    /* Step the axis whose boundary comes first (lowest axis on ties) */
-    a = w->tnext[0] <= w->tnext[1] ? (w->tnext[0] <= w->tnext[2] ? 0 : 2) : (w->tnext[1] <= w->tnext[2] ? 1 : 2);
-    w->cell[a] += w->step[a];
-    if (w->cell[a] < 0 || w->cell[a] >= g->n[a]) return 0;
-    /* The new stretch starts where the old one ended */
-    w->t_enter = w->t_exit;
-    w->tnext[a] = crossing(g, ray, w, a);
-    t = min3(w->tnext[0], w->tnext[1], w->tnext[2]);
-    if (t > w->t_end) t = w->t_end;
-    w->t_exit = t < w->t_enter ? w->t_enter : t;
-    w->voxel = ((long long)w->cell[2] * g->n[1] + w->cell[1]) * g->n[0] + w->cell[0];
-    return 1;
+    (void)ray;
+    return dda_step(g, w);
 }
 
 /* ---- IC: one voxel's primitives ------------------------------------------- */
@@ -102,6 +133,14 @@ typedef struct {
     real t;
     int32_t prim;
 } hit;
+
+/* Mailbox: primitive ids this ray has tested, direct-mapped.  A primitive
+ * tested once need not be tested again in a later voxel: its hit, if any
+ * within the (shrinking) search range, is already the candidate. */
+#define MAILBOX 64
+typedef struct {
+    int32_t id[MAILBOX];
+} mailbox;
 
 /* Test one primitive; counts the test. */
 static int test_prim(const mprt_scene *s, int32_t id, const mprt__ray *ray, real tmin, real tmax, real *t,
@@ -122,16 +161,20 @@ static int test_prim(const mprt_scene *s, int32_t id, const mprt__ray *ray, real
 /* IC visit: test the voxel's list.  For a shadow ray (any_hit) return 1 on
  * any hit in (tmin, tmax].  Otherwise update the nearest hit *best and
  * return 1 when it lies within this voxel's stretch (accepted). */
-static int ic_visit(const mprt_grid *g, const mprt__dda *w, const mprt__ray *ray, real tmin, real tmax,
-                    int any_hit, hit *best, mprt_counters *c)
+static int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt__ray *ray, real tmin,
+                    real tmax, int any_hit, hit *best, mailbox *mb, mprt_counters *c)
 {
     const mprt_scene *s = g->scene;
-    uint32_t k, k1 = g->start[w->voxel + 1];
+    uint32_t k, k1 = g->start[voxel + 1];
     c->ic_visits++;
-    for (k = g->start[w->voxel]; k < k1; k++) {
+    for (k = g->start[voxel]; k < k1; k++) {
         int32_t id = g->ids[k];
         real t;
         real limit = any_hit ? tmax : best->t;
+        if (mb) {
+            if (mb->id[id & (MAILBOX - 1)] == id) continue;
+            mb->id[id & (MAILBOX - 1)] = id;
+        }
         if (!test_prim(s, id, ray, tmin, limit, &t, c)) continue;
         if (any_hit) {
             best->t = t;
@@ -143,34 +186,48 @@ static int ic_visit(const mprt_grid *g, const mprt__dda *w, const mprt__ray *ray
             best->prim = id;
         }
     }
-    return !any_hit && best->prim >= 0 && best->t <= w->t_exit;
+    return !any_hit && best->prim >= 0 && best->t <= t_exit;
 }
 
 /* OS + IC: walk until a hit is accepted or the ray leaves.  Returns 1 with
  * *best set for a hit (for a shadow ray: blocked), 0 when the ray left. */
 static int os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int any_hit, hit *best,
-                 mprt_counters *c)
+                 int use_mailbox, mprt_counters *c)
 {
     mprt__dda w;
+    mailbox mb, *pmb = NULL;
+    const uint8_t *flag = g->flag;
+    long long voxels = 1, os = 1;
+    int found = 0;
     best->t = tmax;
     best->prim = -1;
-    c->os_visits++;
-    if (!mprt__dda_start(g, ray, tmin, tmax, &w)) return 0;
-    c->voxels_traversed++;
-    for (;;) {
-        if (g->start[w.voxel + 1] > g->start[w.voxel]) {
-            /* OS hands the ray to IC */
-            if (ic_visit(g, &w, ray, tmin, tmax, any_hit, best, c)) return 1;
-            /* a return ray: back to OS */
-            c->os_visits++;
-        }
-        if (!mprt__dda_next(g, ray, &w)) break;
-        c->voxels_traversed++;
+    if (!dda_begin(g, ray, tmin, tmax, &w)) {
+        c->os_visits++;
+        return 0;
     }
+    if (use_mailbox) {
+        memset(&mb, 0xff, sizeof mb); /* -1: no primitive */
+        pmb = &mb;
+    }
+    for (;;) {
+        if (flag[w.voxel]) {
+            /* OS hands the ray to IC */
+            if (ic_visit(g, w.voxel, w.t_exit, ray, tmin, tmax, any_hit, best, pmb, c)) {
+                found = 1;
+                break;
+            }
+            /* a return ray: back to OS */
+            os++;
+        }
+        if (!dda_step(g, &w)) break;
+        voxels++;
+    }
+    c->voxels_traversed += voxels;
+    c->os_visits += os;
     /* The walk has tested every voxel the ray crosses, so the nearest
      * candidate is the nearest hit even when rounding put it past the
      * last stretch (a primitive lying on the grid box's face). */
-    return !any_hit && best->prim >= 0;
+    return found || (!any_hit && best->prim >= 0);
 }
 
 /* ---- Batch closest hit ------------------------------------------------------ */
@@ -196,7 +253,7 @@ int mprt_grid_intersect(mprt_grid *g, size_t n, const double *org, const double 
             return MPRT_ERR_INVALID_ARG;
         }
         mprt__ray_prepare(&ray, v3((real)o[0], (real)o[1], (real)o[2]), v3((real)d[0], (real)d[1], (real)d[2]));
-        if (os_ic(g, &ray, 0, INF_REAL, 0, &h, &c)) {
+        if (os_ic(g, &ray, 0, INF_REAL, 0, &h, 1, &c)) {
             t[i] = (double)h.t;
             prim[i] = h.prim;
             c.hits++;
@@ -392,7 +449,7 @@ static void trace_sample(const render_ctx *x, job first, double acc[3], job *sta
         hit h;
         int any = r.kind == RAY_SHADOW;
         mprt__ray_prepare(&ray, r.o, r.d);
-        if (os_ic(x->grid, &ray, r.tmin, r.tmax, any, &h, c)) {
+        if (os_ic(x->grid, &ray, r.tmin, r.tmax, any, &h, x->desc->mailbox, c)) {
             c->hits++;
             if (r.kind == RAY_PRIMARY) c->eye_hits++;
             if (any) continue; /* blocked shadow ray dies at IC */

@@ -304,7 +304,8 @@ class Grid:
         return d
 
     def render(self, width: int = 0, height: int = 0, rules: str = "paper", threshold: float | None = None,
-               threads: int = 1, max_depth: int = 0, ambient: float | None = None, tile: int = 16):
+               threads: int = 1, max_depth: int = 0, ambient: float | None = None, tile: int = 16,
+               mailbox: bool = False):
         """Render; returns (image as float32 array (H, W, 3), counters dict).
 
         width/height 0 use the scene's view resolution.  rules is 'paper'
@@ -324,6 +325,7 @@ class Grid:
         d.threads = int(threads)
         d.max_depth = int(max_depth)
         d.tile = int(tile)
+        d.mailbox = 1 if mailbox else 0
         res = self.scene.info()["resolution"]
         w = int(width) or res[0]
         h = int(height) or res[1]
