@@ -56,7 +56,7 @@ static int walk_checked(const mprt_grid *g, vec3 o, vec3 d, real tmax, int *cell
             double x = (double)vget(mid, a);
             double lo = (double)vget(g->lo, a) + w.cell[a] * (double)vget(g->cell, a);
             double hi = lo + (double)vget(g->cell, a);
-            CHECK_MSG(x >= lo - TOL * 8 && x <= hi + TOL * 8, "midpoint %g outside voxel [%g, %g] on axis %d", x, lo,
+            CHECK_MSG(x >= lo - TOL * 8 - (double)g->pad && x <= hi + TOL * 8 + (double)g->pad, "midpoint %g outside voxel [%g, %g] on axis %d", x, lo,
                       hi, a);
         }
         if (cells && n < maxcells) cells[n] = (int)w.voxel;
