@@ -140,6 +140,11 @@ typedef struct {
 /* Fill a summary of the scene. OUT: info. */
 int mprt_scene_get_info(const mprt_scene *scene, mprt_scene_info *info);
 
+/* Per primitive: kind (mprt_kind), size of its shape data in 32-bit words
+ * (sphere 4; polygon 3 per vertex + 4 for its plane; cone/cylinder 8) and
+ * material index; n entries each (cap >= primitive count). OUT: all three. */
+int mprt_scene_get_prims(const mprt_scene *scene, int32_t *kind, int32_t *words, int32_t *material, size_t cap);
+
 /* ---- Grid --------------------------------------------------------------- */
 
 /* Build a uniform grid of nx*ny*nz voxels (each 1..1024) over the scene's
@@ -167,6 +172,11 @@ typedef struct {
 
 /* Statistics of the grid. OUT: stats. */
 int mprt_grid_get_stats(const mprt_grid *grid, mprt_grid_stats *stats);
+
+/* The voxel lists in compressed-sparse-row form: voxel v (x fastest, then y,
+ * then z) lists ids[start[v] .. start[v+1]).  cap_start >= voxels + 1,
+ * cap_ids >= refs (see mprt_grid_stats). OUT: start, ids. */
+int mprt_grid_get_lists(const mprt_grid *grid, uint32_t *start, size_t cap_start, int32_t *ids, size_t cap_ids);
 
 /* ---- Rendering ---------------------------------------------------------- */
 
@@ -216,6 +226,68 @@ int mprt_grid_render(mprt_grid *grid, const mprt_render_desc *desc, float *rgb, 
 int mprt_grid_intersect(mprt_grid *grid, size_t n, const double *origins,
                         const double *directions, double *t, int32_t *prim,
                         mprt_counters *counters);
+
+/* ---- Traces --------------------------------------------------------------
+ * A trace records every stage visit of every ray of a tile of samples (pixel
+ * centres under paper rules, pixel corners under spd rules).  Rays are
+ * numbered from 0 within the tile in the order they are made; visits are
+ * grouped by ray, each ray's visits in order, rays in the order traced. */
+
+typedef enum { MPRT_STAGE_OS = 0, MPRT_STAGE_IC = 1, MPRT_STAGE_SC = 2 } mprt_stage;
+typedef enum { MPRT_RAY_PRIMARY = 0, MPRT_RAY_REFLECT = 1, MPRT_RAY_REFRACT = 2, MPRT_RAY_SHADOW = 3 } mprt_ray_kind;
+typedef enum {
+    MPRT_OUT_TO_IC = 0,    /* OS: reached a voxel holding primitives; to IC */
+    MPRT_OUT_LEFT = 1,     /* OS: a primary or secondary ray left the space; dies */
+    MPRT_OUT_TO_SC = 2,    /* OS: a shadow ray left the space unblocked; to SC */
+    MPRT_OUT_HIT = 3,      /* IC: nearest hit accepted; to SC */
+    MPRT_OUT_BLOCKED = 4,  /* IC: a shadow ray hit something; dies */
+    MPRT_OUT_RETURN = 5,   /* IC: no hit accepted in this voxel; back to OS */
+    MPRT_OUT_SHADED = 6,   /* SC: shaded a hit and made its children; dies */
+    MPRT_OUT_LIT = 7,      /* SC: added a shadow ray's light; dies */
+    MPRT_OUT_LATE_HIT = 8  /* OS: the walk ended holding a hit found in an earlier
+                            * voxel beyond that voxel's stretch (rounding at the
+                            * grid box's face); to SC */
+} mprt_outcome;
+
+/* One ray of a trace. */
+typedef struct {
+    int64_t id;            /* tile-local ray number */
+    int64_t parent;        /* the ray whose SC visit made it, -1 for primary rays */
+    int32_t pixel;         /* sample index: y * samples_per_row + x */
+    int16_t light;         /* shadow rays: light index; else -1 */
+    uint8_t kind;          /* mprt_ray_kind */
+    uint8_t depth;         /* ray tree level, the eye ray is 1 */
+    double contribution;   /* how much the ray can still add to its pixel */
+} mprt_trace_ray;
+
+/* One stage visit of a trace. */
+typedef struct {
+    int64_t ray;           /* tile-local ray number */
+    int64_t voxel;         /* OS: voxel handed to IC (-1 if none); IC: voxel tested */
+    int32_t voxels;        /* OS: voxels entered during this visit */
+    int32_t tests[MPRT_NKINDS]; /* IC: intersection tests by primitive kind */
+    int32_t vertices;      /* IC: polygon vertices touched by the tests */
+    int32_t prim;          /* IC/SC: primitive hit, or -1 */
+    uint8_t stage;         /* mprt_stage */
+    uint8_t outcome;       /* mprt_outcome */
+    uint8_t made;          /* SC: rays made */
+    uint8_t suppressed;    /* SC: rays not made (threshold or depth) */
+} mprt_trace_visit;
+
+/* Sample grid and tiling of a render: samples per row and column, tiles per
+ * row and column (tile edge desc->tile). OUT: all four. */
+int mprt_grid_tiling(mprt_grid *grid, const mprt_render_desc *desc, int *samples_w, int *samples_h,
+                     int *tiles_x, int *tiles_y);
+
+/* Trace one tile of samples.  samples receives the tile's sample colours
+ * (rows of the tile, 3 doubles each; cap_samples doubles); rays and visits
+ * receive the records.  OUT: nrays, nvisits (the numbers the tile needs:
+ * when either exceeds its capacity, MPRT_ERR_CAPACITY is returned and the
+ * caller retries with larger buffers), counters (may be NULL). */
+int mprt_grid_trace_tile(mprt_grid *grid, const mprt_render_desc *desc, int tile, double *samples,
+                         size_t cap_samples, mprt_trace_ray *rays, size_t cap_rays, size_t *nrays,
+                         mprt_trace_visit *visits, size_t cap_visits, size_t *nvisits,
+                         mprt_counters *counters);
 
 /* Write rgb (width*height*3 floats in [0,1], clamped) as an 8-bit PNG. */
 int mprt_image_write_png(const char *path, int width, int height, const float *rgb);

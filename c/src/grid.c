@@ -242,3 +242,13 @@ int mprt_grid_get_stats(const mprt_grid *g, mprt_grid_stats *st)
     st->hi[0] = g->hi.x; st->hi[1] = g->hi.y; st->hi[2] = g->hi.z;
     return MPRT_OK;
 }
+
+int mprt_grid_get_lists(const mprt_grid *g, uint32_t *start, size_t cap_start, int32_t *ids, size_t cap_ids)
+{
+    if (!g || !start || (!ids && g->refs)) return MPRT_ERR_INVALID_ARG;
+    if (g->failed) return MPRT_ERR_STATE;
+    if (cap_start < (size_t)g->voxels + 1 || cap_ids < (size_t)g->refs) return MPRT_ERR_CAPACITY;
+    memcpy(start, g->start, ((size_t)g->voxels + 1) * sizeof *start);
+    if (g->refs) memcpy(ids, g->ids, (size_t)g->refs * sizeof *ids);
+    return MPRT_OK;
+}

@@ -189,20 +189,64 @@ static int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt
     return !any_hit && best->prim >= 0 && best->t <= t_exit;
 }
 
+/* ---- Trace recording -------------------------------------------------------
+ * A recorder is only present when tracing; every hook is one NULL test. */
+typedef struct {
+    mprt_trace_ray *rays;
+    size_t cap_rays, nrays;
+    mprt_trace_visit *visits;
+    size_t cap_visits, nvisits;
+} recorder;
+
+/* Append a visit (counted even when it does not fit, so the caller learns the size). */
+static mprt_trace_visit *rec_visit(recorder *rec, int64_t ray, int stage, int outcome)
+{
+    mprt_trace_visit *v = NULL;
+    static mprt_trace_visit scratch;
+    if (rec->nvisits < rec->cap_visits) v = &rec->visits[rec->nvisits];
+    else v = &scratch;
+    rec->nvisits++;
+    memset(v, 0, sizeof *v);
+    v->ray = ray;
+    v->voxel = -1;
+    v->prim = -1;
+    v->stage = (uint8_t)stage;
+    v->outcome = (uint8_t)outcome;
+    return v;
+}
+
+/* Append a ray record; returns its id. */
+static int64_t rec_ray(recorder *rec, int64_t parent, int kind, int depth, int pixel, int light, double contrib)
+{
+    int64_t id = (int64_t)rec->nrays++;
+    if ((size_t)id < rec->cap_rays) {
+        mprt_trace_ray *r = &rec->rays[id];
+        r->id = id;
+        r->parent = parent;
+        r->pixel = pixel;
+        r->light = (int16_t)light;
+        r->kind = (uint8_t)kind;
+        r->depth = (uint8_t)(depth > 255 ? 255 : depth);
+        r->contribution = contrib;
+    }
+    return id;
+}
+
 /* OS + IC: walk until a hit is accepted or the ray leaves.  Returns 1 with
  * *best set for a hit (for a shadow ray: blocked), 0 when the ray left. */
 static int os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int any_hit, hit *best,
-                 int use_mailbox, mprt_counters *c)
+                 int use_mailbox, mprt_counters *c, recorder *rec, int64_t ray_id)
 {
     mprt__dda w;
     mailbox mb, *pmb = NULL;
     const uint8_t *flag = g->flag;
-    long long voxels = 1, os = 1;
+    long long voxels = 1, os = 1, mark = 0;
     int found = 0;
     best->t = tmax;
     best->prim = -1;
     if (!dda_begin(g, ray, tmin, tmax, &w)) {
         c->os_visits++;
+        if (rec) rec_visit(rec, ray_id, MPRT_STAGE_OS, any_hit ? MPRT_OUT_TO_SC : MPRT_OUT_LEFT);
         return 0;
     }
     if (use_mailbox) {
@@ -212,7 +256,27 @@ static int os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax,
     for (;;) {
         if (flag[w.voxel]) {
             /* OS hands the ray to IC */
-            if (ic_visit(g, w.voxel, w.t_exit, ray, tmin, tmax, any_hit, best, pmb, c)) {
+            long long tests0[MPRT_NKINDS] = {0, 0, 0, 0}, vertices0 = 0;
+            int accepted;
+            if (rec) {
+                mprt_trace_visit *v = rec_visit(rec, ray_id, MPRT_STAGE_OS, MPRT_OUT_TO_IC);
+                v->voxels = (int32_t)(voxels - mark);
+                v->voxel = w.voxel;
+                memcpy(tests0, c->tests, sizeof tests0);
+                vertices0 = c->polygon_vertices;
+            }
+            accepted = ic_visit(g, w.voxel, w.t_exit, ray, tmin, tmax, any_hit, best, pmb, c);
+            if (rec) {
+                mprt_trace_visit *v = rec_visit(rec, ray_id, MPRT_STAGE_IC,
+                                                accepted ? (any_hit ? MPRT_OUT_BLOCKED : MPRT_OUT_HIT) : MPRT_OUT_RETURN);
+                int k;
+                v->voxel = w.voxel;
+                for (k = 0; k < MPRT_NKINDS; k++) v->tests[k] = (int32_t)(c->tests[k] - tests0[k]);
+                v->vertices = (int32_t)(c->polygon_vertices - vertices0);
+                if (accepted) v->prim = best->prim;
+                mark = voxels;
+            }
+            if (accepted) {
                 found = 1;
                 break;
             }
@@ -227,7 +291,19 @@ static int os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax,
     /* The walk has tested every voxel the ray crosses, so the nearest
      * candidate is the nearest hit even when rounding put it past the
      * last stretch (a primitive lying on the grid box's face). */
-    return found || (!any_hit && best->prim >= 0);
+    if (!found && !any_hit && best->prim >= 0) {
+        if (rec) {
+            mprt_trace_visit *v = rec_visit(rec, ray_id, MPRT_STAGE_OS, MPRT_OUT_LATE_HIT);
+            v->voxels = (int32_t)(voxels - mark);
+            v->prim = best->prim;
+        }
+        return 1;
+    }
+    if (!found && rec) {
+        mprt_trace_visit *v = rec_visit(rec, ray_id, MPRT_STAGE_OS, any_hit ? MPRT_OUT_TO_SC : MPRT_OUT_LEFT);
+        v->voxels = (int32_t)(voxels - mark);
+    }
+    return found;
 }
 
 /* ---- Batch closest hit ------------------------------------------------------ */
@@ -253,7 +329,7 @@ int mprt_grid_intersect(mprt_grid *g, size_t n, const double *org, const double 
             return MPRT_ERR_INVALID_ARG;
         }
         mprt__ray_prepare(&ray, v3((real)o[0], (real)o[1], (real)o[2]), v3((real)d[0], (real)d[1], (real)d[2]));
-        if (os_ic(g, &ray, 0, INF_REAL, 0, &h, 1, &c)) {
+        if (os_ic(g, &ray, 0, INF_REAL, 0, &h, 1, &c, NULL, 0)) {
             t[i] = (double)h.t;
             prim[i] = h.prim;
             c.hits++;
@@ -268,7 +344,6 @@ int mprt_grid_intersect(mprt_grid *g, size_t n, const double *org, const double 
 
 /* ---- Rendering ------------------------------------------------------------ */
 
-enum { RAY_PRIMARY = 0, RAY_REFLECT = 1, RAY_REFRACT = 2, RAY_SHADOW = 3 };
 
 /* A ray waiting for OS, with what SC needs when it comes back. */
 typedef struct {
@@ -277,6 +352,7 @@ typedef struct {
     double contrib;   /* how much the ray can still add to its pixel */
     double rgb[3];    /* shadow rays: light it carries to the pixel */
     int kind, depth;
+    int64_t id;       /* trace: tile-local ray number */
 } job;
 
 typedef struct {
@@ -297,6 +373,8 @@ typedef struct {
     mprt_counters *tile_counters;
     pthread_mutex_t lock;
     int failed;
+    recorder *rec;            /* tracing one tile: where its records go */
+    int stride, ox, oy;       /* layout of samples (see render_tile) */
 } render_ctx;
 
 /* Offset that keeps a secondary ray off the surface it starts on: scaled to
@@ -329,8 +407,9 @@ static int keep_child(const render_ctx *x, double contrib, int depth, mprt_count
 /* SC for a primary or secondary ray that hit primitive h at distance t:
  * add the ambient term, push shadow, reflection and refraction rays. */
 static void sc_shade(const render_ctx *x, const job *r, hit h, double acc[3], job *stack, int *sp,
-                     mprt_counters *c)
+                     mprt_counters *c, recorder *rec, int pixel)
 {
+    long long suppressed0 = c->suppressed_rays;
     const mprt_scene *s = x->grid->scene;
     const mprt_render_desc *rd = x->desc;
     const mprt__material *m = &s->materials[s->prims[h.prim].material];
@@ -384,8 +463,9 @@ static void sc_shade(const render_ctx *x, const job *r, hit h, double acc[3], jo
         kids[nk].rgb[0] = rgb[0];
         kids[nk].rgb[1] = rgb[1];
         kids[nk].rgb[2] = rgb[2];
-        kids[nk].kind = RAY_SHADOW;
+        kids[nk].kind = MPRT_RAY_SHADOW;
         kids[nk].depth = r->depth;
+        if (rec) kids[nk].id = rec_ray(rec, r->id, MPRT_RAY_SHADOW, r->depth, pixel, l, kids[nk].contrib);
         nk++;
         c->shadow_rays++;
     }
@@ -397,8 +477,9 @@ static void sc_shade(const render_ctx *x, const job *r, hit h, double acc[3], jo
         kids[nk].tmin = off;
         kids[nk].tmax = INF_REAL;
         kids[nk].contrib = r->contrib * m->ks;
-        kids[nk].kind = RAY_REFLECT;
+        kids[nk].kind = MPRT_RAY_REFLECT;
         kids[nk].depth = r->depth + 1;
+        if (rec) kids[nk].id = rec_ray(rec, r->id, MPRT_RAY_REFLECT, r->depth + 1, pixel, -1, kids[nk].contrib);
         nk++;
         c->reflect_rays++;
     }
@@ -410,19 +491,26 @@ static void sc_shade(const render_ctx *x, const job *r, hit h, double acc[3], jo
         kids[nk].o = p;
         if (k < 0) {
             kids[nk].d = reflect_dir(r->d, n);
-            kids[nk].kind = RAY_REFLECT;
+            kids[nk].kind = MPRT_RAY_REFLECT;
             c->reflect_rays++;
         } else {
             vec3 d = vadd(vscale(r->d, (real)eta), vscale(n, (real)(eta * cosi - sqrt(k))));
             kids[nk].d = vnorm(d);
-            kids[nk].kind = RAY_REFRACT;
+            kids[nk].kind = MPRT_RAY_REFRACT;
             c->refract_rays++;
         }
         kids[nk].tmin = off;
         kids[nk].tmax = INF_REAL;
         kids[nk].contrib = r->contrib * m->t;
         kids[nk].depth = r->depth + 1;
+        if (rec) kids[nk].id = rec_ray(rec, r->id, kids[nk].kind, r->depth + 1, pixel, -1, kids[nk].contrib);
         nk++;
+    }
+    if (rec) {
+        mprt_trace_visit *v = rec_visit(rec, r->id, MPRT_STAGE_SC, MPRT_OUT_SHADED);
+        v->prim = h.prim;
+        v->made = (uint8_t)nk;
+        v->suppressed = (uint8_t)(c->suppressed_rays - suppressed0);
     }
     /* Push in reverse so the children are traced in the order made */
     {
@@ -437,26 +525,29 @@ static void sc_shade(const render_ctx *x, const job *r, hit h, double acc[3], jo
 }
 
 /* Trace the whole ray tree of one sample; returns its colour in acc. */
-static void trace_sample(const render_ctx *x, job first, double acc[3], job *stack, mprt_counters *c)
+static void trace_sample(const render_ctx *x, job first, double acc[3], job *stack, mprt_counters *c,
+                         recorder *rec, int pixel)
 {
     const mprt_scene *s = x->grid->scene;
     int sp = 0;
+    if (rec) first.id = rec_ray(rec, -1, MPRT_RAY_PRIMARY, 1, pixel, -1, 1.0);
     stack[sp++] = first;
     acc[0] = acc[1] = acc[2] = 0;
     while (sp > 0) {
         job r = stack[--sp];
         mprt__ray ray;
         hit h;
-        int any = r.kind == RAY_SHADOW;
+        int any = r.kind == MPRT_RAY_SHADOW;
         mprt__ray_prepare(&ray, r.o, r.d);
-        if (os_ic(x->grid, &ray, r.tmin, r.tmax, any, &h, x->desc->mailbox, c)) {
+        if (os_ic(x->grid, &ray, r.tmin, r.tmax, any, &h, x->desc->mailbox, c, rec, r.id)) {
             c->hits++;
-            if (r.kind == RAY_PRIMARY) c->eye_hits++;
+            if (r.kind == MPRT_RAY_PRIMARY) c->eye_hits++;
             if (any) continue; /* blocked shadow ray dies at IC */
-            sc_shade(x, &r, h, acc, stack, &sp, c);
+            sc_shade(x, &r, h, acc, stack, &sp, c, rec, pixel);
         } else if (any) {
             /* unblocked shadow ray: OS -> SC, adds its light */
             c->sc_visits++;
+            if (rec) rec_visit(rec, r.id, MPRT_STAGE_SC, MPRT_OUT_LIT);
             acc[0] += r.rgb[0];
             acc[1] += r.rgb[1];
             acc[2] += r.rgb[2];
@@ -480,38 +571,52 @@ static job primary(const camera *cam, double hither, double sx, double sy)
     j.tmin = (real)(hither / (double)vdot(d, cam->w));
     j.tmax = INF_REAL;
     j.contrib = 1;
-    j.kind = RAY_PRIMARY;
+    j.kind = MPRT_RAY_PRIMARY;
     j.depth = 1;
     return j;
 }
 
-static void render_tile(render_ctx *x, int tile, job *stack)
+/* Sample rectangle [i0, i1) x [j0, j1) of a tile. */
+static void tile_rect(const render_ctx *x, int tile, int *i0, int *j0, int *i1, int *j1)
+{
+    int ts = x->desc->tile;
+    *i0 = tile % x->tiles_x * ts;
+    *j0 = tile / x->tiles_x * ts;
+    *i1 = *i0 + ts < x->cam.sw ? *i0 + ts : x->cam.sw;
+    *j1 = *j0 + ts < x->cam.sh ? *j0 + ts : x->cam.sh;
+}
+
+/* Trace a tile's samples; colours go to x->samples, whose row stride is
+ * x->stride samples and whose first sample is (x->ox, x->oy). */
+static void render_tile(render_ctx *x, int tile, job *stack, mprt_counters *c)
 {
     const camera *cam = &x->cam;
-    int tx = tile % x->tiles_x, ty = tile / x->tiles_x, ts = x->desc->tile;
-    int i0 = tx * ts, j0 = ty * ts, i1 = i0 + ts, j1 = j0 + ts, i, j;
-    mprt_counters *c = &x->tile_counters[tile];
+    int i0, j0, i1, j1, i, j;
     double hither = x->grid->scene->hither;
-    if (i1 > cam->sw) i1 = cam->sw;
-    if (j1 > cam->sh) j1 = cam->sh;
+    tile_rect(x, tile, &i0, &j0, &i1, &j1);
     for (j = j0; j < j1; j++)
         for (i = i0; i < i1; i++) {
             double ox = cam->corners ? (double)i - 0.5 : (double)i;
             double oy = cam->corners ? (double)j - 0.5 : (double)j;
             double sx = (ox - (cam->width - 1) * 0.5) * cam->pitch;
             double sy = ((cam->height - 1) * 0.5 - oy) * cam->pitch;
-            double *acc = x->samples + 3 * ((size_t)j * (size_t)cam->sw + (size_t)i);
+            double *acc = x->samples + 3 * ((size_t)(j - x->oy) * (size_t)x->stride + (size_t)(i - x->ox));
             c->eye_rays++;
-            trace_sample(x, primary(cam, hither, sx, sy), acc, stack, c);
+            trace_sample(x, primary(cam, hither, sx, sy), acc, stack, c, x->rec,
+                         j * cam->sw + i);
         }
+}
+
+/* Depth-first ray trees: each level holds at most one SC visit's children. */
+static size_t stack_size(const render_ctx *x)
+{
+    return (size_t)(x->desc->max_depth + 2) * (size_t)(x->grid->scene->nlights + 2) + 8;
 }
 
 static void *worker(void *arg)
 {
     render_ctx *x = arg;
-    const mprt_scene *s = x->grid->scene;
-    size_t cap = (size_t)(x->desc->max_depth + 2) * (size_t)(s->nlights + 2) + 8;
-    job *stack = malloc(cap * sizeof *stack);
+    job *stack = malloc(stack_size(x) * sizeof *stack);
     int ntiles = x->tiles_x * x->tiles_y;
     if (!stack) {
         pthread_mutex_lock(&x->lock);
@@ -525,7 +630,7 @@ static void *worker(void *arg)
         tile = x->failed ? ntiles : x->next_tile++;
         pthread_mutex_unlock(&x->lock);
         if (tile >= ntiles) break;
-        render_tile(x, tile, stack);
+        render_tile(x, tile, stack, &x->tile_counters[tile]);
     }
     free(stack);
     return NULL;
@@ -558,15 +663,14 @@ static void setup_camera(const mprt_scene *s, int width, int height, int corners
     cam->sh = height + (corners ? 1 : 0);
 }
 
-int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, size_t cap, mprt_counters *counters)
+/* Validate a render description and set up the context (camera, tiling).
+ * rd receives the description with defaults filled in. */
+static int setup(mprt_grid *g, const mprt_render_desc *desc, mprt_render_desc *rd_out, render_ctx *xp)
 {
-    render_ctx x;
     mprt_render_desc rd;
     const mprt_scene *s;
-    pthread_t th[64];
-    int nth, i, started = 0, ntiles, w, h;
-    size_t nsamples;
-    if (!g || !desc || !rgb) return MPRT_ERR_INVALID_ARG;
+    int w, h;
+    if (!g || !desc) return MPRT_ERR_INVALID_ARG;
     if (g->failed) return MPRT_ERR_STATE;
     s = g->scene;
     rd = *desc;
@@ -588,8 +692,8 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
         snprintf(g->errmsg, sizeof g->errmsg, "render: ambient %g is not in [0, 1]", rd.ambient);
         return MPRT_ERR_INVALID_ARG;
     }
-    if (rd.max_depth < 0 || rd.max_depth > 1000) {
-        snprintf(g->errmsg, sizeof g->errmsg, "render: max_depth %d is not in 0..1000", rd.max_depth);
+    if (rd.max_depth < 0 || rd.max_depth > 255) {
+        snprintf(g->errmsg, sizeof g->errmsg, "render: max_depth %d is not in 0..255", rd.max_depth);
         return MPRT_ERR_INVALID_ARG;
     }
     if (rd.max_depth == 0) rd.max_depth = rd.rules == MPRT_RULES_SPD ? 5 : 64;
@@ -598,20 +702,103 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
         snprintf(g->errmsg, sizeof g->errmsg, "render: threads %d is not in 0..64", rd.threads);
         return MPRT_ERR_INVALID_ARG;
     }
+    *rd_out = rd;
+    memset(xp, 0, sizeof *xp);
+    xp->grid = g;
+    xp->desc = rd_out;
+    setup_camera(s, w, h, rd.rules == MPRT_RULES_SPD, &xp->cam);
+    xp->light_rgb_default = s->nlights ? 1 / sqrt((double)s->nlights) : 1;
+    xp->tiles_x = (xp->cam.sw + rd.tile - 1) / rd.tile;
+    xp->tiles_y = (xp->cam.sh + rd.tile - 1) / rd.tile;
+    return MPRT_OK;
+}
+
+int mprt_grid_tiling(mprt_grid *g, const mprt_render_desc *desc, int *samples_w, int *samples_h, int *tiles_x,
+                     int *tiles_y)
+{
+    render_ctx x;
+    mprt_render_desc rd;
+    int st = setup(g, desc, &rd, &x);
+    if (st != MPRT_OK) return st;
+    if (samples_w) *samples_w = x.cam.sw;
+    if (samples_h) *samples_h = x.cam.sh;
+    if (tiles_x) *tiles_x = x.tiles_x;
+    if (tiles_y) *tiles_y = x.tiles_y;
+    return MPRT_OK;
+}
+
+int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, double *samples, size_t cap_samples,
+                         mprt_trace_ray *rays, size_t cap_rays, size_t *nrays, mprt_trace_visit *visits,
+                         size_t cap_visits, size_t *nvisits, mprt_counters *counters)
+{
+    render_ctx x;
+    mprt_render_desc rd;
+    recorder rec;
+    mprt_counters c;
+    job *stack;
+    int i0, j0, i1, j1;
+    int st = setup(g, desc, &rd, &x);
+    if (st != MPRT_OK) return st;
+    if (!samples || !nrays || !nvisits || (cap_rays && !rays) || (cap_visits && !visits)) return MPRT_ERR_INVALID_ARG;
+    if (tile < 0 || tile >= x.tiles_x * x.tiles_y) {
+        snprintf(g->errmsg, sizeof g->errmsg, "trace: tile %d is not in 0..%d", tile, x.tiles_x * x.tiles_y - 1);
+        return MPRT_ERR_INVALID_ARG;
+    }
+    tile_rect(&x, tile, &i0, &j0, &i1, &j1);
+    if (cap_samples < (size_t)(i1 - i0) * (size_t)(j1 - j0) * 3) {
+        snprintf(g->errmsg, sizeof g->errmsg, "trace: sample buffer holds %zu doubles, %zu needed", cap_samples,
+                 (size_t)(i1 - i0) * (size_t)(j1 - j0) * 3);
+        return MPRT_ERR_CAPACITY;
+    }
+    memset(&rec, 0, sizeof rec);
+    rec.rays = rays;
+    rec.cap_rays = cap_rays;
+    rec.visits = visits;
+    rec.cap_visits = cap_visits;
+    x.rec = &rec;
+    x.samples = samples;
+    x.stride = i1 - i0;
+    x.ox = i0;
+    x.oy = j0;
+    stack = malloc(stack_size(&x) * sizeof *stack);
+    if (!stack) {
+        snprintf(g->errmsg, sizeof g->errmsg, "trace: out of memory for the ray stack");
+        return MPRT_ERR_OUT_OF_MEMORY;
+    }
+    memset(&c, 0, sizeof c);
+    render_tile(&x, tile, stack, &c);
+    free(stack);
+    *nrays = rec.nrays;
+    *nvisits = rec.nvisits;
+    if (counters) *counters = c;
+    if (rec.nrays > cap_rays || rec.nvisits > cap_visits) {
+        snprintf(g->errmsg, sizeof g->errmsg, "trace: tile %d needs %zu rays and %zu visits", tile, rec.nrays,
+                 rec.nvisits);
+        return MPRT_ERR_CAPACITY;
+    }
+    return MPRT_OK;
+}
+
+int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, size_t cap, mprt_counters *counters)
+{
+    render_ctx x;
+    mprt_render_desc rd;
+    pthread_t th[64];
+    int nth, i, started = 0, ntiles, w, h;
+    size_t nsamples;
+    int st = setup(g, desc, &rd, &x);
+    if (st != MPRT_OK) return st;
+    if (!rgb) return MPRT_ERR_INVALID_ARG;
+    w = x.cam.width;
+    h = x.cam.height;
     if (cap < (size_t)w * (size_t)h * 3) {
         snprintf(g->errmsg, sizeof g->errmsg, "render: image buffer holds %zu floats, %zu needed", cap,
                  (size_t)w * (size_t)h * 3);
         return MPRT_ERR_CAPACITY;
     }
-    memset(&x, 0, sizeof x);
-    x.grid = g;
-    x.desc = &rd;
-    setup_camera(s, w, h, rd.rules == MPRT_RULES_SPD, &x.cam);
-    x.light_rgb_default = s->nlights ? 1 / sqrt((double)s->nlights) : 1;
     nsamples = (size_t)x.cam.sw * (size_t)x.cam.sh;
-    x.tiles_x = (x.cam.sw + rd.tile - 1) / rd.tile;
-    x.tiles_y = (x.cam.sh + rd.tile - 1) / rd.tile;
     ntiles = x.tiles_x * x.tiles_y;
+    x.stride = x.cam.sw;
     x.samples = malloc(nsamples * 3 * sizeof *x.samples);
     x.tile_counters = calloc((size_t)ntiles, sizeof *x.tile_counters);
     if (!x.samples || !x.tile_counters || pthread_mutex_init(&x.lock, NULL) != 0) {

@@ -407,3 +407,17 @@ int mprt_scene_spd(mprt_scene *s, const char *name, int size)
     if (!s || !name) return MPRT_ERR_INVALID_ARG;
     return mprt__spd_generate(s, name, size);
 }
+
+int mprt_scene_get_prims(const mprt_scene *s, int32_t *kind, int32_t *words, int32_t *material, size_t cap)
+{
+    long long i;
+    if (!s || !kind || !words || !material) return MPRT_ERR_INVALID_ARG;
+    if (cap < (size_t)s->nprims) return MPRT_ERR_CAPACITY;
+    for (i = 0; i < s->nprims; i++) {
+        const mprt__prim *p = &s->prims[i];
+        kind[i] = p->kind;
+        material[i] = p->material;
+        words[i] = p->kind == MPRT_SPHERE ? 4 : p->kind == MPRT_POLYGON ? 3 * s->polygons[p->index].n + 4 : 8;
+    }
+    return MPRT_OK;
+}

@@ -27,6 +27,7 @@ from ._core import (
     write_png,
 )
 from . import _core
+from .trace import Trace, TraceError, load_trace
 
 __version__ = _core.EXT_VERSION
 
@@ -51,4 +52,7 @@ __all__ = [
     "SceneParseError",
     "SceneStateError",
     "write_png",
+    "Trace",
+    "TraceError",
+    "load_trace",
 ]

@@ -336,6 +336,14 @@ class Grid:
         self._call(lib.mprt_grid_render(self._h, d, ffi.cast("float *", ffi.from_buffer(img)), img.size, c))
         return img, self._counters(c)
 
+    def trace(self, width: int = 0, height: int = 0, rules: str = "paper", threshold: float | None = None, **kw):
+        """Trace (a subset of) the image recording every stage visit; returns
+        (image, Trace).  See mprt.trace.trace_grid for the options (threads,
+        tiles, sample, path for streaming to disk, progress, mailbox...)."""
+        from .trace import trace_grid
+
+        return trace_grid(self, width, height, rules, threshold, **kw)
+
     def intersect(self, origins, directions, return_counters: bool = False):
         """Closest hit of each ray: (t, prim) arrays; t is inf and prim -1 on a miss.
 

@@ -3,6 +3,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import os
 import sys
 import time
 
@@ -73,6 +74,70 @@ def cmd_render(a) -> int:
     return 0
 
 
+def _tiles_arg(text: str):
+    try:
+        return [int(v) for v in text.split(",") if v]
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"tiles must be a comma-separated list of tile numbers, not {text!r}") from None
+
+
+def cmd_trace(a) -> int:
+    scene = Scene.load(a.scene)
+    grid = scene.grid(a.grid)
+    w, h = a.res or (0, 0)
+    t0 = time.perf_counter()
+    image, trace = grid.trace(w, h, rules=a.rules, threshold=a.threshold, threads=a.threads, tiles=a.tiles,
+                              sample=a.sample, tile=a.tile, path=a.output, progress=sys.stderr.isatty() or a.progress,
+                              mailbox=a.mailbox)
+    t1 = time.perf_counter()
+    size = os.path.getsize(a.output)
+    st = trace.stats()
+    print(f"trace   {scene.name}, grid {'x'.join(map(str, grid.n))}, {trace.meta['width']}x{trace.meta['height']} "
+          f"{a.rules}, {len(trace.meta['tiles'])} of {trace.meta['tiles_total']} tiles: "
+          f"{st['rays']} rays, {st['visits']} visits in {t1 - t0:.2f} s")
+    print(f"wrote   {a.output}: {size} bytes ({size / max(st['visits'], 1):.1f} bytes per visit)")
+    return 0
+
+
+def cmd_stats(a) -> int:
+    from .trace import load_trace
+
+    trace = load_trace(a.trace)
+    st = trace.check() if a.check else trace.stats()
+    if a.json:
+        print(json.dumps(st, indent=2))
+        return 0
+    m = trace.meta
+    print(f"{m['scene']}  grid {'x'.join(map(str, m['grid']))}  {m['width']}x{m['height']}  rules {m['rules']}"
+          f"  threshold {m['threshold']:g}  tiles {len(m['tiles'])}/{m['tiles_total']}")
+    rows = [
+        ("OS input rays", st["os_input"]), ("  of which primary", st["os_input_primary"]),
+        ("  of which returns from IC", st["os_input_returns"]), ("  of which new rays from SC", st["os_input_new"]),
+        ("OS kills (ray left the space)", st["os_kills"]), ("OS -> IC", st["os_to_ic"]),
+        ("OS -> SC (unblocked shadow rays)", st["os_to_sc"]), ("IC input", st["ic_input"]),
+        ("IC kills (blocked shadow rays)", st["ic_kills"]), ("IC -> OS (returns)", st["ic_to_os"]),
+        ("IC -> SC (hits)", st["ic_to_sc"]), ("SC input", st["sc_input"]),
+        ("SC makes: secondary rays", st["sc_made_secondary"]), ("SC makes: shadow rays", st["sc_made_shadow"]),
+        ("rays suppressed", st["suppressed"]), ("voxels traversed", st["voxels_traversed"]),
+        ("intersection tests", st["tests"]),
+    ] + [(f"  {k} tests", v) for k, v in st["tests_by_kind"].items() if v] + [
+        ("returns per ray entering OS from outside", f"{st['returns_per_ray']:.2f}"),
+    ]
+    for name, val in rows:
+        print(f"  {name:42s} {val}")
+    for key, title in (("hist_voxels_per_os_visit", "voxels per OS visit"),
+                       ("hist_tests_per_ic_visit", "tests per IC visit"),
+                       ("hist_returns_per_ray", "returns per ray")):
+        hist = st[key]
+        total = sum(hist) or 1
+        mean = sum(i * c for i, c in enumerate(hist)) / total
+        print(f"  {title}: mean {mean:.2f}, max {len(hist) - 1}, histogram (value: share) "
+              + " ".join(f"{i}:{c / total:.3f}" for i, c in enumerate(hist[:12]) if c))
+    if a.check:
+        print("  invariants: ok")
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     p = argparse.ArgumentParser(prog="mprt", description="3MPRT ray-tracing machine explorer")
     sub = p.add_subparsers(dest="cmd", required=True)
@@ -94,6 +159,28 @@ def build_parser() -> argparse.ArgumentParser:
     r.add_argument("-o", "--output", help="PNG image to write")
     r.add_argument("--stats", help="JSON file for the counters")
     r.set_defaults(func=cmd_render)
+
+    t = sub.add_parser("trace", help="record every stage visit of every ray (a per-ray cost trace)")
+    t.add_argument("scene", help="NFF path, or SPD name with optional size (balls, balls:2)")
+    t.add_argument("--grid", type=_grid_arg, default=None, help="N or NX,NY,NZ (default: Scene.default_grid)")
+    t.add_argument("--res", type=_res_arg, default=None, help="WxH (default: the scene's view resolution)")
+    t.add_argument("--rules", choices=("paper", "spd"), default="paper")
+    t.add_argument("--threshold", type=float, default=None, help="contribution cutoff (paper rules)")
+    t.add_argument("--threads", type=int, default=1)
+    t.add_argument("--tile", type=int, default=16, help="tile edge in samples (the unit of subsets)")
+    sel = t.add_mutually_exclusive_group()
+    sel.add_argument("--tiles", type=_tiles_arg, default=None, help="only these tiles, e.g. 0,5,9")
+    sel.add_argument("--sample", default=None, help="regular:K (every K-th tile) or random:N:SEED")
+    t.add_argument("--mailbox", action="store_true", help="IC skips primitives the ray already tested")
+    t.add_argument("--progress", action="store_true", help="show a progress bar even when not on a terminal")
+    t.add_argument("-o", "--output", required=True, help="trace file (.npz)")
+    t.set_defaults(func=cmd_trace)
+
+    st = sub.add_parser("stats", help="the paper's statistics of a trace")
+    st.add_argument("trace")
+    st.add_argument("--check", action="store_true", help="validate the trace's invariants first")
+    st.add_argument("--json", action="store_true", help="print the statistics as JSON")
+    st.set_defaults(func=cmd_stats)
     return p
 
 
@@ -101,6 +188,6 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     try:
         return args.func(args)
-    except (MprtError, MemoryError, OSError) as e:
+    except (MprtError, MemoryError, OSError, ValueError) as e:
         print(f"mprt: error: {e}", file=sys.stderr)
         return 1
