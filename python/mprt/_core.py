@@ -224,6 +224,16 @@ class Scene:
             "background": list(i.background),
         }
 
+    def content_hash(self) -> str:
+        """SHA-256 of the scene's NFF text (cached once the scene has a grid,
+        since it cannot change then): names the scene in traces."""
+        if getattr(self, "_hash", None) and any(g() is not None for g in self._grids):
+            return self._hash
+        import hashlib
+
+        self._hash = hashlib.sha256(self.to_nff().encode()).hexdigest()
+        return self._hash
+
     def to_nff(self) -> str:
         """The scene as NFF text (full precision, reads back equal)."""
         ffi, lib = self._ext.ffi, self._ext.lib

@@ -16,11 +16,13 @@ from __future__ import annotations
 
 import hashlib
 import io
+import zlib
 import json
 import os
 import shutil
 import tempfile
 import zipfile
+from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -84,27 +86,42 @@ def select_tiles(ntiles: int, tiles=None, sample: str | None = None) -> np.ndarr
     raise InvalidArgument(f"sample must be 'regular:K' or 'random:N:SEED', not {sample!r}")
 
 
+def _bytes(a):
+    """A contiguous array's bytes as a uint8 view."""
+    return a.view(np.uint8).reshape(-1)
+
+
 class _Sink:
     """Where traced tiles go: memory, or raw files on disk (bounded memory)."""
 
     def __init__(self, directory=None):
         self.dir = directory
-        self.parts = {"rays": [], "visits": []}
+        self.arrays = {"rays": np.empty(1 << 12, dtype=RAY_DTYPE), "visits": np.empty(1 << 14, dtype=VISIT_DTYPE)}
         self.count = {"rays": 0, "visits": 0}
         self.files = {}
-        self.hash = {"rays": hashlib.sha256(), "visits": hashlib.sha256()}
+        self.crc = {"rays": 0, "visits": 0}
         if directory:
-            for k in self.parts:
+            for k in self.arrays:
                 self.files[k] = open(os.path.join(directory, k + ".bin"), "wb")
 
     def add(self, key, arr):
         self.count[key] += len(arr)
-        b = arr.tobytes()
-        self.hash[key].update(b)
         if self.dir:
+            b = memoryview(np.ascontiguousarray(arr)).cast("B")
+            self.crc[key] = zlib.crc32(b, self.crc[key])
             self.files[key].write(b)
-        else:
-            self.parts[key].append(arr)
+            return
+        n0, n1 = self.count[key] - len(arr), self.count[key]
+        a = self.arrays[key]
+        if n1 > len(a):  # grow by doubling: each record is copied O(1) times
+            bigger = np.empty(max(n1, 2 * len(a)), dtype=a.dtype)
+            _bytes(bigger)[: _bytes(a[:n0]).size] = _bytes(a[:n0])
+            self.arrays[key] = a = bigger
+        # byte views: a memcpy (structured assignment goes field by field)
+        _bytes(a[n0:n1])[:] = _bytes(arr)
+
+    def result(self, key):
+        return self.arrays[key][: self.count[key]]
 
     def close(self):
         for f in self.files.values():
@@ -136,8 +153,7 @@ class Trace:
         """Write the trace as .npz with its format version and checksums
         (deflate-compressed when ``compress``)."""
         meta = dict(self.meta)
-        meta["sha256"] = {k: hashlib.sha256(np.ascontiguousarray(self._arrays[k]).tobytes()).hexdigest()
-                          for k in ARRAYS}
+        meta["crc32"] = {k: _crc(self._arrays[k]) for k in ARRAYS}
         mode = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
         with zipfile.ZipFile(path, "w", compression=mode, allowZip64=True) as z:
             z.writestr("meta.json", json.dumps(meta, sort_keys=True))
@@ -206,26 +222,32 @@ def trace_grid(grid, width=0, height=0, rules="paper", threshold=None, max_depth
     samples = np.zeros((sh, sw, 3), dtype=np.float64)
     covered = np.zeros((sh, sw), dtype=bool)
 
-    def one(t):
+    def one(t, b):
+        """Trace tile t into buffer set b (reused; grown when a tile needs more)."""
         i0, j0 = (t % tx) * ts, (t // tx) * ts
         i1, j1 = min(i0 + ts, sw), min(j0 + ts, sh)
-        buf = np.zeros((j1 - j0, i1 - i0, 3), dtype=np.float64)
-        cap_r, cap_v = buf.shape[0] * buf.shape[1] * 8, buf.shape[0] * buf.shape[1] * 48
+        buf = b["samples"][: (j1 - j0) * (i1 - i0) * 3]
+        nr, nv = ffi.new("size_t *"), ffi.new("size_t *")
+        c = ffi.new("mprt_counters *")
         while True:
-            rays = np.zeros(cap_r, dtype=RAY_DTYPE)
-            visits = np.zeros(cap_v, dtype=VISIT_DTYPE)
-            nr, nv = ffi.new("size_t *"), ffi.new("size_t *")
-            c = ffi.new("mprt_counters *")
+            rays, visits = b["rays"], b["visits"]
             rc = lib.mprt_grid_trace_tile(
                 grid._h, d, int(t), ffi.cast("double *", ffi.from_buffer(buf)), buf.size,
-                ffi.cast("mprt_trace_ray *", ffi.from_buffer(rays)), cap_r, nr,
-                ffi.cast("mprt_trace_visit *", ffi.from_buffer(visits)), cap_v, nv, c)
-            if rc == lib.MPRT_ERR_CAPACITY and (nr[0] > cap_r or nv[0] > cap_v):
-                cap_r, cap_v = max(cap_r, nr[0]), max(cap_v, nv[0])
+                ffi.cast("mprt_trace_ray *", ffi.from_buffer(rays)), len(rays), nr,
+                ffi.cast("mprt_trace_visit *", ffi.from_buffer(visits)), len(visits), nv, c)
+            if rc == lib.MPRT_ERR_CAPACITY and (nr[0] > len(rays) or nv[0] > len(visits)):
+                b["rays"] = np.empty(max(len(rays), int(nr[0] * 1.5)), dtype=RAY_DTYPE)
+                b["visits"] = np.empty(max(len(visits), int(nv[0] * 1.5)), dtype=VISIT_DTYPE)
                 continue
             _check(ext, rc, lib.mprt_grid_errmsg(grid._h))
-            return (i0, j0, i1, j1), buf, rays[: nr[0]], visits[: nv[0]]
+            return (i0, j0, i1, j1), buf.reshape(j1 - j0, i1 - i0, 3), nr[0], nv[0]
 
+    # A window of tiles in flight, each with its own buffer set: results are
+    # consumed in tile order, and no tile ever waits for a buffer held by a
+    # later one.  Buffers are reused, so memory is touched once.
+    window = threads + 1
+    free = [{"samples": np.empty(ts * ts * 3), "rays": np.empty(ts * ts * 8, dtype=RAY_DTYPE),
+             "visits": np.empty(ts * ts * 64, dtype=VISIT_DTYPE)} for _ in range(window)]
     tmpdir = tempfile.mkdtemp(prefix="mprt-trace-", dir=os.path.dirname(os.path.abspath(path)) if path else None) \
         if path else None
     sink = _Sink(tmpdir)
@@ -236,22 +258,33 @@ def trace_grid(grid, width=0, height=0, rules="paper", threshold=None, max_depth
         bar = tqdm(total=len(sel), unit="tile", desc="trace", leave=False)
     try:
         with ThreadPoolExecutor(max_workers=threads) as pool:
-            for start in range(0, len(sel), chunk_tiles):
-                batch = sel[start:start + chunk_tiles]
-                # results come back in tile order whatever finishes first
-                for (i0, j0, i1, j1), buf, rays, visits in pool.map(one, batch):
-                    offset = sink.count["rays"]
-                    rays = rays.copy()
-                    visits = visits.copy()
-                    rays["id"] += offset
-                    rays["parent"] = np.where(rays["parent"] >= 0, rays["parent"] + offset, -1)
-                    visits["ray"] += offset
-                    sink.add("rays", rays)
-                    sink.add("visits", visits)
-                    samples[j0:j1, i0:i1] = buf
-                    covered[j0:j1, i0:i1] = True
-                    if bar:
-                        bar.update(1)
+            pending = deque()
+            todo = iter(sel)
+
+            def submit():
+                t = next(todo, None)
+                if t is not None:
+                    b = free.pop()
+                    pending.append((pool.submit(one, t, b), b))
+
+            for _ in range(window):
+                submit()
+            while pending:
+                fut, b = pending.popleft()
+                (i0, j0, i1, j1), buf, nr, nv = fut.result()
+                offset = sink.count["rays"]
+                rays, visits = b["rays"][:nr], b["visits"][:nv]
+                rays["id"] += offset
+                np.add(rays["parent"], offset, out=rays["parent"], where=rays["parent"] >= 0)
+                visits["ray"] += offset
+                sink.add("rays", rays)
+                sink.add("visits", visits)
+                samples[j0:j1, i0:i1] = buf
+                covered[j0:j1, i0:i1] = True
+                free.append(b)
+                submit()
+                if bar:
+                    bar.update(1)
         sink.close()
         meta = _meta(grid, rules, d, w, h, sw, sh, ts, sel, tx * ty, tiles, sample)
         if not covered.all():
@@ -262,9 +295,8 @@ def trace_grid(grid, width=0, height=0, rules="paper", threshold=None, max_depth
             _write_streamed(path, meta, sink, static)
             trace = load_trace(path)
         else:
-            static["rays"] = np.concatenate(sink.parts["rays"]) if sink.parts["rays"] else np.zeros(0, RAY_DTYPE)
-            static["visits"] = (np.concatenate(sink.parts["visits"]) if sink.parts["visits"]
-                                else np.zeros(0, VISIT_DTYPE))
+            static["rays"] = sink.result("rays")
+            static["visits"] = sink.result("visits")
             trace = Trace(meta, static)
     finally:
         if bar:
@@ -280,7 +312,7 @@ def _meta(grid, rules, d, w, h, sw, sh, ts, sel, ntiles, tiles, sample):
         "format": "mprt-trace",
         "version": FORMAT_VERSION,
         "scene": grid.scene.name,
-        "scene_sha256": hashlib.sha256(grid.scene.to_nff().encode()).hexdigest(),
+        "scene_sha256": grid.scene.content_hash(),
         "precision": grid.scene.precision,
         "grid": list(grid.n),
         "grid_lo": grid.stats()["lo"],
@@ -334,11 +366,16 @@ def _write_npy_from_file(z, name, src, dtype, count):
             shutil.copyfileobj(s, f, 1 << 22)
 
 
+def _crc(a) -> int:
+    """CRC-32 of an array's bytes: detects damaged or edited data."""
+    return zlib.crc32(memoryview(np.ascontiguousarray(a)).cast("B"))
+
+
 def _write_streamed(path, meta, sink, static):
     meta = dict(meta)
-    meta["sha256"] = {"rays": sink.hash["rays"].hexdigest(), "visits": sink.hash["visits"].hexdigest()}
+    meta["crc32"] = {"rays": sink.crc["rays"], "visits": sink.crc["visits"]}
     for k, v in static.items():
-        meta["sha256"][k] = hashlib.sha256(np.ascontiguousarray(v).tobytes()).hexdigest()
+        meta["crc32"][k] = _crc(v)
     with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as z:
         z.writestr("meta.json", json.dumps(meta, sort_keys=True))
         _write_npy_from_file(z, "rays.npy", os.path.join(sink.dir, "rays.bin"), RAY_DTYPE, sink.count["rays"])
@@ -380,9 +417,8 @@ def load_trace(path) -> Trace:
                 arrays[k] = np.lib.format.read_array(io.BytesIO(data), allow_pickle=False)
             except (ValueError, EOFError, zipfile.BadZipFile, OSError) as e:
                 raise TraceError(f"{path}: array {k!r} is truncated or corrupt ({e})") from None
-            want = meta.get("sha256", {}).get(k)
-            got = hashlib.sha256(np.ascontiguousarray(arrays[k]).tobytes()).hexdigest()
-            if want != got:
+            want = meta.get("crc32", {}).get(k)
+            if want != _crc(arrays[k]):
                 raise TraceError(f"{path}: array {k!r} does not match its checksum (tampered or damaged)")
     if arrays["rays"].dtype != RAY_DTYPE or arrays["visits"].dtype != VISIT_DTYPE:
         raise TraceError(f"{path}: rays/visits have an unexpected layout")
