@@ -90,6 +90,47 @@ def triangle_scene(tris):
     return s
 
 
+def trace_cost(grid, res, repeat):
+    """Traced/untraced time, side by side: the untraced render; the tracer
+    alone (every tile traced into reused buffers, records not kept); and the
+    whole grid.trace (records assembled into the Trace's arrays)."""
+    from mprt.trace import RAY_DTYPE, VISIT_DTYPE
+
+    ext = grid._ext
+    ffi, lib = ext.ffi, ext.lib
+    d = ffi.new("mprt_render_desc *")
+    lib.mprt_render_desc_init(d)
+    d.width = d.height = res
+    sw, sh, tx, ty = (ffi.new("int *") for _ in range(4))
+    lib.mprt_grid_tiling(grid._h, d, sw, sh, tx, ty)
+    smp = np.empty(16 * 16 * 3)
+    rays = np.empty(1 << 16, dtype=RAY_DTYPE)
+    visits = np.empty(1 << 20, dtype=VISIT_DTYPE)
+    nr, nv = ffi.new("size_t *"), ffi.new("size_t *")
+    args = (ffi.cast("double *", ffi.from_buffer(smp)), smp.size, ffi.cast("mprt_trace_ray *", ffi.from_buffer(rays)),
+            len(rays), nr, ffi.cast("mprt_trace_visit *", ffi.from_buffer(visits)), len(visits), nv, ffi.NULL)
+
+    def c_only():
+        total = 0
+        for t in range(tx[0] * ty[0]):
+            rc = lib.mprt_grid_trace_tile(grid._h, d, t, *args)
+            assert rc == 0, rc
+            total += nv[0]
+        return total
+
+    t_render = t_c = t_py = float("inf")
+    for _ in range(repeat):  # interleaved, so load changes hit all three alike
+        t0 = time.perf_counter()
+        grid.render(res, res)
+        t1 = time.perf_counter()
+        nvis = c_only()
+        t2 = time.perf_counter()
+        _, tr = grid.trace(res, res)
+        t3 = time.perf_counter()
+        t_render, t_c, t_py = min(t_render, t1 - t0), min(t_c, t2 - t1), min(t_py, t3 - t2)
+    return t_render, t_c, t_py, nvis, RAY_DTYPE.itemsize, VISIT_DTYPE.itemsize, len(tr.rays)
+
+
 def candidates(scene):
     cands = [(n, n, n) for n in (16, 24, 32, 48, 64, 96, 128)]
     for density in (1, 2, 3, 4, 6, 8, 12):
@@ -150,10 +191,16 @@ def main(argv=None) -> int:
         for rules in ("paper", "spd"):
             t_r, (_, c) = best_time(lambda: grid.render(res, res, rules=rules), 1)
             row[f"render_{rules}_s"] = t_r
+        t_u, t_c, t_p, nvis, rsz, vsz, nrays = trace_cost(grid, res, repeat)
+        row.update({"trace_c_ratio": t_c / t_u, "trace_ratio": t_p / t_u, "visits": nvis,
+                    "bytes_per_visit": (nrays * rsz + nvis * vsz) / nvis})
         rows.append(row)
         print(f"{name:6s} grid {row['grid']:>11s} (build {t_build:.2f} s)  "
               f"intersect: primary {row['primary_Mrays']:.2f} Mrays/s, random {row['random_Mrays']:.2f} Mrays/s;  "
               f"render {res}^2: paper {row['render_paper_s']:.2f} s, spd {row['render_spd_s']:.2f} s", flush=True)
+        print(f"       trace {res}^2 (paper): {nvis} visits, {row['bytes_per_visit']:.1f} bytes per visit (rays included); "
+              f"traced/untraced time: tracer alone {row['trace_c_ratio']:.2f}, whole grid.trace {row['trace_ratio']:.2f}",
+              flush=True)
         if "embree_primary_Mrays" in row:
             print(f"       triangles only, grid {row['tri_grid']}: primary mprt {row['tri_primary_Mrays']:.2f} vs "
                   f"Embree {row['embree_primary_Mrays']:.2f} Mrays/s (ratio {row['tri_primary_Mrays'] / row['embree_primary_Mrays']:.2f}); "

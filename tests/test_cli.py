@@ -43,3 +43,22 @@ def test_errors_are_one_line_and_nonzero(tmp_path):
     r = run("render", str(bad))
     assert r.returncode == 1
     assert "bad.nff:2" in r.stderr and "Traceback" not in r.stderr
+
+
+def test_trace_and_stats_commands(tmp_path):
+    """mprt trace writes a loadable trace of the chosen tiles; mprt stats --check prints the paper's rows."""
+    out = tmp_path / "t.npz"
+    r = run("trace", "tetra:2", "--grid", "5", "--res", "32x32", "--tile", "8", "--sample", "regular:2", "-o", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "bytes per visit" in r.stdout
+    t = mprt.load_trace(out)
+    assert t.meta["tiles"] == [0, 2, 4, 6, 8, 10, 12, 14] and t.meta["grid"] == [5, 5, 5]
+    s = run("stats", str(out), "--check")
+    assert s.returncode == 0, s.stderr
+    assert "OS -> IC" in s.stdout and "invariants: ok" in s.stdout
+    j = run("stats", str(out), "--json")
+    assert json.loads(j.stdout)["os_input_primary"] == 8 * 64
+    bad = tmp_path / "bad.npz"
+    bad.write_bytes(b"not a zip")
+    b = run("stats", str(bad))
+    assert b.returncode == 1 and "bad.npz" in b.stderr

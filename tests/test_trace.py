@@ -54,8 +54,12 @@ def test_save_load_round_trip_and_streaming_to_disk(tmp_path):
     for k in ("rays", "visits", "voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material"):
         assert np.array_equal(getattr(back, k), getattr(mem, k)), k
     assert back.meta["grid"] == [6, 6, 6] and back.meta["version"] == 1
-    _, disk = grid.trace(20, 20, tile=4, path=tmp_path / "s.npz", chunk_tiles=3)
+    _, disk = grid.trace(20, 20, tile=4, path=tmp_path / "s.npz")
+    assert isinstance(disk.visits, np.memmap)
     assert np.array_equal(disk.rays, mem.rays) and np.array_equal(disk.visits, mem.visits)
+    mapped = mprt.load_trace(tmp_path / "s.npz", mmap=True)
+    assert mapped.stats() == mem.stats()
+    assert mem.stats() == mprt.trace.trace_stats(mem, chunk=7)  # chunk edges split rays' visit runs
 
 
 def test_bad_trace_files_are_clear_errors(tmp_path):

@@ -91,11 +91,12 @@ def cmd_trace(a) -> int:
                               mailbox=a.mailbox)
     t1 = time.perf_counter()
     size = os.path.getsize(a.output)
-    st = trace.stats()
+    nr, nv = len(trace.rays), len(trace.visits)  # memory-mapped: not read here
     print(f"trace   {scene.name}, grid {'x'.join(map(str, grid.n))}, {trace.meta['width']}x{trace.meta['height']} "
           f"{a.rules}, {len(trace.meta['tiles'])} of {trace.meta['tiles_total']} tiles: "
-          f"{st['rays']} rays, {st['visits']} visits in {t1 - t0:.2f} s")
-    print(f"wrote   {a.output}: {size} bytes ({size / max(st['visits'], 1):.1f} bytes per visit)")
+          f"{nr} rays, {nv} visits in {t1 - t0:.2f} s")
+    print(f"wrote   {a.output}: {size} bytes ({size / max(nv, 1):.1f} bytes per visit, rays included); "
+          f"'mprt stats {a.output}' gives the statistics")
     return 0
 
 

@@ -189,7 +189,7 @@ def samples_to_image(samples, rules, width, height) -> np.ndarray:
 
 
 def trace_grid(grid, width=0, height=0, rules="paper", threshold=None, max_depth=0, mailbox=False, ambient=None,
-               tile=16, threads=1, tiles=None, sample=None, path=None, progress=False, chunk_tiles=64):
+               tile=16, threads=1, tiles=None, sample=None, path=None, progress=False):
     """Trace (a subset of) the image; returns (image, Trace).  With ``path``
     the records stream to disk tile batch by tile batch and the trace is
     saved there (memory stays bounded by the batch and the image)."""
@@ -293,7 +293,7 @@ def trace_grid(grid, width=0, height=0, rules="paper", threshold=None, max_depth
         static["samples"] = samples
         if path:
             _write_streamed(path, meta, sink, static)
-            trace = load_trace(path)
+            trace = load_trace(path, mmap=True, verify=False)
         else:
             static["rays"] = sink.result("rays")
             static["visits"] = sink.result("visits")
@@ -386,15 +386,58 @@ def _write_streamed(path, meta, sink, static):
                 np.lib.format.write_array(f, np.ascontiguousarray(v), allow_pickle=False)
 
 
-def load_trace(path) -> Trace:
+def _member_offset(f, info) -> int:
+    """Offset of a stored zip member's data in the file."""
+    f.seek(info.header_offset)
+    head = f.read(30)
+    if head[:4] != b"PK\x03\x04":
+        raise TraceError("bad zip local header")
+    name_len = int.from_bytes(head[26:28], "little")
+    extra_len = int.from_bytes(head[28:30], "little")
+    return info.header_offset + 30 + name_len + extra_len
+
+
+def _mmap_npy(path, f, info):
+    """Memory-map an uncompressed .npy member (no copy, bounded memory)."""
+    off = _member_offset(f, info)
+    f.seek(off)
+    version = np.lib.format.read_magic(f)
+    read_header = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
+    if version not in read_header:
+        raise TraceError(f"unsupported .npy version {version}")
+    shape, fortran, dtype = read_header[version](f)
+    if fortran:
+        raise TraceError("Fortran-ordered arrays are not expected in a trace")
+    count = int(np.prod(shape))
+    if f.tell() - off + count * dtype.itemsize > info.file_size:
+        raise TraceError("array is truncated")
+    if count == 0:
+        return np.zeros(shape, dtype=dtype)
+    return np.memmap(path, dtype=dtype, mode="r", offset=f.tell(), shape=shape)
+
+
+def _crc_chunked(a, chunk=1 << 26) -> int:
+    b = _bytes(np.asarray(a)) if a.size else np.zeros(0, np.uint8)
+    crc = 0
+    for i in range(0, b.size, chunk):
+        crc = zlib.crc32(memoryview(np.ascontiguousarray(b[i:i + chunk])), crc)
+    return crc
+
+
+def load_trace(path, mmap: bool | None = None, verify: bool = True) -> Trace:
     """Read a trace saved by Trace.save or streamed by trace(); checks the
-    format version, that every array is present and whole, and the checksums."""
+    format version, that every array is present and whole, and (``verify``)
+    the checksums.  Uncompressed traces are memory-mapped (``mmap``; default:
+    when the file is over 256 MB), so a trace of any size opens in bounded
+    memory."""
     path = os.fspath(path)
     try:
         z = zipfile.ZipFile(path)
     except (zipfile.BadZipFile, OSError) as e:
         raise TraceError(f"{path}: not a readable trace file ({e})") from None
-    with z:
+    if mmap is None:
+        mmap = os.path.getsize(path) > (256 << 20)
+    with z, open(path, "rb") as raw:
         names = set(z.namelist())
         if "meta.json" not in names:
             raise TraceError(f"{path}: no meta.json: not an mprt trace")
@@ -411,14 +454,17 @@ def load_trace(path) -> Trace:
         for k in ARRAYS:
             if k + ".npy" not in names:
                 raise TraceError(f"{path}: array {k!r} is missing")
+            info = z.getinfo(k + ".npy")
             try:
-                with z.open(k + ".npy") as f:
-                    data = f.read()
-                arrays[k] = np.lib.format.read_array(io.BytesIO(data), allow_pickle=False)
-            except (ValueError, EOFError, zipfile.BadZipFile, OSError) as e:
+                if mmap and info.compress_type == zipfile.ZIP_STORED:
+                    arrays[k] = _mmap_npy(path, raw, info)
+                else:
+                    with z.open(info) as f:
+                        data = f.read()
+                    arrays[k] = np.lib.format.read_array(io.BytesIO(data), allow_pickle=False)
+            except (ValueError, EOFError, zipfile.BadZipFile, OSError, TraceError) as e:
                 raise TraceError(f"{path}: array {k!r} is truncated or corrupt ({e})") from None
-            want = meta.get("crc32", {}).get(k)
-            if want != _crc(arrays[k]):
+            if verify and meta.get("crc32", {}).get(k) != _crc_chunked(arrays[k]):
                 raise TraceError(f"{path}: array {k!r} does not match its checksum (tampered or damaged)")
     if arrays["rays"].dtype != RAY_DTYPE or arrays["visits"].dtype != VISIT_DTYPE:
         raise TraceError(f"{path}: rays/visits have an unexpected layout")
@@ -521,46 +567,76 @@ def _hist(x):
     return np.bincount(x).tolist() if x.size else []
 
 
-def trace_stats(t: Trace) -> dict:
-    rays, v = t.rays, t.visits
-    stage, out = v["stage"], v["outcome"]
-    kind = rays["kind"]
-    n_primary = int(np.sum(kind == PRIMARY))
+def trace_stats(t: Trace, chunk: int = 1 << 22) -> dict:
+    """The statistics, computed over the visits in chunks (bounded memory)."""
+    rays, visits = t.rays, t.visits
+    kinds = np.bincount(np.asarray(rays["kind"]), minlength=4) if len(rays) else np.zeros(4, np.int64)
+    n_primary = int(kinds[PRIMARY])
     n_new = int(len(rays) - n_primary)
-    returns = int(np.sum((stage == IC) & (out == RETURN)))
-    os_in = n_primary + returns + n_new
-    tests_by_kind = v["tests"].sum(axis=0)
-    ic = stage == IC
-    per_ray_returns = np.bincount(v["ray"][ic & (out == RETURN)], minlength=len(rays))
+    cnt = np.zeros((3, 16), dtype=np.int64)     # visits by (stage, outcome)
+    tests_by_kind = np.zeros(4, dtype=np.int64)
+    sums = {"suppressed": 0, "voxels": 0, "vertices": 0}
+    h_vox, h_tests, h_ret = [], [], []
+    carry_ray, carry_ret = -1, 0                # a ray's returns may straddle chunks
+
+    def add_hist(acc, counts):
+        if len(counts) > len(acc):
+            acc.extend([0] * (len(counts) - len(acc)))
+        for i, c in enumerate(counts):
+            acc[i] += int(c)
+
+    for a in range(0, len(visits), chunk):
+        v = np.asarray(visits[a:a + chunk])
+        stage, out = v["stage"].astype(np.int64), v["outcome"].astype(np.int64)
+        cnt += np.bincount(stage * 16 + out, minlength=48).reshape(3, 16)
+        tests_by_kind += v["tests"].sum(axis=0, dtype=np.int64)
+        sums["suppressed"] += int(v["suppressed"].sum(dtype=np.int64))
+        sums["voxels"] += int(v["voxels"].sum(dtype=np.int64))
+        sums["vertices"] += int(v["vertices"].sum(dtype=np.int64))
+        add_hist(h_vox, np.bincount(v["voxels"][stage == OS]))
+        add_hist(h_tests, np.bincount(v["tests"][stage == IC].sum(axis=1)))
+        # returns per ray: visits are grouped by ray, so count per run of ray ids
+        ray = v["ray"]
+        starts = np.flatnonzero(np.concatenate([[True], ray[1:] != ray[:-1]]))
+        ret = np.add.reduceat(((stage == IC) & (out == RETURN)).astype(np.int64), starts)
+        if ray[0] == carry_ray:
+            ret[0] += carry_ret
+        elif carry_ray >= 0:
+            add_hist(h_ret, np.bincount([carry_ret]))
+        carry_ray, carry_ret = int(ray[starts[-1]]), int(ret[-1])
+        add_hist(h_ret, np.bincount(ret[:-1]))
+    if carry_ray >= 0:
+        add_hist(h_ret, np.bincount([carry_ret]))
+    returns = int(cnt[IC, RETURN])
     return {
         "rays": int(len(rays)),
-        "visits": int(len(v)),
-        "os_input": os_in,
+        "visits": int(len(visits)),
+        "os_input": n_primary + returns + n_new,
         "os_input_primary": n_primary,
         "os_input_returns": returns,
         "os_input_new": n_new,
-        "os_kills": int(np.sum((stage == OS) & (out == LEFT))),
-        "os_to_ic": int(np.sum((stage == OS) & (out == TO_IC))),
-        "os_to_sc": int(np.sum((stage == OS) & ((out == TO_SC) | (out == LATE_HIT)))),
-        "os_to_sc_late_hits": int(np.sum((stage == OS) & (out == LATE_HIT))),
-        "ic_input": int(np.sum(ic)),
-        "ic_kills": int(np.sum(ic & (out == BLOCKED))),
+        "os_kills": int(cnt[OS, LEFT]),
+        "os_to_ic": int(cnt[OS, TO_IC]),
+        "os_to_sc": int(cnt[OS, TO_SC] + cnt[OS, LATE_HIT]),
+        "os_to_sc_late_hits": int(cnt[OS, LATE_HIT]),
+        "ic_input": int(cnt[IC].sum()),
+        "ic_kills": int(cnt[IC, BLOCKED]),
         "ic_to_os": returns,
-        "ic_to_sc": int(np.sum(ic & (out == HIT))),
-        "sc_input": int(np.sum(stage == SC)),
-        "sc_input_from_ic": int(np.sum(ic & (out == HIT))),
-        "sc_input_from_os": int(np.sum((stage == OS) & ((out == TO_SC) | (out == LATE_HIT)))),
-        "sc_made_secondary": int(np.sum((kind == REFLECT) | (kind == REFRACT))),
-        "sc_made_reflect": int(np.sum(kind == REFLECT)),
-        "sc_made_refract": int(np.sum(kind == REFRACT)),
-        "sc_made_shadow": int(np.sum(kind == SHADOW)),
-        "suppressed": int(v["suppressed"].sum()),
-        "voxels_traversed": int(v["voxels"].sum()),
+        "ic_to_sc": int(cnt[IC, HIT]),
+        "sc_input": int(cnt[SC].sum()),
+        "sc_input_from_ic": int(cnt[IC, HIT]),
+        "sc_input_from_os": int(cnt[OS, TO_SC] + cnt[OS, LATE_HIT]),
+        "sc_made_secondary": int(kinds[REFLECT] + kinds[REFRACT]),
+        "sc_made_reflect": int(kinds[REFLECT]),
+        "sc_made_refract": int(kinds[REFRACT]),
+        "sc_made_shadow": int(kinds[SHADOW]),
+        "suppressed": sums["suppressed"],
+        "voxels_traversed": sums["voxels"],
         "tests": int(tests_by_kind.sum()),
         "tests_by_kind": {k: int(tests_by_kind[i]) for i, k in enumerate(KINDS)},
-        "polygon_vertices": int(v["vertices"].sum()),
+        "polygon_vertices": sums["vertices"],
         "returns_per_ray": returns / (n_primary + n_new) if n_primary + n_new else 0.0,
-        "hist_voxels_per_os_visit": _hist(v["voxels"][stage == OS]),
-        "hist_tests_per_ic_visit": _hist(v["tests"][ic].sum(axis=1)),
-        "hist_returns_per_ray": _hist(per_ray_returns),
+        "hist_voxels_per_os_visit": h_vox,
+        "hist_tests_per_ic_visit": h_tests,
+        "hist_returns_per_ray": h_ret,
     }
