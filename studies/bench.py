@@ -33,18 +33,7 @@ except ImportError:  # pragma: no cover - optional
 
 def camera_rays(scene, w=512, h=512):
     """The paper rules' primary rays: one through each pixel centre."""
-    info = scene.info()
-    eye, at, up = (np.array(info[k]) for k in ("from", "at", "up"))
-    fwd = (at - eye) / np.linalg.norm(at - eye)
-    right = np.cross(fwd, up)
-    right /= np.linalg.norm(right)
-    upv = np.cross(right, fwd)
-    pitch = 2 * np.tan(np.radians(info["angle"]) / 2) / (h - 1)
-    ii, jj = np.meshgrid(np.arange(w), np.arange(h))
-    d = fwd + ((ii - (w - 1) / 2) * pitch)[..., None] * right + (((h - 1) / 2 - jj) * pitch)[..., None] * upv
-    d = d.reshape(-1, 3)
-    d /= np.linalg.norm(d, axis=1)[:, None]
-    return np.broadcast_to(eye, d.shape).copy(), d
+    return scene.camera_rays(w, h)
 
 
 def random_rays(scene, n, seed=1):

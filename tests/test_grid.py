@@ -23,19 +23,7 @@ def random_rays(scene, n, seed):
 
 
 def camera_rays(scene, w, h):
-    info = scene.info()
-    eye, at, up = (np.array(info[k]) for k in ("from", "at", "up"))
-    fwd = (at - eye) / np.linalg.norm(at - eye)
-    right = np.cross(fwd, up)
-    right /= np.linalg.norm(right)
-    upv = np.cross(right, fwd)
-    pitch = 2 * np.tan(np.radians(info["angle"]) / 2) / (h - 1)
-    ii, jj = np.meshgrid(np.arange(w), np.arange(h))
-    sx = (ii - (w - 1) / 2) * pitch
-    sy = ((h - 1) / 2 - jj) * pitch
-    d = fwd + sx[..., None] * right + sy[..., None] * upv
-    d = d.reshape(-1, 3)
-    return np.broadcast_to(eye, d.shape).copy(), d
+    return scene.camera_rays(w, h)
 
 
 @pytest.mark.parametrize("name", mprt.SPD_SCENES)

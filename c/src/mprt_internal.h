@@ -11,11 +11,15 @@
 
 #ifdef MPRT_SINGLE
 typedef float real;
+#define SQRT(x) sqrtf(x)
+#define ABS(x) fabsf(x)
 #define R(x) ((float)(x))
 #define REAL_EPS 1.1920929e-07f
 #define REAL_MAX 3.40282347e+38f
 #else
 typedef double real;
+#define SQRT(x) sqrt(x)
+#define ABS(x) fabs(x)
 #define R(x) ((double)(x))
 #define REAL_EPS 2.220446049250313e-16
 #define REAL_MAX 1.7976931348623157e+308

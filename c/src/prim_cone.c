@@ -11,13 +11,6 @@
 
 #include <stdio.h>
 
-#ifdef MPRT_SINGLE
-#define SQRT(x) sqrtf(x)
-#define ABS(x) fabsf(x)
-#else
-#define SQRT(x) sqrt(x)
-#define ABS(x) fabs(x)
-#endif
 
 int mprt__cone_prepare(mprt__cone *c, char *err, size_t errcap)
 {

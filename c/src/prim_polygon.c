@@ -24,11 +24,6 @@
 
 #include <stdio.h>
 
-#ifdef MPRT_SINGLE
-#define ABS(x) fabsf(x)
-#else
-#define ABS(x) fabs(x)
-#endif
 
 #define AREA_REL 1e-12
 #define PLANE_REL 1e-6

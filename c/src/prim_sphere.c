@@ -1,13 +1,6 @@
 /* prim_sphere.c: sphere intersection, normal, bounds and box overlap. */
 #include "mprt_internal.h"
 
-#ifdef MPRT_SINGLE
-#define SQRT(x) sqrtf(x)
-#define ABS(x) fabsf(x)
-#else
-#define SQRT(x) sqrt(x)
-#define ABS(x) fabs(x)
-#endif
 
 int mprt__sphere_hit(const mprt__sphere *s, const mprt__ray *ray, real tmin, real tmax, real *t)
 {

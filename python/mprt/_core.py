@@ -224,6 +224,25 @@ class Scene:
             "background": list(i.background),
         }
 
+    def camera_rays(self, width: int = 0, height: int = 0):
+        """The paper rules' primary rays, one through each pixel centre, as the
+        renderer makes them (row by row from the top): (origins, unit
+        directions), each of shape (width*height, 3)."""
+        info = self.info()
+        w = int(width) or info["resolution"][0]
+        h = int(height) or info["resolution"][1]
+        eye, at, up = (np.array(info[k], dtype=np.float64) for k in ("from", "at", "up"))
+        fwd = (at - eye) / np.linalg.norm(at - eye)
+        right = np.cross(fwd, up)
+        right /= np.linalg.norm(right)
+        upv = np.cross(right, fwd)
+        pitch = 2 * np.tan(np.radians(info["angle"]) / 2) / max(h - 1, 1)
+        ii, jj = np.meshgrid(np.arange(w), np.arange(h))
+        d = (fwd + ((ii - (w - 1) / 2) * pitch)[..., None] * right
+             + (((h - 1) / 2 - jj) * pitch)[..., None] * upv).reshape(-1, 3)
+        d /= np.linalg.norm(d, axis=1)[:, None]
+        return np.broadcast_to(eye, d.shape).copy(), d
+
     def content_hash(self) -> str:
         """SHA-256 of the scene's NFF text (cached once the scene has a grid,
         since it cannot change then): names the scene in traces."""

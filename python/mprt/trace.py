@@ -113,15 +113,18 @@ class _Sink:
             return
         n0, n1 = self.count[key] - len(arr), self.count[key]
         a = self.arrays[key]
-        if n1 > len(a):  # grow by doubling: each record is copied O(1) times
-            bigger = np.empty(max(n1, 2 * len(a)), dtype=a.dtype)
-            _bytes(bigger)[: _bytes(a[:n0]).size] = _bytes(a[:n0])
-            self.arrays[key] = a = bigger
+        if n1 > len(a):
+            # grow in place: realloc (mremap for large blocks) moves no bytes
+            # and touches no page already written, so each record page is
+            # faulted in once
+            a.resize(max(n1, 2 * len(a)), refcheck=False)
         # byte views: a memcpy (structured assignment goes field by field)
         _bytes(a[n0:n1])[:] = _bytes(arr)
 
     def result(self, key):
-        return self.arrays[key][: self.count[key]]
+        a = self.arrays[key]
+        a.resize(self.count[key], refcheck=False)  # give back the unused tail
+        return a
 
     def close(self):
         for f in self.files.values():
