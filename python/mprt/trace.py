@@ -94,9 +94,15 @@ def _bytes(a):
 class _Sink:
     """Where traced tiles go: memory, or raw files on disk (bounded memory)."""
 
-    def __init__(self, directory=None):
+    def __init__(self, directory=None, samples=0):
         self.dir = directory
-        self.arrays = {"rays": np.empty(1 << 12, dtype=RAY_DTYPE), "visits": np.empty(1 << 14, dtype=VISIT_DTYPE)}
+        # Reserve generously without touching: pages that are never written
+        # cost nothing, so every record page is faulted in exactly once
+        # (growing later would copy).  8 rays and 48 visits per sample cover
+        # the SPD scenes' traces several times over.
+        n = 0 if directory else samples
+        self.arrays = {"rays": np.empty(max(n * 8, 1 << 12), dtype=RAY_DTYPE),
+                       "visits": np.empty(max(n * 48, 1 << 14), dtype=VISIT_DTYPE)}
         self.count = {"rays": 0, "visits": 0}
         self.files = {}
         self.crc = {"rays": 0, "visits": 0}
@@ -113,18 +119,15 @@ class _Sink:
             return
         n0, n1 = self.count[key] - len(arr), self.count[key]
         a = self.arrays[key]
-        if n1 > len(a):
-            # grow in place: realloc (mremap for large blocks) moves no bytes
-            # and touches no page already written, so each record page is
-            # faulted in once
-            a.resize(max(n1, 2 * len(a)), refcheck=False)
+        if n1 > len(a):  # grow by doubling: each record is copied O(1) times
+            bigger = np.empty(max(n1, 2 * len(a)), dtype=a.dtype)
+            _bytes(bigger)[: _bytes(a[:n0]).size] = _bytes(a[:n0])
+            self.arrays[key] = a = bigger
         # byte views: a memcpy (structured assignment goes field by field)
         _bytes(a[n0:n1])[:] = _bytes(arr)
 
     def result(self, key):
-        a = self.arrays[key]
-        a.resize(self.count[key], refcheck=False)  # give back the unused tail
-        return a
+        return self.arrays[key][: self.count[key]]
 
     def close(self):
         for f in self.files.values():
@@ -253,7 +256,7 @@ def trace_grid(grid, width=0, height=0, rules="paper", threshold=None, max_depth
              "visits": np.empty(ts * ts * 64, dtype=VISIT_DTYPE)} for _ in range(window)]
     tmpdir = tempfile.mkdtemp(prefix="mprt-trace-", dir=os.path.dirname(os.path.abspath(path)) if path else None) \
         if path else None
-    sink = _Sink(tmpdir)
+    sink = _Sink(tmpdir, samples=sum(min(ts, sw - (t % tx) * ts) * min(ts, sh - (t // tx) * ts) for t in sel))
     bar = None
     if progress:
         from tqdm import tqdm
