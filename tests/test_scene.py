@@ -111,3 +111,20 @@ def test_scene_cannot_change_while_it_has_a_grid():
     with pytest.raises(mprt.SceneStateError):
         s.add_sphere((1, 0, 0), 1)
     del g
+
+
+def test_scene_built_by_hand_keeps_every_argument():
+    """Vectors passed to the scene API arrive intact (no temporary is freed early)."""
+    s = mprt.Scene()
+    for _ in range(50):
+        s.set_view((2.1, 1.3, 1.7), (0, 0, 0), (0, 0, 1), 45, 0.01, (64, 48))
+        s.add_cone((0, 0, 0), 1, (0, 0, 5), 0.5)
+    s.set_material((1, 0.5, 0.25), 0.7, 0.3, 10, 0, 1)
+    s.add_light((4, 3, 2), (0.5, 0.6, 0.7))
+    s.add_sphere((1, 2, 3), 0.5)
+    s.add_polygon([(0, 0, 0), (1, 0, 0), (1, 1, 0)], normals=[(0, 0, 1)] * 3)
+    info = s.info()
+    assert info["from"] == [2.1, 1.3, 1.7] and info["at"] == [0, 0, 0] and info["resolution"] == (64, 48)
+    assert info["count"] == {"sphere": 1, "polygon": 1, "cylinder": 0, "cone": 50} and info["patches"] == 1
+    text = s.to_nff()
+    assert "c 0 0 0 1 0 0 5 0.5" in text and "s 1 2 3 0.5" in text and "l 4 3 2 0.5 0.6 0.7" in text

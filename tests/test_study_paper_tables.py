@@ -52,4 +52,4 @@ def test_quick_run_keeps_counts_grid_independent(quick_out):
 def test_numpy_paper_rules_reproduce_the_renderer(quick_out):
     """The NumPy re-implementation of the paper rules, with the renderer's offset, gives the renderer's counts."""
     with open(quick_out / "tables.md") as f:
-        assert "reproduces the renderer with the offset: yes" in f.read()
+        assert "with the renderer's offset: yes" in f.read()

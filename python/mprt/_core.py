@@ -196,7 +196,9 @@ class Scene:
             float(apex_radius)))
 
     def _ptr(self, a):
-        return self._ext.ffi.cast("double *", self._ext.ffi.from_buffer(a))
+        # a typed from_buffer keeps the array alive as long as the pointer
+        # (a cast of it would not: temporaries could be freed and reused)
+        return self._ext.ffi.from_buffer("double[]", a)
 
     # -- queries --------------------------------------------------------
     def info(self) -> dict:
