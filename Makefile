@@ -13,7 +13,7 @@ SRC := $(wildcard c/src/*.c)
 HDR := c/include/mprt.h $(wildcard c/src/*.h)
 TESTS := $(patsubst tests/c/%.c,$(B)/%,$(wildcard tests/c/test_*.c))
 
-.PHONY: all test ctest pytest demo bench asan single clean install
+.PHONY: all test ctest pytest demo bench asan tsan single clean install
 
 all: $(B)/libmprt.a $(TESTS)
 
@@ -53,6 +53,10 @@ bench: build/.installed
 asan:
 	$(MAKE) B=build/asan OPT="-O1 -g" EXTRA="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all" \
 	    EXTRA_LD="-fsanitize=address,undefined" ctest
+
+# The C tests under ThreadSanitizer (threaded renders, concurrent tile traces).
+tsan:
+	$(MAKE) B=build/tsan OPT="-O1 -g" EXTRA="-fsanitize=thread" EXTRA_LD="-fsanitize=thread" ctest
 
 # The C tests with float geometry (MPRT_SINGLE).
 single:

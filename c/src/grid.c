@@ -14,21 +14,19 @@
 
 #define DEFAULT_MAX_BYTES ((size_t)4 << 30)
 
-static int grid_fail(mprt_grid *g, int status, const char *fmt, ...)
-#if defined(__GNUC__)
-    __attribute__((format(printf, 3, 4)))
-#endif
-    ;
-
-static int grid_fail(mprt_grid *g, int status, const char *fmt, ...)
+int mprt__grid_fail(mprt_grid *g, int status, const char *fmt, ...)
 {
     va_list ap;
+    pthread_mutex_lock(&g->errlock);
     va_start(ap, fmt);
     mprt__vformat(g->errmsg, sizeof g->errmsg, fmt, ap);
     va_end(ap);
-    g->failed = 1;
+    pthread_mutex_unlock(&g->errlock);
     return status;
 }
+
+/* A failure while building: the grid is unusable. */
+#define grid_fail(g, ...) ((g)->failed = 1, mprt__grid_fail((g), __VA_ARGS__))
 
 const char *mprt_grid_errmsg(const mprt_grid *g) { return g ? g->errmsg : "no grid"; }
 
@@ -38,6 +36,7 @@ void mprt_grid_destroy(mprt_grid *g)
     free(g->start);
     free(g->flag);
     free(g->ids);
+    pthread_mutex_destroy(&g->errlock);
     free(g);
 }
 
@@ -188,6 +187,10 @@ int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_byt
     *out = NULL;
     g = calloc(1, sizeof *g);
     if (!g) return MPRT_ERR_OUT_OF_MEMORY;
+    if (pthread_mutex_init(&g->errlock, NULL) != 0) {
+        free(g);
+        return MPRT_ERR_OUT_OF_MEMORY;
+    }
     *out = g;
     g->scene = s;
     if (!s) return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: no scene");

@@ -4,6 +4,7 @@
 
 #include "mprt_internal.h"
 
+#include <pthread.h>
 #include <stdint.h>
 
 struct mprt_grid {
@@ -17,8 +18,16 @@ struct mprt_grid {
     int32_t *ids;      /* primitive ids, voxel by voxel */
     long long refs;
     int failed;
+    pthread_mutex_t errlock; /* renders may fail in several threads at once */
     char errmsg[MPRT__ERRMSG];
 };
+
+/* Record an error message on the grid (thread-safe); returns status. */
+int mprt__grid_fail(mprt_grid *g, int status, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 3, 4)))
+#endif
+    ;
 
 /* Lower corner of voxel (i, j, k); i == n gives the upper boundary. */
 vec3 mprt__grid_voxel_lo(const mprt_grid *g, int i, int j, int k);

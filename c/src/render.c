@@ -196,15 +196,13 @@ typedef struct {
     size_t cap_rays, nrays;
     mprt_trace_visit *visits;
     size_t cap_visits, nvisits;
+    mprt_trace_visit scratch; /* where visits past the capacity are written */
 } recorder;
 
 /* Append a visit (counted even when it does not fit, so the caller learns the size). */
 static mprt_trace_visit *rec_visit(recorder *rec, int64_t ray, int stage, int outcome)
 {
-    mprt_trace_visit *v = NULL;
-    static mprt_trace_visit scratch;
-    if (rec->nvisits < rec->cap_visits) v = &rec->visits[rec->nvisits];
-    else v = &scratch;
+    mprt_trace_visit *v = rec->nvisits < rec->cap_visits ? &rec->visits[rec->nvisits] : &rec->scratch;
     rec->nvisits++;
     memset(v, 0, sizeof *v);
     v->ray = ray;
@@ -324,9 +322,7 @@ int mprt_grid_intersect(mprt_grid *g, size_t n, const double *org, const double 
         if (!(isfinite(o[0]) && isfinite(o[1]) && isfinite(o[2]) && isfinite(d[0]) && isfinite(d[1]) &&
               isfinite(d[2])) ||
             (d[0] == 0 && d[1] == 0 && d[2] == 0)) {
-            snprintf(g->errmsg, sizeof g->errmsg,
-                     "intersect: ray %zu has a NaN or infinite component or a zero direction", i);
-            return MPRT_ERR_INVALID_ARG;
+            return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "intersect: ray %zu has a NaN or infinite component or a zero direction", i);
         }
         mprt__ray_prepare(&ray, v3((real)o[0], (real)o[1], (real)o[2]), v3((real)d[0], (real)d[1], (real)d[2]));
         if (os_ic(g, &ray, 0, INF_REAL, 0, &h, 1, &c, NULL, 0)) {
@@ -677,30 +673,24 @@ static int setup(mprt_grid *g, const mprt_render_desc *desc, mprt_render_desc *r
     w = rd.width ? rd.width : s->width;
     h = rd.height ? rd.height : s->height;
     if (w < 1 || h < 1 || w > 65536 || h > 65536) {
-        snprintf(g->errmsg, sizeof g->errmsg, "render: resolution %dx%d is not in 1..65536", w, h);
-        return MPRT_ERR_INVALID_ARG;
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: resolution %dx%d is not in 1..65536", w, h);
     }
     if (rd.rules != MPRT_RULES_PAPER && rd.rules != MPRT_RULES_SPD) {
-        snprintf(g->errmsg, sizeof g->errmsg, "render: unknown rule set %d (0 paper, 1 spd)", rd.rules);
-        return MPRT_ERR_INVALID_ARG;
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: unknown rule set %d (0 paper, 1 spd)", rd.rules);
     }
     if (!(rd.threshold >= 0 && rd.threshold < 1)) {
-        snprintf(g->errmsg, sizeof g->errmsg, "render: threshold %g is not in [0, 1)", rd.threshold);
-        return MPRT_ERR_INVALID_ARG;
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: threshold %g is not in [0, 1)", rd.threshold);
     }
     if (!(rd.ambient >= 0 && rd.ambient <= 1)) {
-        snprintf(g->errmsg, sizeof g->errmsg, "render: ambient %g is not in [0, 1]", rd.ambient);
-        return MPRT_ERR_INVALID_ARG;
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: ambient %g is not in [0, 1]", rd.ambient);
     }
     if (rd.max_depth < 0 || rd.max_depth > 255) {
-        snprintf(g->errmsg, sizeof g->errmsg, "render: max_depth %d is not in 0..255", rd.max_depth);
-        return MPRT_ERR_INVALID_ARG;
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: max_depth %d is not in 0..255", rd.max_depth);
     }
     if (rd.max_depth == 0) rd.max_depth = rd.rules == MPRT_RULES_SPD ? 5 : 64;
     if (rd.tile <= 0) rd.tile = 16;
     if (rd.threads < 0 || rd.threads > 64) {
-        snprintf(g->errmsg, sizeof g->errmsg, "render: threads %d is not in 0..64", rd.threads);
-        return MPRT_ERR_INVALID_ARG;
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: threads %d is not in 0..64", rd.threads);
     }
     *rd_out = rd;
     memset(xp, 0, sizeof *xp);
@@ -741,14 +731,12 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     if (st != MPRT_OK) return st;
     if (!samples || !nrays || !nvisits || (cap_rays && !rays) || (cap_visits && !visits)) return MPRT_ERR_INVALID_ARG;
     if (tile < 0 || tile >= x.tiles_x * x.tiles_y) {
-        snprintf(g->errmsg, sizeof g->errmsg, "trace: tile %d is not in 0..%d", tile, x.tiles_x * x.tiles_y - 1);
-        return MPRT_ERR_INVALID_ARG;
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "trace: tile %d is not in 0..%d", tile, x.tiles_x * x.tiles_y - 1);
     }
     tile_rect(&x, tile, &i0, &j0, &i1, &j1);
     if (cap_samples < (size_t)(i1 - i0) * (size_t)(j1 - j0) * 3) {
-        snprintf(g->errmsg, sizeof g->errmsg, "trace: sample buffer holds %zu doubles, %zu needed", cap_samples,
+        return mprt__grid_fail(g, MPRT_ERR_CAPACITY, "trace: sample buffer holds %zu doubles, %zu needed", cap_samples,
                  (size_t)(i1 - i0) * (size_t)(j1 - j0) * 3);
-        return MPRT_ERR_CAPACITY;
     }
     memset(&rec, 0, sizeof rec);
     rec.rays = rays;
@@ -762,8 +750,7 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     x.oy = j0;
     stack = malloc(stack_size(&x) * sizeof *stack);
     if (!stack) {
-        snprintf(g->errmsg, sizeof g->errmsg, "trace: out of memory for the ray stack");
-        return MPRT_ERR_OUT_OF_MEMORY;
+        return mprt__grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "trace: out of memory for the ray stack");
     }
     memset(&c, 0, sizeof c);
     render_tile(&x, tile, stack, &c);
@@ -772,9 +759,8 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     *nvisits = rec.nvisits;
     if (counters) *counters = c;
     if (rec.nrays > cap_rays || rec.nvisits > cap_visits) {
-        snprintf(g->errmsg, sizeof g->errmsg, "trace: tile %d needs %zu rays and %zu visits", tile, rec.nrays,
+        return mprt__grid_fail(g, MPRT_ERR_CAPACITY, "trace: tile %d needs %zu rays and %zu visits", tile, rec.nrays,
                  rec.nvisits);
-        return MPRT_ERR_CAPACITY;
     }
     return MPRT_OK;
 }
@@ -792,9 +778,8 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
     w = x.cam.width;
     h = x.cam.height;
     if (cap < (size_t)w * (size_t)h * 3) {
-        snprintf(g->errmsg, sizeof g->errmsg, "render: image buffer holds %zu floats, %zu needed", cap,
+        return mprt__grid_fail(g, MPRT_ERR_CAPACITY, "render: image buffer holds %zu floats, %zu needed", cap,
                  (size_t)w * (size_t)h * 3);
-        return MPRT_ERR_CAPACITY;
     }
     nsamples = (size_t)x.cam.sw * (size_t)x.cam.sh;
     ntiles = x.tiles_x * x.tiles_y;
@@ -804,8 +789,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
     if (!x.samples || !x.tile_counters || pthread_mutex_init(&x.lock, NULL) != 0) {
         free(x.samples);
         free(x.tile_counters);
-        snprintf(g->errmsg, sizeof g->errmsg, "render: out of memory for %zu samples", nsamples);
-        return MPRT_ERR_OUT_OF_MEMORY;
+        return mprt__grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "render: out of memory for %zu samples", nsamples);
     }
     nth = rd.threads > 0 ? rd.threads : 1;
     for (i = 1; i < nth; i++) {
@@ -818,8 +802,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
     if (x.failed) {
         free(x.samples);
         free(x.tile_counters);
-        snprintf(g->errmsg, sizeof g->errmsg, "render: out of memory for a worker's ray stack");
-        return MPRT_ERR_OUT_OF_MEMORY;
+        return mprt__grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "render: out of memory for a worker's ray stack");
     }
     /* Pixels: samples as they are, or the mean of each pixel's four corners */
     {
