@@ -96,13 +96,22 @@ class _Sink:
 
     def __init__(self, directory=None, samples=0):
         self.dir = directory
-        # Reserve generously without touching: pages that are never written
-        # cost nothing, so every record page is faulted in exactly once
-        # (growing later would copy).  8 rays and 48 visits per sample cover
-        # the SPD scenes' traces several times over.
+        # Reserve generously without touching: pages never written cost
+        # nothing, so every record page is faulted in once (growing later
+        # copies).  16 rays and 128 visits per sample is over twice what any
+        # SPD scene needs at 512x512 (rings: 58 visits); if the system will
+        # not reserve that much address space, reserve less.
         n = 0 if directory else samples
-        self.arrays = {"rays": np.empty(max(n * 8, 1 << 12), dtype=RAY_DTYPE),
-                       "visits": np.empty(max(n * 48, 1 << 14), dtype=VISIT_DTYPE)}
+        per_ray, per_visit = 16, 128
+        while True:
+            try:
+                self.arrays = {"rays": np.empty(max(n * per_ray, 1 << 12), dtype=RAY_DTYPE),
+                               "visits": np.empty(max(n * per_visit, 1 << 14), dtype=VISIT_DTYPE)}
+                break
+            except MemoryError:
+                if per_visit <= 4:
+                    raise
+                per_ray, per_visit = max(per_ray // 2, 1), per_visit // 2
         self.count = {"rays": 0, "visits": 0}
         self.files = {}
         self.crc = {"rays": 0, "visits": 0}
