@@ -16,8 +16,6 @@ ratios are the point, since the machine may be shared.
 from __future__ import annotations
 
 import argparse
-import os
-import sys
 import time
 
 import numpy as np
@@ -29,11 +27,6 @@ try:
     import embreex.rtcore_scene as _ers
 except ImportError:  # pragma: no cover - optional
     _ers = None
-
-
-def camera_rays(scene, w=512, h=512):
-    """The paper rules' primary rays: one through each pixel centre."""
-    return scene.camera_rays(w, h)
 
 
 def random_rays(scene, n, seed=1):
@@ -153,7 +146,7 @@ def main(argv=None) -> int:
     rows = []
     for name in a.scenes.split(","):
         scene = mprt.Scene.spd(name)
-        po, pd = camera_rays(scene)
+        po, pd = scene.camera_rays(512, 512)
         ro, rd = random_rays(scene, a.random)
         n, t_prim, t_build = fastest_grid(scene, po, pd, repeat)
         grid = scene.grid(n)

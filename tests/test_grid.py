@@ -22,16 +22,12 @@ def random_rays(scene, n, seed):
     return o, d
 
 
-def camera_rays(scene, w, h):
-    return scene.camera_rays(w, h)
-
-
 @pytest.mark.parametrize("name", mprt.SPD_SCENES)
 def test_grid_hits_equal_brute_force(name):
     """For every SPD scene, closest hits through several grids equal the one-voxel grid's (brute force), bit for bit."""
     scene = mprt.Scene.spd(name, 2 if name != "tree" else 5)
     o, d = random_rays(scene, 4000, seed=hash(name) % 1000)
-    co, cd = camera_rays(scene, 48, 48)
+    co, cd = scene.camera_rays(48, 48)
     o, d = np.vstack([o, co]), np.vstack([d, cd])
     t_ref, p_ref = scene.grid(1).intersect(o, d)
     assert np.isfinite(t_ref).sum() > 500, "too few hits to mean anything"
@@ -150,8 +146,8 @@ def test_scaled_scene_hits_the_same_primitives(scale):
         else:
             out.append(line)
     scaled = mprt.Scene.from_text("\n".join(out) + "\n", "scaled.nff")
-    o, d = camera_rays(base, 64, 64)
-    so, sd = camera_rays(scaled, 64, 64)
+    o, d = base.camera_rays(64, 64)
+    so, sd = scaled.camera_rays(64, 64)
     t0, p0 = base.grid(12).intersect(o, d)
     t1, p1 = scaled.grid(12).intersect(so, sd)
     assert np.mean(p0 == p1) > 0.999

@@ -52,6 +52,6 @@ typedef struct {
  * grid box within that range; otherwise the state holds the first voxel. */
 int mprt__dda_start(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, mprt__dda *w);
 /* Step to the next voxel; returns 0 when the walk has ended. */
-int mprt__dda_next(const mprt_grid *g, const mprt__ray *ray, mprt__dda *w);
+int mprt__dda_next(const mprt_grid *g, mprt__dda *w);
 
 #endif

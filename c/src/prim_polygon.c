@@ -298,14 +298,8 @@ int mprt__polygon_box(const mprt__polygon *p, const vec3 *verts, vec3 lo, vec3 h
     int i, k;
 
     /* Vertex bounds and the largest distance of a vertex from the plane */
-    plo = phi = v[0];
+    mprt__polygon_bounds(p, verts, &plo, &phi);
     for (i = 0; i < p->n; i++) {
-        if (v[i].x < plo.x) plo.x = v[i].x;
-        if (v[i].y < plo.y) plo.y = v[i].y;
-        if (v[i].z < plo.z) plo.z = v[i].z;
-        if (v[i].x > phi.x) phi.x = v[i].x;
-        if (v[i].y > phi.y) phi.y = v[i].y;
-        if (v[i].z > phi.z) phi.z = v[i].z;
         e = ABS(vdot(nrm, v[i]) - p->d);
         if (e > dev) dev = e;
     }

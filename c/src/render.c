@@ -121,11 +121,7 @@ int mprt__dda_start(const mprt_grid *g, const mprt__ray *ray, real tmin, real tm
     return dda_begin(g, ray, tmin, tmax, w);
 }
 
-int mprt__dda_next(const mprt_grid *g, const mprt__ray *ray, mprt__dda *w)
-{
-    (void)ray;
-    return dda_step(g, w);
-}
+int mprt__dda_next(const mprt_grid *g, mprt__dda *w) { return dda_step(g, w); }
 
 /* ---- IC: one voxel's primitives ------------------------------------------- */
 

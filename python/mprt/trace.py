@@ -14,7 +14,6 @@ size in words and material, and the settings that made it.
 """
 from __future__ import annotations
 
-import hashlib
 import io
 import zlib
 import json
@@ -151,8 +150,7 @@ class Trace:
         self._arrays = arrays
         self.path = path
 
-    # arrays are loaded lazily from a saved trace (np.load with mmap is not
-    # available inside a zip; loading is one read per array)
+    # rays, visits, voxel_start, ... read as attributes of the trace
     def __getattr__(self, name):
         arrays = self.__dict__.get("_arrays")
         if arrays is not None and name in ARRAYS:
@@ -381,11 +379,6 @@ def _write_npy_from_file(z, name, src, dtype, count):
             shutil.copyfileobj(s, f, 1 << 22)
 
 
-def _crc(a) -> int:
-    """CRC-32 of an array's bytes: detects damaged or edited data."""
-    return zlib.crc32(memoryview(np.ascontiguousarray(a)).cast("B"))
-
-
 def _write_streamed(path, meta, sink, static):
     meta = dict(meta)
     meta["crc32"] = {"rays": sink.crc["rays"], "visits": sink.crc["visits"]}
@@ -431,8 +424,10 @@ def _mmap_npy(path, f, info):
     return np.memmap(path, dtype=dtype, mode="r", offset=f.tell(), shape=shape)
 
 
-def _crc_chunked(a, chunk=1 << 26) -> int:
-    b = _bytes(np.asarray(a)) if a.size else np.zeros(0, np.uint8)
+def _crc(a, chunk=1 << 26) -> int:
+    """CRC-32 of an array's bytes, read in chunks (a memory-mapped array is
+    not read whole): detects damaged or edited data."""
+    b = _bytes(np.ascontiguousarray(a)) if a.size else np.zeros(0, np.uint8)
     crc = 0
     for i in range(0, b.size, chunk):
         crc = zlib.crc32(memoryview(np.ascontiguousarray(b[i:i + chunk])), crc)
@@ -479,7 +474,7 @@ def load_trace(path, mmap: bool | None = None, verify: bool = True) -> Trace:
                     arrays[k] = np.lib.format.read_array(io.BytesIO(data), allow_pickle=False)
             except (ValueError, EOFError, zipfile.BadZipFile, OSError, TraceError) as e:
                 raise TraceError(f"{path}: array {k!r} is truncated or corrupt ({e})") from None
-            if verify and meta.get("crc32", {}).get(k) != _crc_chunked(arrays[k]):
+            if verify and meta.get("crc32", {}).get(k) != _crc(arrays[k]):
                 raise TraceError(f"{path}: array {k!r} does not match its checksum (tampered or damaged)")
     if arrays["rays"].dtype != RAY_DTYPE or arrays["visits"].dtype != VISIT_DTYPE:
         raise TraceError(f"{path}: rays/visits have an unexpected layout")
@@ -575,11 +570,6 @@ def check_trace(t: Trace) -> None:
         _fail("OS->IC handoffs and IC visits differ")
     if np.any(v["tests"][v["stage"] != IC] != 0) or np.any(v["voxels"][v["stage"] != OS] != 0):
         _fail("tests outside IC or voxels outside OS")
-
-
-def _hist(x):
-    x = np.asarray(x, dtype=np.int64)
-    return np.bincount(x).tolist() if x.size else []
 
 
 def trace_stats(t: Trace, chunk: int = 1 << 22) -> dict:

@@ -21,25 +21,15 @@ import argparse
 import csv
 import os
 import sys
-import time
 
 import numpy as np
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 sys.path.insert(0, os.path.join(HERE, ".."))
 import mprt  # noqa: E402
-from bench import camera_rays, random_rays  # noqa: E402
+from bench import best_time, random_rays  # noqa: E402
 
 OUT = os.path.join(HERE, "..", "out")
-
-
-def best_of(fn, repeat):
-    best, out = float("inf"), None
-    for _ in range(repeat):
-        t = time.perf_counter()
-        out = fn()
-        best = min(best, time.perf_counter() - t)
-    return best, out
 
 
 def study(name, res, nrand, repeat, brute):
@@ -47,11 +37,11 @@ def study(name, res, nrand, repeat, brute):
     sf = mprt.Scene.spd(name, precision="single")
     n = sd.default_grid(density=4, limit=512)
     gd, gf = sd.grid(n), sf.grid(n)
-    po, pd = camera_rays(sd, res, res)
+    po, pd = sd.camera_rays(res, res)
     ro, rd = random_rays(sd, nrand, seed=7)
     o, d = np.vstack([po, ro]), np.vstack([pd, rd])
-    td_time, (td, pdd) = best_of(lambda: gd.intersect(o, d), repeat)
-    tf_time, (tf, pf) = best_of(lambda: gf.intersect(o, d), repeat)
+    td_time, (td, pdd) = best_time(lambda: gd.intersect(o, d), repeat)
+    tf_time, (tf, pf) = best_time(lambda: gf.intersect(o, d), repeat)
     if brute:
         k = slice(0, len(o), max(1, len(o) // 4000))
         tb, pb = sd.grid(1).intersect(o[k], d[k])
@@ -61,8 +51,8 @@ def study(name, res, nrand, repeat, brute):
     leaks = int(np.sum(np.isfinite(td) & ~np.isfinite(tf)))
     extra = int(np.sum(~np.isfinite(td) & np.isfinite(tf)))
     other = int(np.sum(both & (pdd != pf)))
-    rdd_time, (imd, _) = best_of(lambda: gd.render(res, res), repeat)
-    rdf_time, (imf, _) = best_of(lambda: gf.render(res, res), repeat)
+    rdd_time, (imd, _) = best_time(lambda: gd.render(res, res), repeat)
+    rdf_time, (imf, _) = best_time(lambda: gf.render(res, res), repeat)
     q = lambda im: np.clip(np.round(np.clip(im, 0, 1) * 255), 0, 255).astype(np.uint8)  # noqa: E731
     pix = int(np.sum(np.any(q(imd) != q(imf), axis=2)))
     return {

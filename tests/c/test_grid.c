@@ -67,7 +67,7 @@ static int walk_checked(const mprt_grid *g, vec3 o, vec3 d, real tmax, int *cell
             CHECK_MSG(0, "walk did not end after %d voxels", n);
             return -1;
         }
-    } while (mprt__dda_next(g, &ray, &w));
+    } while (mprt__dda_next(g, &w));
     return n;
 }
 
