@@ -1,6 +1,10 @@
 # mprt: C library, C tests, Python package, demo and benchmark.
 CC ?= gcc
 PYTHON ?= python3
+# The project's virtual environment: created once with $(PYTHON) and reused,
+# so the same commands work with Debian's own python3 (PEP 668), pyenv and CI.
+VENV ?= .venv
+PY := $(VENV)/bin/python
 B ?= build
 WARN = -std=c99 -pedantic -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
 # -ffp-contract=off: no fused multiply-add, so the watertight edge tests stay
@@ -27,27 +31,31 @@ $(B)/libmprt.a: $(patsubst c/src/%.c,$(B)/obj/%.o,$(SRC))
 $(B)/test_%: tests/c/test_%.c $(B)/libmprt.a tests/c/check.h
 	$(CC) $(CFLAGS) $< $(B)/libmprt.a -o $@ $(LDLIBS)
 
-# C tests run from tests/c (they find ../../../shared/spd-reference).
+# C tests run from tests/c (they read ../data/spd-reference).
 ctest: $(TESTS)
 	@set -e; for t in $(TESTS); do (cd tests/c && ../../$$t); done
 
-# The Python package (editable), rebuilt when a C or build file changes.
-install: build/.installed
-build/.installed: $(SRC) $(HDR) python/mprt/_build.py pyproject.toml setup.py
-	$(PYTHON) -m pip install -q -e '.[test]'
-	@mkdir -p build && touch $@
+$(PY):
+	@$(PYTHON) -m venv $(VENV) || { echo "could not create $(VENV): on Debian, apt-get install python3-venv" >&2; exit 1; }
+	$(PY) -m pip install -q --upgrade pip
 
-pytest: build/.installed
-	$(PYTHON) -m pytest -q tests
+# The Python package (editable) in the venv, rebuilt when a C or build file changes.
+install: $(VENV)/.installed
+$(VENV)/.installed: $(PY) $(SRC) $(HDR) python/mprt/_build.py pyproject.toml setup.py
+	$(PY) -m pip install -q -e '.[test]'
+	@touch $@
+
+pytest: $(VENV)/.installed
+	$(PY) -m pytest -q tests
 
 test: ctest pytest
 
-demo: build/.installed
-	$(PYTHON) -m mprt render balls -o balls.png --stats balls-stats.json
+demo: $(VENV)/.installed
+	$(PY) -m mprt render balls -o balls.png --stats balls-stats.json
 
-bench: build/.installed
-	$(PYTHON) -m pip install -q embreex
-	$(PYTHON) studies/bench.py
+bench: $(VENV)/.installed
+	$(PY) -m pip install -q embreex
+	$(PY) studies/bench.py
 
 # The C tests under AddressSanitizer and UndefinedBehaviorSanitizer.
 asan:

@@ -3,12 +3,10 @@ import os
 import pytest
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-SPD_REF = os.path.join(os.path.dirname(ROOT), "shared", "spd-reference")
+SPD_REF = os.path.join(ROOT, "tests", "data", "spd-reference")
 
 
 @pytest.fixture(scope="session")
 def spd_ref():
-    """Folder of the original SPD programs' NFF output (shared/spd-reference)."""
-    if not os.path.isdir(SPD_REF):
-        pytest.fail(f"shared SPD reference files not found at {SPD_REF}")
+    """Folder of the original SPD programs' NFF output (a copy in tests/data, with its credit)."""
     return SPD_REF

@@ -1,4 +1,5 @@
 """Per-ray cost traces: agreement with the renderer, invariants, determinism, files."""
+import io
 import json
 import os
 import zipfile
@@ -53,7 +54,7 @@ def test_save_load_round_trip_and_streaming_to_disk(tmp_path):
     back = mprt.load_trace(p)
     for k in ("rays", "visits", "voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material"):
         assert np.array_equal(getattr(back, k), getattr(mem, k)), k
-    assert back.meta["grid"] == [6, 6, 6] and back.meta["version"] == 1
+    assert back.meta["grid"] == [6, 6, 6] and back.meta["version"] == mprt.trace.FORMAT_VERSION
     _, disk = grid.trace(20, 20, tile=4, path=tmp_path / "s.npz")
     assert isinstance(disk.visits, np.memmap)
     assert np.array_equal(disk.rays, mem.rays) and np.array_equal(disk.visits, mem.visits)
@@ -123,7 +124,7 @@ def test_subsets_trace_only_their_tiles_with_the_same_records():
     keep = np.isin(tile_of(full.rays["pixel"]), part.meta["tiles"])
     assert np.array_equal(full.rays["pixel"][keep], part.rays["pixel"])
     fv = full.visits[np.isin(full.visits["ray"], np.flatnonzero(keep))]
-    for f in ("stage", "outcome", "voxels", "tests", "prim", "made", "suppressed"):
+    for f in ("stage", "outcome", "steps", "tests", "prim", "made", "suppressed"):
         assert np.array_equal(fv[f], part.visits[f]), f
     part.check()
     _, rnd = grid.trace(32, 32, tile=8, sample="random:5:42")
@@ -163,3 +164,41 @@ def test_golden_traces_exist():
     """The golden traces are committed: every SPD scene at two grids."""
     names = sorted(f for f in os.listdir(GOLDEN) if f.endswith(".npz"))
     assert len(names) == 12
+
+
+def test_format_version_1_loads_with_renamed_fields(tmp_path):
+    """A version-1 file (visit fields 'voxel' and 'voxels') loads with today's names and values."""
+    import zipfile
+
+    grid = mprt.Scene.spd("tetra", 1).grid(4)
+    _, tr = grid.trace(16, 16, tile=8)
+    v1 = np.dtype({"names": ["voxel" if n == "voxel_id" else "voxels" if n == "steps" else n
+                             for n in tr.visits.dtype.names],
+                   "formats": [tr.visits.dtype.fields[n][0] for n in tr.visits.dtype.names],
+                   "offsets": [tr.visits.dtype.fields[n][1] for n in tr.visits.dtype.names],
+                   "itemsize": tr.visits.dtype.itemsize})
+    p = tmp_path / "v2.npz"
+    tr.save(p)
+    old = tmp_path / "v1.npz"
+    with zipfile.ZipFile(p) as src, zipfile.ZipFile(old, "w") as dst:
+        for name in src.namelist():
+            data = src.read(name)
+            if name == "meta.json":
+                meta = json.loads(data)
+                meta["version"] = 1
+                data = json.dumps(meta).encode()
+            elif name == "visits.npy":
+                buf = io.BytesIO()
+                np.lib.format.write_array(buf, tr.visits.view(v1))
+                data = buf.getvalue()
+            dst.writestr(name, data)
+    back = mprt.load_trace(old)
+    assert back.meta["version"] == mprt.trace.FORMAT_VERSION
+    assert np.array_equal(back.visits["steps"], tr.visits["steps"])
+    assert np.array_equal(back.visits["voxel_id"], tr.visits["voxel_id"])
+    meta["version"] = 99
+    with zipfile.ZipFile(p) as src, zipfile.ZipFile(tmp_path / "v99.npz", "w") as dst:
+        for name in src.namelist():
+            dst.writestr(name, json.dumps(meta) if name == "meta.json" else src.read(name))
+    with pytest.raises(mprt.TraceError, match="regenerate"):
+        mprt.load_trace(tmp_path / "v99.npz")

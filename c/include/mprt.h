@@ -263,8 +263,8 @@ typedef struct {
 /* One stage visit of a trace. */
 typedef struct {
     int64_t ray;           /* tile-local ray number */
-    int64_t voxel;         /* OS: voxel handed to IC (-1 if none); IC: voxel tested */
-    int32_t voxels;        /* OS: voxels entered during this visit */
+    int64_t voxel_id;      /* OS: id of the voxel handed to IC (-1 if none); IC: voxel tested */
+    int32_t steps;         /* OS: voxels entered by the 3DDDA during this visit */
     int32_t tests[MPRT_NKINDS]; /* IC: intersection tests by primitive kind */
     int32_t vertices;      /* IC: polygon vertices touched by the tests */
     int32_t prim;          /* IC/SC: primitive hit, or -1 */

@@ -202,7 +202,7 @@ static mprt_trace_visit *rec_visit(recorder *rec, int64_t ray, int stage, int ou
     rec->nvisits++;
     memset(v, 0, sizeof *v);
     v->ray = ray;
-    v->voxel = -1;
+    v->voxel_id = -1;
     v->prim = -1;
     v->stage = (uint8_t)stage;
     v->outcome = (uint8_t)outcome;
@@ -254,8 +254,8 @@ static int os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax,
             int accepted;
             if (rec) {
                 mprt_trace_visit *v = rec_visit(rec, ray_id, MPRT_STAGE_OS, MPRT_OUT_TO_IC);
-                v->voxels = (int32_t)(voxels - mark);
-                v->voxel = w.voxel;
+                v->steps = (int32_t)(voxels - mark);
+                v->voxel_id = w.voxel;
                 memcpy(tests0, c->tests, sizeof tests0);
                 vertices0 = c->polygon_vertices;
             }
@@ -264,7 +264,7 @@ static int os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax,
                 mprt_trace_visit *v = rec_visit(rec, ray_id, MPRT_STAGE_IC,
                                                 accepted ? (any_hit ? MPRT_OUT_BLOCKED : MPRT_OUT_HIT) : MPRT_OUT_RETURN);
                 int k;
-                v->voxel = w.voxel;
+                v->voxel_id = w.voxel;
                 for (k = 0; k < MPRT_NKINDS; k++) v->tests[k] = (int32_t)(c->tests[k] - tests0[k]);
                 v->vertices = (int32_t)(c->polygon_vertices - vertices0);
                 if (accepted) v->prim = best->prim;
@@ -288,14 +288,14 @@ static int os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax,
     if (!found && !any_hit && best->prim >= 0) {
         if (rec) {
             mprt_trace_visit *v = rec_visit(rec, ray_id, MPRT_STAGE_OS, MPRT_OUT_LATE_HIT);
-            v->voxels = (int32_t)(voxels - mark);
+            v->steps = (int32_t)(voxels - mark);
             v->prim = best->prim;
         }
         return 1;
     }
     if (!found && rec) {
         mprt_trace_visit *v = rec_visit(rec, ray_id, MPRT_STAGE_OS, any_hit ? MPRT_OUT_TO_SC : MPRT_OUT_LEFT);
-        v->voxels = (int32_t)(voxels - mark);
+        v->steps = (int32_t)(voxels - mark);
     }
     return found;
 }

@@ -28,7 +28,10 @@ import numpy as np
 
 from ._core import KINDS, InvalidArgument, MprtError, _check
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
+# Version 1 had the same layout with the visit fields 'voxel' (now 'voxel_id')
+# and 'voxels' (now 'steps'); it is read by renaming them.
+_V1_VISIT_NAMES = {"voxel": "voxel_id", "voxels": "steps"}
 
 STAGES = ("OS", "IC", "SC")
 RAY_KINDS = ("primary", "reflect", "refract", "shadow")
@@ -41,7 +44,7 @@ RAY_DTYPE = np.dtype(
     [("id", "<i8"), ("parent", "<i8"), ("pixel", "<i4"), ("light", "<i2"), ("kind", "u1"), ("depth", "u1"),
      ("contribution", "<f8")], align=True)
 VISIT_DTYPE = np.dtype(
-    [("ray", "<i8"), ("voxel", "<i8"), ("voxels", "<i4"), ("tests", "<i4", (4,)), ("vertices", "<i4"),
+    [("ray", "<i8"), ("voxel_id", "<i8"), ("steps", "<i4"), ("tests", "<i4", (4,)), ("vertices", "<i4"),
      ("prim", "<i4"), ("stage", "u1"), ("outcome", "u1"), ("made", "u1"), ("suppressed", "u1")], align=True)
 
 ARRAYS = ("rays", "visits", "voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material", "samples")
@@ -457,9 +460,10 @@ def load_trace(path, mmap: bool | None = None, verify: bool = True) -> Trace:
             raise TraceError(f"{path}: meta.json is unreadable ({e})") from None
         if meta.get("format") != "mprt-trace":
             raise TraceError(f"{path}: not an mprt trace (format {meta.get('format')!r})")
-        if meta.get("version") != FORMAT_VERSION:
+        if meta.get("version") not in (1, FORMAT_VERSION):
             raise TraceError(f"{path}: trace format version {meta.get('version')!r} is not supported "
-                             f"(this mprt reads version {FORMAT_VERSION})")
+                             f"(this mprt reads versions 1 and {FORMAT_VERSION}); regenerate it with "
+                             "'mprt trace SCENE --grid N --res WxH -o FILE'")
         arrays = {}
         for k in ARRAYS:
             if k + ".npy" not in names:
@@ -476,6 +480,14 @@ def load_trace(path, mmap: bool | None = None, verify: bool = True) -> Trace:
                 raise TraceError(f"{path}: array {k!r} is truncated or corrupt ({e})") from None
             if verify and meta.get("crc32", {}).get(k) != _crc(arrays[k]):
                 raise TraceError(f"{path}: array {k!r} does not match its checksum (tampered or damaged)")
+    if meta["version"] == 1:  # same bytes, older field names
+        v = arrays["visits"]
+        if v.dtype.names is not None:
+            arrays["visits"] = v.view(np.dtype({"names": [_V1_VISIT_NAMES.get(n, n) for n in v.dtype.names],
+                                                "formats": [v.dtype.fields[n][0] for n in v.dtype.names],
+                                                "offsets": [v.dtype.fields[n][1] for n in v.dtype.names],
+                                                "itemsize": v.dtype.itemsize}))
+        meta["version"] = FORMAT_VERSION
     if arrays["rays"].dtype != RAY_DTYPE or arrays["visits"].dtype != VISIT_DTYPE:
         raise TraceError(f"{path}: rays/visits have an unexpected layout")
     return Trace(meta, arrays, path)
@@ -568,7 +580,7 @@ def check_trace(t: Trace) -> None:
     # counts add up: every OS->IC is an IC visit, IC tests only in IC visits, voxels only in OS
     if np.sum(code == OS * 16 + TO_IC) != np.sum(v["stage"] == IC):
         _fail("OS->IC handoffs and IC visits differ")
-    if np.any(v["tests"][v["stage"] != IC] != 0) or np.any(v["voxels"][v["stage"] != OS] != 0):
+    if np.any(v["tests"][v["stage"] != IC] != 0) or np.any(v["steps"][v["stage"] != OS] != 0):
         _fail("tests outside IC or voxels outside OS")
 
 
@@ -596,9 +608,9 @@ def trace_stats(t: Trace, chunk: int = 1 << 22) -> dict:
         cnt += np.bincount(stage * 16 + out, minlength=48).reshape(3, 16)
         tests_by_kind += v["tests"].sum(axis=0, dtype=np.int64)
         sums["suppressed"] += int(v["suppressed"].sum(dtype=np.int64))
-        sums["voxels"] += int(v["voxels"].sum(dtype=np.int64))
+        sums["voxels"] += int(v["steps"].sum(dtype=np.int64))
         sums["vertices"] += int(v["vertices"].sum(dtype=np.int64))
-        add_hist(h_vox, np.bincount(v["voxels"][stage == OS]))
+        add_hist(h_vox, np.bincount(v["steps"][stage == OS]))
         add_hist(h_tests, np.bincount(v["tests"][stage == IC].sum(axis=1)))
         # returns per ray: visits are grouped by ray, so count per run of ray ids
         ray = v["ray"]

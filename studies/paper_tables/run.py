@@ -152,7 +152,7 @@ def returns_holding_hit(tr):
     nprim = len(tr.prim_kind)
     vox_of_ref = np.repeat(np.arange(len(start) - 1, dtype=np.int64), np.diff(start))
     keys = np.sort(vox_of_ref * nprim + ids)
-    q = v["voxel"][icv].astype(np.int64) * nprim + final[v["ray"][icv]]
+    q = v["voxel_id"][icv].astype(np.int64) * nprim + final[v["ray"][icv]]
     pos = np.searchsorted(keys, q)
     listed = (pos < len(keys)) & (keys[np.minimum(pos, len(keys) - 1)] == q)
     first = np.full(len(tr.rays), np.iinfo(np.int64).max, dtype=np.int64)
@@ -189,7 +189,7 @@ def trace_row(scene, n, res, threads, progress):
                           ("shadow_unblocked", (rkind == SHADOW) & ~blocked)):
         row["rays_" + label] = int(rays_m.sum())
         row["returns_" + label] = int(np.sum(ret & rays_m[v["ray"]]))
-        row["voxels_" + label] = int(v["voxels"][rays_m[v["ray"]]].sum())
+        row["voxels_" + label] = int(v["steps"][rays_m[v["ray"]]].sum())
     gs = grid.stats()
     row["grid_nonempty"], row["grid_refs"] = gs["nonempty"], gs["refs"]
     del tr

@@ -7,7 +7,7 @@
 
 #include "check.h"
 
-#define REF "../../../shared/spd-reference/"
+#define REF "../data/spd-reference/"
 
 /* ---- Helpers ------------------------------------------------------------ */
 

@@ -698,7 +698,7 @@ static void test_polygon_spd_files(void)
     static const char *names[] = {"gears.nff", "mount.nff", "tetra.nff"};
     const char *dir = getenv("MPRT_SPD_REFERENCE");
     int f;
-    if (!dir) dir = "../../../shared/spd-reference"; /* from tests/c, shared/ beside the repo */
+    if (!dir) dir = "../data/spd-reference"; /* from tests/c */
     for (f = 0; f < 3; f++) {
         char path[512], line[256], err[200];
         FILE *fp;

@@ -1,14 +1,14 @@
 /* test_spd.c: the SPD generators against the original programs' NFF output
  * (default sizes) and against counts and rules derived from their source
  * (sizes 1..3, tree 8).  Runs from tests/c; the references live in
- * ../../../shared/spd-reference/. */
+ * ../data/spd-reference/. */
 #include "check.h"
 #include "mprt_internal.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-#define REF_DIR "../../../shared/spd-reference/"
+#define REF_DIR "../data/spd-reference/"
 #define PI 3.141592653589793
 /* Tolerance for values the source defines exactly (wider if built with MPRT_SINGLE). */
 #define NEAR (REAL_EPS > 1e-10 ? 1e-5 : 1e-12)
