@@ -141,6 +141,10 @@ void mprt__scene_warn(mprt_scene *scene, const char *fmt, ...)
 int mprt__scene_add_polygon(mprt_scene *scene, int n, const double *verts, const double *normals,
                             int *reason);
 
+/* Intensity of each channel of a light given without a colour: the NFF
+ * reader's rule, 1/sqrt(number of lights). */
+double mprt__light_default_rgb(const mprt_scene *scene);
+
 /* Bounds of primitive i. */
 void mprt__prim_bounds(const mprt_scene *scene, long long i, vec3 *lo, vec3 *hi);
 

@@ -13,6 +13,7 @@
  * primitive id.  The accepted hit is therefore the nearest hit over all
  * primitives, whatever the subdivision, and so are the image and every ray
  * count. */
+#include "camera.h"
 #include "grid.h"
 
 #include <pthread.h>
@@ -348,17 +349,9 @@ typedef struct {
 } job;
 
 typedef struct {
-    vec3 from, u, v, w;   /* eye and camera frame: right, up, forward */
-    double pitch;         /* pixel spacing on the image plane at distance 1 */
-    int width, height;
-    int corners;          /* SPD rules: sample the (W+1)x(H+1) pixel corners */
-    int sw, sh;           /* samples per row and column */
-} camera;
-
-typedef struct {
     const mprt_grid *grid;
     const mprt_render_desc *desc;
-    camera cam;
+    mprt__camera cam;
     double light_rgb_default; /* intensity of lights without colour */
     double *samples;          /* sw*sh*3 sample colours */
     int tiles_x, tiles_y, next_tile;
@@ -552,15 +545,13 @@ static void trace_sample(const render_ctx *x, job first, double acc[3], job *sta
     }
 }
 
-static job primary(const camera *cam, double hither, double sx, double sy)
+/* The eye ray of sample (x, y). */
+static job primary(const mprt__camera *cam, int x, int y)
 {
     job j;
-    vec3 d = vadd(cam->w, vadd(vscale(cam->u, (real)sx), vscale(cam->v, (real)sy)));
     memset(&j, 0, sizeof j);
-    d = vnorm(d);
     j.o = cam->from;
-    j.d = d;
-    j.tmin = (real)(hither / (double)vdot(d, cam->w));
+    j.d = mprt__camera_ray(cam, x, y, &j.tmin);
     j.tmax = INF_REAL;
     j.contrib = 1;
     j.kind = MPRT_RAY_PRIMARY;
@@ -568,34 +559,18 @@ static job primary(const camera *cam, double hither, double sx, double sy)
     return j;
 }
 
-/* Sample rectangle [i0, i1) x [j0, j1) of a tile. */
-static void tile_rect(const render_ctx *x, int tile, int *i0, int *j0, int *i1, int *j1)
-{
-    int ts = x->desc->tile;
-    *i0 = tile % x->tiles_x * ts;
-    *j0 = tile / x->tiles_x * ts;
-    *i1 = *i0 + ts < x->cam.sw ? *i0 + ts : x->cam.sw;
-    *j1 = *j0 + ts < x->cam.sh ? *j0 + ts : x->cam.sh;
-}
-
 /* Trace a tile's samples; colours go to x->samples, whose row stride is
  * x->stride samples and whose first sample is (x->ox, x->oy). */
 static void render_tile(render_ctx *x, int tile, job *stack, mprt_counters *c)
 {
-    const camera *cam = &x->cam;
-    int i0, j0, i1, j1, i, j;
-    double hither = x->grid->scene->hither;
-    tile_rect(x, tile, &i0, &j0, &i1, &j1);
-    for (j = j0; j < j1; j++)
-        for (i = i0; i < i1; i++) {
-            double ox = cam->corners ? (double)i - 0.5 : (double)i;
-            double oy = cam->corners ? (double)j - 0.5 : (double)j;
-            double sx = (ox - (cam->width - 1) * 0.5) * cam->pitch;
-            double sy = ((cam->height - 1) * 0.5 - oy) * cam->pitch;
+    const mprt__camera *cam = &x->cam;
+    int rect[4], i, j;
+    mprt__tile_rect(cam, x->desc->tile, tile, rect);
+    for (j = rect[1]; j < rect[3]; j++)
+        for (i = rect[0]; i < rect[2]; i++) {
             double *acc = x->samples + 3 * ((size_t)(j - x->oy) * (size_t)x->stride + (size_t)(i - x->ox));
             c->eye_rays++;
-            trace_sample(x, primary(cam, hither, sx, sy), acc, stack, c, x->rec,
-                         j * cam->sw + i);
+            trace_sample(x, primary(cam, i, j), acc, stack, c, x->rec, j * cam->samples_w + i);
         }
 }
 
@@ -640,76 +615,48 @@ void mprt_render_desc_init(mprt_render_desc *d)
     d->ambient = 0.1;
 }
 
-static void setup_camera(const mprt_scene *s, int width, int height, int corners, camera *cam)
-{
-    int span = height > 1 ? height - 1 : 1;
-    cam->from = s->from;
-    cam->w = vnorm(vsub(s->at, s->from));
-    cam->u = vnorm(vcross(cam->w, s->up));
-    cam->v = vcross(cam->u, cam->w);
-    cam->pitch = 2 * tan(s->angle * 0.5 * 3.14159265358979323846 / 180) / span;
-    cam->width = width;
-    cam->height = height;
-    cam->corners = corners;
-    cam->sw = width + (corners ? 1 : 0);
-    cam->sh = height + (corners ? 1 : 0);
-}
-
-/* Validate a render description and set up the context (camera, tiling).
- * rd receives the description with defaults filled in. */
-static int setup(mprt_grid *g, const mprt_render_desc *desc, mprt_render_desc *rd_out, render_ctx *xp)
+int mprt_grid_resolve_desc(mprt_grid *g, const mprt_render_desc *desc, mprt_render_desc *out)
 {
     mprt_render_desc rd;
-    const mprt_scene *s;
-    int w, h;
-    if (!g || !desc) return MPRT_ERR_INVALID_ARG;
+    if (!g || !desc || !out) return MPRT_ERR_INVALID_ARG;
     if (g->failed) return MPRT_ERR_STATE;
-    s = g->scene;
     rd = *desc;
-    w = rd.width ? rd.width : s->width;
-    h = rd.height ? rd.height : s->height;
-    if (w < 1 || h < 1 || w > 65536 || h > 65536) {
-        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: resolution %dx%d is not in 1..65536", w, h);
-    }
-    if (rd.rules != MPRT_RULES_PAPER && rd.rules != MPRT_RULES_SPD) {
+    if (rd.width == 0) rd.width = g->scene->width;
+    if (rd.height == 0) rd.height = g->scene->height;
+    if (rd.width < 1 || rd.height < 1 || rd.width > 65536 || rd.height > 65536)
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: resolution %dx%d is not in 1..65536", rd.width,
+                               rd.height);
+    if (rd.rules != MPRT_RULES_PAPER && rd.rules != MPRT_RULES_SPD)
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: unknown rule set %d (0 paper, 1 spd)", rd.rules);
-    }
-    if (!(rd.threshold >= 0 && rd.threshold < 1)) {
+    if (!(rd.threshold >= 0 && rd.threshold < 1))
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: threshold %g is not in [0, 1)", rd.threshold);
-    }
-    if (!(rd.ambient >= 0 && rd.ambient <= 1)) {
+    if (!(rd.ambient >= 0 && rd.ambient <= 1))
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: ambient %g is not in [0, 1]", rd.ambient);
-    }
-    if (rd.max_depth < 0 || rd.max_depth > 255) {
+    if (rd.max_depth < 0 || rd.max_depth > 255)
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: max_depth %d is not in 0..255", rd.max_depth);
-    }
     if (rd.max_depth == 0) rd.max_depth = rd.rules == MPRT_RULES_SPD ? 5 : 64;
     if (rd.tile <= 0) rd.tile = 16;
-    if (rd.threads < 0 || rd.threads > 64) {
+    if (rd.threads < 0 || rd.threads > 64)
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: threads %d is not in 0..64", rd.threads);
-    }
-    *rd_out = rd;
-    memset(xp, 0, sizeof *xp);
-    xp->grid = g;
-    xp->desc = rd_out;
-    setup_camera(s, w, h, rd.rules == MPRT_RULES_SPD, &xp->cam);
-    xp->light_rgb_default = s->nlights ? 1 / sqrt((double)s->nlights) : 1;
-    xp->tiles_x = (xp->cam.sw + rd.tile - 1) / rd.tile;
-    xp->tiles_y = (xp->cam.sh + rd.tile - 1) / rd.tile;
+    if (rd.threads == 0) rd.threads = 1;
+    *out = rd;
     return MPRT_OK;
 }
 
-int mprt_grid_tiling(mprt_grid *g, const mprt_render_desc *desc, int *samples_w, int *samples_h, int *tiles_x,
-                     int *tiles_y)
+/* Validate a render description and set up the context (camera, tiling).
+ * rd_out receives the resolved description. */
+static int setup(mprt_grid *g, const mprt_render_desc *desc, mprt_render_desc *rd_out, render_ctx *xp)
 {
-    render_ctx x;
-    mprt_render_desc rd;
-    int st = setup(g, desc, &rd, &x);
+    const mprt_scene *s;
+    int st = mprt_grid_resolve_desc(g, desc, rd_out);
     if (st != MPRT_OK) return st;
-    if (samples_w) *samples_w = x.cam.sw;
-    if (samples_h) *samples_h = x.cam.sh;
-    if (tiles_x) *tiles_x = x.tiles_x;
-    if (tiles_y) *tiles_y = x.tiles_y;
+    s = g->scene;
+    memset(xp, 0, sizeof *xp);
+    xp->grid = g;
+    xp->desc = rd_out;
+    mprt__camera_setup(s, rd_out->width, rd_out->height, rd_out->rules, &xp->cam);
+    xp->light_rgb_default = mprt__light_default_rgb(s);
+    mprt__tile_counts(&xp->cam, rd_out->tile, &xp->tiles_x, &xp->tiles_y);
     return MPRT_OK;
 }
 
@@ -722,17 +669,19 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     recorder rec;
     mprt_counters c;
     job *stack;
-    int i0, j0, i1, j1;
+    int rect[4];
+    size_t nsamples;
     int st = setup(g, desc, &rd, &x);
     if (st != MPRT_OK) return st;
     if (!samples || !nrays || !nvisits || (cap_rays && !rays) || (cap_visits && !visits)) return MPRT_ERR_INVALID_ARG;
     if (tile < 0 || tile >= x.tiles_x * x.tiles_y) {
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "trace: tile %d is not in 0..%d", tile, x.tiles_x * x.tiles_y - 1);
     }
-    tile_rect(&x, tile, &i0, &j0, &i1, &j1);
-    if (cap_samples < (size_t)(i1 - i0) * (size_t)(j1 - j0) * 3) {
+    mprt__tile_rect(&x.cam, rd.tile, tile, rect);
+    nsamples = (size_t)(rect[2] - rect[0]) * (size_t)(rect[3] - rect[1]);
+    if (cap_samples < nsamples * 3) {
         return mprt__grid_fail(g, MPRT_ERR_CAPACITY, "trace: sample buffer holds %zu doubles, %zu needed", cap_samples,
-                 (size_t)(i1 - i0) * (size_t)(j1 - j0) * 3);
+                               nsamples * 3);
     }
     memset(&rec, 0, sizeof rec);
     rec.rays = rays;
@@ -741,9 +690,9 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     rec.cap_visits = cap_visits;
     x.rec = &rec;
     x.samples = samples;
-    x.stride = i1 - i0;
-    x.ox = i0;
-    x.oy = j0;
+    x.stride = rect[2] - rect[0];
+    x.ox = rect[0];
+    x.oy = rect[1];
     stack = malloc(stack_size(&x) * sizeof *stack);
     if (!stack) {
         return mprt__grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "trace: out of memory for the ray stack");
@@ -777,9 +726,9 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
         return mprt__grid_fail(g, MPRT_ERR_CAPACITY, "render: image buffer holds %zu floats, %zu needed", cap,
                  (size_t)w * (size_t)h * 3);
     }
-    nsamples = (size_t)x.cam.sw * (size_t)x.cam.sh;
+    nsamples = (size_t)x.cam.samples_w * (size_t)x.cam.samples_h;
     ntiles = x.tiles_x * x.tiles_y;
-    x.stride = x.cam.sw;
+    x.stride = x.cam.samples_w;
     x.samples = malloc(nsamples * 3 * sizeof *x.samples);
     x.tile_counters = calloc((size_t)ntiles, sizeof *x.tile_counters);
     if (!x.samples || !x.tile_counters || pthread_mutex_init(&x.lock, NULL) != 0) {
@@ -787,7 +736,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
         free(x.tile_counters);
         return mprt__grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "render: out of memory for %zu samples", nsamples);
     }
-    nth = rd.threads > 0 ? rd.threads : 1;
+    nth = rd.threads;
     for (i = 1; i < nth; i++) {
         if (pthread_create(&th[i], NULL, worker, &x) != 0) break;
         started++;
@@ -801,25 +750,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
         return mprt__grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "render: out of memory for a worker's ray stack");
     }
     /* Pixels: samples as they are, or the mean of each pixel's four corners */
-    {
-        int px, py;
-        for (py = 0; py < h; py++)
-            for (px = 0; px < w; px++) {
-                float *o = rgb + 3 * ((size_t)py * (size_t)w + (size_t)px);
-                int k;
-                for (k = 0; k < 3; k++) {
-                    double v;
-                    if (x.cam.corners) {
-                        size_t a = (size_t)py * (size_t)x.cam.sw + (size_t)px, b = a + (size_t)x.cam.sw;
-                        v = 0.25 * (x.samples[3 * a + k] + x.samples[3 * (a + 1) + k] + x.samples[3 * b + k] +
-                                    x.samples[3 * (b + 1) + k]);
-                    } else {
-                        v = x.samples[3 * ((size_t)py * (size_t)w + (size_t)px) + k];
-                    }
-                    o[k] = (float)v;
-                }
-            }
-    }
+    mprt__samples_to_pixels(x.cam.corners, x.cam.samples_w, x.cam.samples_h, x.samples, rgb);
     if (counters) {
         int t, k;
         memset(counters, 0, sizeof *counters);

@@ -421,3 +421,124 @@ int mprt_scene_get_prims(const mprt_scene *s, int32_t *kind, int32_t *words, int
     }
     return MPRT_OK;
 }
+
+/* ---- Shape data by kind ---------------------------------------------------
+ * Each getter walks the primitive table in id order and copies the entries
+ * of its kinds; a NULL buffer is allowed when the scene has none of them. */
+
+/* Primitives of kind a or kind b. */
+static long long count_kinds(const mprt_scene *s, int a, int b)
+{
+    long long i, n = 0;
+    for (i = 0; i < s->nprims; i++) n += s->prims[i].kind == a || s->prims[i].kind == b;
+    return n;
+}
+
+static void put3(double *out, vec3 v)
+{
+    out[0] = (double)v.x;
+    out[1] = (double)v.y;
+    out[2] = (double)v.z;
+}
+
+int mprt_scene_get_spheres(const mprt_scene *s, int32_t *ids, double *data, size_t cap)
+{
+    long long i, n = 0;
+    if (!s) return MPRT_ERR_INVALID_ARG;
+    if (cap < (size_t)s->nspheres) return MPRT_ERR_CAPACITY;
+    if (s->nspheres && (!ids || !data)) return MPRT_ERR_INVALID_ARG;
+    for (i = 0; i < s->nprims; i++) {
+        const mprt__sphere *sp;
+        if (s->prims[i].kind != MPRT_SPHERE) continue;
+        sp = &s->spheres[s->prims[i].index];
+        ids[n] = (int32_t)i;
+        put3(data + 4 * n, sp->c);
+        data[4 * n + 3] = (double)sp->r;
+        n++;
+    }
+    return MPRT_OK;
+}
+
+int mprt_scene_get_cones(const mprt_scene *s, int32_t *ids, double *data, size_t cap)
+{
+    long long i, n = 0, count;
+    if (!s) return MPRT_ERR_INVALID_ARG;
+    count = count_kinds(s, MPRT_CYLINDER, MPRT_CONE);
+    if (cap < (size_t)count) return MPRT_ERR_CAPACITY;
+    if (count && (!ids || !data)) return MPRT_ERR_INVALID_ARG;
+    for (i = 0; i < s->nprims; i++) {
+        const mprt__cone *c;
+        if (s->prims[i].kind != MPRT_CYLINDER && s->prims[i].kind != MPRT_CONE) continue;
+        c = &s->cones[s->prims[i].index];
+        ids[n] = (int32_t)i;
+        put3(data + 8 * n, c->base);
+        data[8 * n + 3] = (double)c->rb;
+        put3(data + 8 * n + 4, c->apex);
+        data[8 * n + 7] = (double)c->ra;
+        n++;
+    }
+    return MPRT_OK;
+}
+
+int mprt_scene_get_polygons(const mprt_scene *s, int32_t *ids, int32_t *vstart, size_t cap_polys, double *verts,
+                            size_t cap_verts)
+{
+    long long i, n = 0, v = 0;
+    if (!s || !vstart) return MPRT_ERR_INVALID_ARG;
+    if (cap_polys < (size_t)s->npolygons || cap_verts < (size_t)s->nverts) return MPRT_ERR_CAPACITY;
+    if (s->npolygons && (!ids || !verts)) return MPRT_ERR_INVALID_ARG;
+    vstart[0] = 0;
+    for (i = 0; i < s->nprims; i++) {
+        const mprt__polygon *p;
+        int k;
+        if (s->prims[i].kind != MPRT_POLYGON) continue;
+        p = &s->polygons[s->prims[i].index];
+        ids[n] = (int32_t)i;
+        for (k = 0; k < p->n; k++, v++) put3(verts + 3 * v, s->verts[p->first + k]);
+        vstart[++n] = (int32_t)v;
+    }
+    return MPRT_OK;
+}
+
+int mprt_scene_get_materials(const mprt_scene *s, double *data, size_t cap)
+{
+    long long i;
+    if (!s) return MPRT_ERR_INVALID_ARG;
+    if (cap < (size_t)s->nmaterials) return MPRT_ERR_CAPACITY;
+    if (s->nmaterials && !data) return MPRT_ERR_INVALID_ARG;
+    for (i = 0; i < s->nmaterials; i++) {
+        const mprt__material *m = &s->materials[i];
+        double *out = data + 8 * i;
+        out[0] = m->rgb[0];
+        out[1] = m->rgb[1];
+        out[2] = m->rgb[2];
+        out[3] = m->kd;
+        out[4] = m->ks;
+        out[5] = m->shine;
+        out[6] = m->t;
+        out[7] = m->ior;
+    }
+    return MPRT_OK;
+}
+
+double mprt__light_default_rgb(const mprt_scene *s)
+{
+    return s->nlights ? 1 / sqrt((double)s->nlights) : 1;
+}
+
+int mprt_scene_get_lights(const mprt_scene *s, double *data, size_t cap)
+{
+    long long i;
+    double dflt;
+    if (!s) return MPRT_ERR_INVALID_ARG;
+    if (cap < (size_t)s->nlights) return MPRT_ERR_CAPACITY;
+    if (s->nlights && !data) return MPRT_ERR_INVALID_ARG;
+    dflt = mprt__light_default_rgb(s);
+    for (i = 0; i < s->nlights; i++) {
+        const mprt__light *l = &s->lights[i];
+        int k;
+        put3(data + 6 * i, l->pos);
+        for (k = 0; k < 3; k++) data[6 * i + 3 + k] = l->has_rgb ? l->rgb[k] : dflt;
+    }
+    return MPRT_OK;
+}
