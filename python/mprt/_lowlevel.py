@@ -219,6 +219,39 @@ class Binding:
             self._out("int32_t", out["material"]), n))
         return out
 
+    def scene_get_spheres(self, h, n: int):
+        """(ids int32[n], data float64[n, 4]: centre xyz, radius) in primitive-id order."""
+        ids, data = np.zeros(n, dtype=np.int32), np.zeros((n, 4))
+        self._scene(h, self.lib.mprt_scene_get_spheres(h, self._out("int32_t", ids), self._out("double", data), n))
+        return ids, data
+
+    def scene_get_cones(self, h, n: int):
+        """(ids int32[n], data float64[n, 8]: base xyz, base radius, apex xyz, apex radius) of the
+        cones and cylinders, in primitive-id order."""
+        ids, data = np.zeros(n, dtype=np.int32), np.zeros((n, 8))
+        self._scene(h, self.lib.mprt_scene_get_cones(h, self._out("int32_t", ids), self._out("double", data), n))
+        return ids, data
+
+    def scene_get_polygons(self, h, npoly: int, nverts: int):
+        """(ids int32[npoly], vstart int32[npoly + 1], verts float64[nverts, 3]): polygon k has the
+        vertices verts[vstart[k]:vstart[k + 1]]."""
+        ids, vstart, verts = np.zeros(npoly, dtype=np.int32), np.zeros(npoly + 1, dtype=np.int32), np.zeros((nverts, 3))
+        self._scene(h, self.lib.mprt_scene_get_polygons(h, self._out("int32_t", ids), self._out("int32_t", vstart),
+                                                        npoly, self._out("double", verts), nverts))
+        return ids, vstart, verts
+
+    def scene_get_materials(self, h, n: int) -> np.ndarray:
+        """float64[n, 8]: r, g, b, kd, ks, shine, t, ior per material."""
+        data = np.zeros((n, 8))
+        self._scene(h, self.lib.mprt_scene_get_materials(h, self._out("double", data), n))
+        return data
+
+    def scene_get_lights(self, h, n: int) -> np.ndarray:
+        """float64[n, 6]: position xyz, intensity rgb per light."""
+        data = np.zeros((n, 6))
+        self._scene(h, self.lib.mprt_scene_get_lights(h, self._out("double", data), n))
+        return data
+
     # -- grid --------------------------------------------------------------------------
     def grid_create(self, scene_h, dims, max_bytes: int):
         ffi, lib = self.ffi, self.lib
@@ -269,6 +302,26 @@ class Binding:
             out[name] = {k: v[i] for i, k in enumerate(KINDS)} if f.type.kind == "array" else v
         return out
 
+    def grid_resolve_desc(self, h, desc: dict) -> dict:
+        """Every field of the description with the defaults resolved for the grid's scene, validated."""
+        d = self._desc(desc)
+        self._grid(h, self.lib.mprt_grid_resolve_desc(h, d, d))
+        return _struct_dict(self.ffi, d, "mprt_render_desc")
+
+    def grid_tile_rect(self, h, desc: dict, tile: int) -> tuple:
+        """(x0, y0, x1, y1): tile's samples, columns x0..x1-1 and rows y0..y1-1."""
+        rect = self.ffi.new("int[4]")
+        self._grid(h, self.lib.mprt_grid_tile_rect(h, self._desc(desc), int(tile), rect))
+        return tuple(rect)
+
+    def grid_camera_rays(self, h, desc: dict, first: int, n: int):
+        """Eye rays of samples first..first+n-1 as the renderer makes them: (origins, unit
+        directions), float64[n, 3] each."""
+        o, d = np.zeros((n, 3)), np.zeros((n, 3))
+        self._grid(h, self.lib.mprt_grid_camera_rays(h, self._desc(desc), int(first), int(n), self._out("double", o),
+                                                     self._out("double", d)))
+        return o, d
+
     def grid_render(self, h, desc: dict, rgb: np.ndarray) -> dict:
         """Render into rgb (float32, C order, height*width*3); returns the counters."""
         c = self.ffi.new("mprt_counters *")
@@ -310,6 +363,20 @@ class Binding:
         return int(nr[0]), int(nv[0]), True
 
     # -- images ------------------------------------------------------------------------
+    def samples_to_image(self, rules: int, samples: np.ndarray) -> np.ndarray:
+        """Pixels (float32 (H, W, 3)) from samples (float64 (samples_h, samples_w, 3)) as the
+        renderer reconstructs them under ``rules``."""
+        s = np.ascontiguousarray(samples, dtype=np.float64)
+        if s.ndim != 3 or s.shape[2] != 3:
+            raise InvalidArgument(f"samples must have shape (h, w, 3), not {s.shape}")
+        shrink = 1 if rules == Rules.SPD else 0
+        rgb = np.zeros((max(s.shape[0] - shrink, 0), max(s.shape[1] - shrink, 0), 3), dtype=np.float32)
+        rc = self.lib.mprt_samples_to_image(int(rules), s.shape[1], s.shape[0], self._in("double", s),
+                                            self._out("float", rgb), rgb.size)
+        if rc != Status.OK:
+            raise error_class(rc)(f"samples_to_image: {self.status_str(rc)}")
+        return rgb
+
     def image_write_png(self, path, rgb: np.ndarray) -> None:
         """Write rgb (float32, C order, (H, W, 3)) as an 8-bit PNG."""
         rc = self.lib.mprt_image_write_png(os.fsencode(path), rgb.shape[1], rgb.shape[0], self._in("float", rgb))

@@ -61,23 +61,31 @@ class Grid:
 
     # -- a render's description, samples and tiles -------------------------------------------
     def resolve(self, desc: dict) -> dict:
-        """Every field of the render description, with the defaults filled in for this grid's
-        scene: width/height 0 are the view's resolution, max_depth 0 the rules' default."""
-        full = self._ll.render_desc_init()
-        full.update(desc)
-        res = self.scene.info()["resolution"]
-        full["width"] = full["width"] or res[0]
-        full["height"] = full["height"] or res[1]
-        full["max_depth"] = full["max_depth"] or (5 if full["rules"] == Rules.SPD else 64)
-        full["threads"] = full["threads"] or 1
-        if not (1 <= full["width"] <= 65536 and 1 <= full["height"] <= 65536):
-            raise InvalidArgument(f"render: resolution {full['width']}x{full['height']} is not in 1..65536")
-        return full
+        """Every field of the render description, with the library's defaults filled in for this
+        grid's scene (width/height 0: the view's resolution; max_depth 0: the rules' default;
+        threads 0: 1), validated as a render would."""
+        return self._ll.grid_resolve_desc(self._h, desc)
 
     def tiling(self, desc: dict):
         """(samples_w, samples_h, tiles_x, tiles_y): the sample grid of a render (pixel centres
         under paper rules, pixel corners under spd rules) and its tiles (edge desc['tile'])."""
         return self._ll.grid_tiling(self._h, desc)
+
+    def tile_rect(self, desc: dict, tile: int) -> tuple:
+        """(x0, y0, x1, y1): the samples of tile number ``tile``, columns x0..x1-1, rows y0..y1-1."""
+        return self._ll.grid_tile_rect(self._h, desc, tile)
+
+    def camera_rays(self, width: int = 0, height: int = 0, rules: str = "paper", first: int = 0,
+                    n: int | None = None):
+        """The eye rays of a render exactly as the renderer makes them, one per sample (pixel
+        centres under paper rules, pixel corners under spd rules), row by row from the top:
+        (origins, unit directions), float64 (n, 3) each; samples first..first+n-1 (default:
+        all from first)."""
+        desc = render_desc(width, height, rules)
+        sw, sh, _, _ = self.tiling(desc)
+        if n is None:
+            n = sw * sh - int(first)
+        return self._ll.grid_camera_rays(self._h, desc, first, n)
 
     def trace_tile(self, desc: dict, tile: int, samples: np.ndarray, rays: np.ndarray, visits: np.ndarray):
         """Trace one tile, recording its rays and stage visits into the given buffers

@@ -131,6 +131,38 @@ class Scene:
         'material' (index), int32 arrays."""
         return self._ll.scene_get_prims(self._h, self.info()["prims"])
 
+    def primitives(self) -> dict:
+        """Every primitive as the library stores it (no NFF parsing):
+
+        - 'kind', 'words', 'material': per primitive id, as ``prim_table``;
+        - 'spheres': 'id', 'center' (n, 3), 'radius' (n,);
+        - 'cones' (cylinders included; 'kind' tells them apart): 'id', 'base' (n, 3),
+          'base_radius', 'apex' (n, 3), 'apex_radius';
+        - 'polygons': 'id', 'vstart' (n + 1,), 'vertices' (m, 3): polygon k has the vertices
+          vertices[vstart[k]:vstart[k + 1]].
+        Shapes are in primitive-id order within each kind."""
+        info = self.info()
+        count = info["count"]
+        out = self._ll.scene_get_prims(self._h, info["prims"])
+        ids, s = self._ll.scene_get_spheres(self._h, count["sphere"])
+        out["spheres"] = {"id": ids, "center": s[:, :3], "radius": s[:, 3]}
+        ids, c = self._ll.scene_get_cones(self._h, count["cone"] + count["cylinder"])
+        out["cones"] = {"id": ids, "base": c[:, :3], "base_radius": c[:, 3], "apex": c[:, 4:7], "apex_radius": c[:, 7]}
+        ids, vstart, verts = self._ll.scene_get_polygons(self._h, count["polygon"], info["vertices"])
+        out["polygons"] = {"id": ids, "vstart": vstart, "vertices": verts}
+        return out
+
+    def materials(self) -> dict:
+        """The material table (``primitives()['material']`` indexes it): 'rgb' (n, 3), 'kd',
+        'ks', 'shine', 't' (transmission), 'ior'."""
+        m = self._ll.scene_get_materials(self._h, self.info()["materials"])
+        return {"rgb": m[:, :3], "kd": m[:, 3], "ks": m[:, 4], "shine": m[:, 5], "t": m[:, 6], "ior": m[:, 7]}
+
+    def lights(self) -> dict:
+        """The point lights: 'position' (n, 3) and 'rgb' (n, 3), the intensity the renderer uses."""
+        data = self._ll.scene_get_lights(self._h, self.info()["lights"])
+        return {"position": data[:, :3], "rgb": data[:, 3:]}
+
     def content_hash(self) -> str:
         """SHA-256 of the scene's NFF text (cached once the scene has a grid,
         since it cannot change then): names the scene in traces."""

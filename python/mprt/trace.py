@@ -27,7 +27,7 @@ import numpy as np
 
 from . import stats as _stats
 from . import tracecheck, tracefile
-from ._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Outcome, RayKind, Stage
+from ._lowlevel import KINDS, RAY_DTYPE, RULES, VISIT_DTYPE, Outcome, RayKind, Stage, binding
 from .errors import TraceError
 from .tracefile import ARRAYS, FORMAT_VERSION
 
@@ -83,7 +83,8 @@ class Trace:
     @property
     def image(self) -> np.ndarray:
         """The traced pixels, reconstructed from the samples as the renderer does."""
-        return samples_to_image(self.samples, self.meta["rules"])
+        return binding(self.meta.get("precision", "double")).samples_to_image(RULES[self.meta["rules"]],
+                                                                              self.samples)
 
     def save(self, path, compress: bool = False) -> None:
         """Write the trace as .npz with its format version and checksums
@@ -100,16 +101,6 @@ class Trace:
     def stats(self) -> dict:
         """The paper's table rows for this trace, tests by kind and per-ray distributions."""
         return _stats.trace_stats(self)
-
-
-def samples_to_image(samples, rules: str) -> np.ndarray:
-    """Pixels from samples exactly as the C renderer makes them."""
-    s = np.asarray(samples, dtype=np.float64)
-    if rules == "spd":
-        img = 0.25 * (((s[:-1, :-1] + s[:-1, 1:]) + s[1:, :-1]) + s[1:, 1:])
-    else:
-        img = s
-    return img.astype(np.float32)
 
 
 def load_trace(path, mmap: bool | None = None, verify: bool = True) -> Trace:

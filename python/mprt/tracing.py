@@ -112,14 +112,6 @@ class _Sink:
             f.close()
 
 
-def _tile_rect(t: int, desc: dict, tiling) -> tuple:
-    """(i0, j0, i1, j1): the samples of tile t, columns i0..i1-1 and rows j0..j1-1."""
-    sw, sh, tx, _ = tiling
-    ts = desc["tile"]
-    i0, j0 = (t % tx) * ts, (t // tx) * ts
-    return i0, j0, min(i0 + ts, sw), min(j0 + ts, sh)
-
-
 def _trace_one(grid: Grid, desc: dict, t: int, rect, b: dict):
     """Trace tile t into buffer set b (reused; grown when a tile needs more)."""
     i0, j0, i1, j1 = rect
@@ -150,7 +142,7 @@ def _run_tiles(grid, desc, sel, tiling, threads, sink, samples, covered, bar):
             t = next(todo, None)
             if t is not None:
                 b = free.pop()
-                rect = _tile_rect(int(t), desc, tiling)
+                rect = grid.tile_rect(desc, int(t))
                 pending.append((pool.submit(_trace_one, grid, desc, int(t), rect, b), rect, b))
 
         for _ in range(window):
@@ -191,7 +183,7 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
     tmpdir = tempfile.mkdtemp(prefix="mprt-trace-", dir=os.path.dirname(os.path.abspath(path))) if path else None
     nsamples = 0
     for t in sel:
-        i0, j0, i1, j1 = _tile_rect(int(t), desc, tiling)
+        i0, j0, i1, j1 = grid.tile_rect(desc, int(t))
         nsamples += (i1 - i0) * (j1 - j0)
     sink = _Sink(tmpdir, samples=nsamples)
     bar = None

@@ -39,7 +39,7 @@ import time
 import numpy as np
 
 import mprt
-from mprt.trace import BLOCKED, HIT, IC, LATE_HIT, OS, PRIMARY, RETURN, SC, SHADED, SHADOW, _static_arrays
+from mprt.trace import BLOCKED, HIT, IC, LATE_HIT, OS, PRIMARY, RETURN, SC, SHADED, SHADOW
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 OUT = os.path.join(HERE, "..", "out", "paper_tables")
@@ -317,7 +317,7 @@ def bbox_refs(geo, grid, dims):
     c, r = geo["ctr"][sph], geo["rad"][sph][:, None]
     a = np.clip(np.floor((c - r - lo) / vs), 0, n - 1)
     b = np.clip(np.floor((c + r - lo) / vs), 0, n - 1)
-    ids = _static_arrays(grid)["voxel_ids"]
+    ids = grid.lists()[1]
     return int(np.prod(b - a + 1, axis=1).sum()) + int(np.sum(geo["kind"][ids] != 0))
 
 
@@ -379,7 +379,7 @@ def paper_rules_numpy(scene, grid, res, offset="renderer", threshold=1 / 512, ma
     geo = parse_nff(scene.to_nff())
     assert not np.any(geo["t"] > 0)
     light_i = 1 / math.sqrt(len(geo["lights"]))
-    o, d = scene.camera_rays(res, res)
+    o, d = grid.camera_rays(res, res)
     contrib = np.ones(len(o))
     depth = np.ones(len(o), dtype=np.int64)
     k = dict.fromkeys(("eye_hits", "hits", "os_kills", "sc_made_secondary", "sc_made_shadow", "ic_kills",
