@@ -55,7 +55,7 @@ demo: $(VENV)/.installed
 
 bench: $(VENV)/.installed
 	$(PY) -m pip install -q embreex
-	$(PY) studies/bench.py
+	$(PY) studies/03_bench/run.py
 
 # The C tests under AddressSanitizer and UndefinedBehaviorSanitizer.
 asan:

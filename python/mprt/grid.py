@@ -12,7 +12,7 @@ from typing import Sequence
 
 import numpy as np
 
-from ._lowlevel import RULES, Rules, binding
+from ._lowlevel import RULES, binding
 from .errors import InvalidArgument
 from .scene import Scene
 

@@ -19,6 +19,7 @@ from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
+from tqdm import tqdm
 
 from . import tracefile
 from ._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Rules
@@ -124,25 +125,26 @@ def _trace_one(grid: Grid, desc: dict, t: int, rect, b: dict):
         b["visits"] = np.empty(max(len(b["visits"]), int(nv * 1.5)), dtype=VISIT_DTYPE)
 
 
-def _run_tiles(grid, desc, sel, tiling, threads, sink, samples, covered, bar):
-    """Trace the tiles ``sel`` on ``threads`` threads and hand them to the sink in tile order.
+def _run_tiles(grid, desc, sel, rects, sink, samples, covered, bar):
+    """Trace the tiles ``sel`` (sample rectangles ``rects``) on desc['threads'] threads and hand
+    them to the sink in tile order.
 
     A window of tiles is in flight, each with its own buffer set: results are consumed in tile
     order, and no tile ever waits for a buffer held by a later one.  Buffers are reused, so
     memory is touched once."""
+    threads = desc["threads"]
     window = threads + 1
     ts = desc["tile"]
     free = [{"samples": np.empty(ts * ts * 3), "rays": np.empty(ts * ts * 8, dtype=RAY_DTYPE),
              "visits": np.empty(ts * ts * 64, dtype=VISIT_DTYPE)} for _ in range(window)]
     with ThreadPoolExecutor(max_workers=threads) as pool:
         pending = deque()
-        todo = iter(sel)
+        todo = iter(zip(sel, rects))
 
         def submit():
-            t = next(todo, None)
+            t, rect = next(todo, (None, None))
             if t is not None:
                 b = free.pop()
-                rect = grid.tile_rect(desc, int(t))
                 pending.append((pool.submit(_trace_one, grid, desc, int(t), rect, b), rect, b))
 
         for _ in range(window):
@@ -178,21 +180,17 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
     tiling = grid.tiling(desc)
     sw, sh, tx, ty = tiling
     sel = select_tiles(tx * ty, tiles, sample)
+    rects = [grid.tile_rect(desc, int(t)) for t in sel]
     samples = np.zeros((sh, sw, 3), dtype=np.float64)
     covered = np.zeros((sh, sw), dtype=bool)
-    tmpdir = tempfile.mkdtemp(prefix="mprt-trace-", dir=os.path.dirname(os.path.abspath(path))) if path else None
-    nsamples = 0
-    for t in sel:
-        i0, j0, i1, j1 = grid.tile_rect(desc, int(t))
-        nsamples += (i1 - i0) * (j1 - j0)
-    sink = _Sink(tmpdir, samples=nsamples)
-    bar = None
-    if progress:
-        from tqdm import tqdm
-
-        bar = tqdm(total=len(sel), unit="tile", desc="trace", leave=False)
+    tmpdir = sink = bar = None
     try:
-        _run_tiles(grid, desc, sel, tiling, desc["threads"], sink, samples, covered, bar)
+        if path:
+            tmpdir = tempfile.mkdtemp(prefix="mprt-trace-", dir=os.path.dirname(os.path.abspath(path)))
+        sink = _Sink(tmpdir, samples=sum((i1 - i0) * (j1 - j0) for i0, j0, i1, j1 in rects))
+        if progress:
+            bar = tqdm(total=len(sel), unit="tile", desc="trace", leave=False)
+        _run_tiles(grid, desc, sel, rects, sink, samples, covered, bar)
         sink.close()
         meta = _meta(grid, desc, tiling, sel, tiles, sample)
         if not covered.all():
@@ -209,7 +207,8 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
     finally:
         if bar:
             bar.close()
-        sink.close()
+        if sink:
+            sink.close()
         if tmpdir:
             shutil.rmtree(tmpdir, ignore_errors=True)
     return result.image, result
