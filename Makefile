@@ -28,7 +28,7 @@ $(B)/obj/%.o: c/src/%.c $(HDR)
 $(B)/libmprt.a: $(patsubst c/src/%.c,$(B)/obj/%.o,$(SRC))
 	ar rcs $@ $^
 
-$(B)/test_%: tests/c/test_%.c $(B)/libmprt.a tests/c/check.h
+$(B)/test_%: tests/c/test_%.c $(B)/libmprt.a $(wildcard tests/c/*.h)
 	$(CC) $(CFLAGS) $< $(B)/libmprt.a -o $@ $(LDLIBS)
 
 # C tests run from tests/c (they read ../data/spd-reference).

@@ -21,8 +21,10 @@
  *
  * Ownership and threads: the caller owns every handle it creates and destroys
  * it with the matching *_destroy (which accepts NULL).  A grid keeps a pointer
- * to its scene: destroy grids before their scene, and do not change a scene
- * that has grids.  The library owns error message strings; one stays valid
+ * to its scene: destroy grids before their scene.  A scene with grids cannot
+ * change: every call that would change it (add, set, load, parse, spd) fails
+ * with MPRT_ERR_STATE until its grids are destroyed (a grid that failed to
+ * build does not count).  The library owns error message strings; one stays valid
  * until the next call on the same handle.  There is no global mutable state:
  * different handles may be used from different threads at once, and one grid
  * may be rendered or intersected by several threads at once.  The library
@@ -174,7 +176,7 @@ int mprt_scene_get_lights(const mprt_scene *scene, double *data, size_t cap);
 /* ---- Grid --------------------------------------------------------------- */
 
 /* Build a uniform grid of nx*ny*nz voxels (each 1..1024) over the scene's
- * bounding box.  OUT: grid.  On failure *out still holds a grid in a failed
+ * bounding box; the scene refuses changes while the grid exists.  OUT: grid.  On failure *out still holds a grid in a failed
  * state whose errmsg says why (or NULL when even that could not be
  * allocated); destroy it.  max_bytes bounds the memory the grid may use
  * (0 selects the default, 4 GiB). */
