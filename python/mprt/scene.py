@@ -14,7 +14,7 @@ import weakref
 import numpy as np
 
 from ._lowlevel import KINDS, binding
-from .errors import InvalidArgument, SceneStateError
+from .errors import InvalidArgument
 
 SPD_SCENES = ("balls", "gears", "mount", "rings", "tetra", "tree")
 SPD_DEFAULT_SIZES = {"balls": 4, "gears": 4, "mount": 6, "rings": 7, "tetra": 6, "tree": 11}
@@ -82,39 +82,29 @@ class Scene:
         return any(g() is not None for g in self._grids)
 
     def _add_grid(self, grid) -> None:
-        """Called by Grid: from now on the scene must not change."""
+        """Called by Grid: from now on the scene cannot change (the library refuses with
+        SceneStateError), so its content hash can be cached."""
         self._grids.append(weakref.ref(grid))
 
-    def _ensure_unlocked(self):
-        if self._has_grids():
-            raise SceneStateError("the scene has grids; change it before building a grid")
-
     def set_view(self, eye, at, up, angle, hither=0.0, resolution=(512, 512)):
-        self._ensure_unlocked()
         self._ll.scene_set_view(self._h, eye, at, up, angle, hither, resolution[0], resolution[1])
 
     def set_background(self, rgb):
-        self._ensure_unlocked()
         self._ll.scene_set_background(self._h, rgb)
 
     def add_light(self, pos, rgb=None):
-        self._ensure_unlocked()
         self._ll.scene_add_light(self._h, pos, rgb)
 
     def set_material(self, rgb, kd, ks, shine, t, ior):
-        self._ensure_unlocked()
         self._ll.scene_set_material(self._h, rgb, kd, ks, shine, t, ior)
 
     def add_sphere(self, center, radius):
-        self._ensure_unlocked()
         self._ll.scene_add_sphere(self._h, center, radius)
 
     def add_polygon(self, vertices, normals=None):
-        self._ensure_unlocked()
         self._ll.scene_add_polygon(self._h, vertices, normals)
 
     def add_cone(self, base, base_radius, apex, apex_radius):
-        self._ensure_unlocked()
         self._ll.scene_add_cone(self._h, base, base_radius, apex, apex_radius)
 
     # -- queries --------------------------------------------------------------------
