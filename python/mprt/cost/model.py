@@ -84,10 +84,13 @@ class CostModel:
 
     latency: cycles per operation class (every class of kernels.OP_CLASSES);
     visit_overhead: cycles added to every visit of a stage ({'OS','IC','SC'});
+    scale: per stage, the percentage applied to the list-scheduled cycles of
+    the stage's kernels (not to packet send/receive): how much work the
+    paper's program does per operation of our kernel graphs (100: the same);
     info: free-form record of where the constants came from."""
 
     def __init__(self, latency: Mapping[str, int], visit_overhead: Mapping[str, int] | None = None,
-                 info: dict | None = None, where: str = "CostModel"):
+                 scale: Mapping[str, int] | None = None, info: dict | None = None, where: str = "CostModel"):
         lat = dict(latency)
         for c in lat:
             if c not in OP_CLASSES:
@@ -106,18 +109,27 @@ class CostModel:
             v = ovh.setdefault(s, 0)
             if not isinstance(v, int) or isinstance(v, bool) or v < 0:
                 raise CostModelError(f"{where}.visit_overhead[{s!r}] = {v!r}: must be a whole number >= 0")
+        scl = dict(scale or {})
+        for s in scl:
+            if s not in STAGES:
+                raise CostModelError(f"{where}.scale[{s!r}]: unknown stage (OS, IC, SC)")
+        for s in STAGES:
+            v = scl.setdefault(s, 100)
+            if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= 1000:
+                raise CostModelError(f"{where}.scale[{s!r}] = {v!r}: must be a whole percentage in 1..1000")
         self.latency = {c: lat[c] for c in OP_CLASSES}
         self.visit_overhead = {s: ovh[s] for s in STAGES}
+        self.scale = {s: scl[s] for s in STAGES}
         self.info = dict(info or {})
 
     def __repr__(self):
-        return f"CostModel(latency={self.latency}, visit_overhead={self.visit_overhead})"
+        return f"CostModel(latency={self.latency}, visit_overhead={self.visit_overhead}, scale={self.scale})"
 
     # -- construction -------------------------------------------------------------
     @classmethod
     def nominal(cls) -> "CostModel":
         """Uncalibrated constants: a plain sequential processor of the time."""
-        return cls(NOMINAL_LATENCY, {s: 0 for s in STAGES}, {"source": "nominal (not calibrated)"})
+        return cls(NOMINAL_LATENCY, info={"source": "nominal (not calibrated)"})
 
     @classmethod
     def default(cls) -> "CostModel":
@@ -141,17 +153,29 @@ class CostModel:
         if not isinstance(d, dict):
             raise CostModelError(f"{path}: expected a table at the top level")
         for k in d:
-            if k not in ("latency", "visit_overhead", "info"):
-                raise CostModelError(f"{path}: unknown field {k!r} (known: latency, visit_overhead, info)")
+            if k not in ("latency", "visit_overhead", "scale", "info"):
+                raise CostModelError(f"{path}: unknown field {k!r} (known: latency, visit_overhead, scale, info)")
         if "latency" not in d:
             raise CostModelError(f"{path}: field 'latency' is missing")
-        return cls(d["latency"], d.get("visit_overhead"), d.get("info"), where=path)
+        return cls(d["latency"], d.get("visit_overhead"), d.get("scale"), d.get("info"), where=path)
 
     def save(self, path) -> None:
         with open(path, "w") as f:
-            json.dump({"latency": self.latency, "visit_overhead": self.visit_overhead, "info": self.info}, f,
+            json.dump({"latency": self.latency, "visit_overhead": self.visit_overhead, "scale": self.scale,
+                       "info": self.info}, f,
                       indent=1, sort_keys=False)
             f.write("\n")
+
+    @classmethod
+    def calibrate(cls, sources=None, scenes=None, **kw):
+        """Fit the constants to the paper's per-unit averages; returns
+        (model, residuals).  sources: None (the shipped counts), a counts CSV,
+        traces, scene names (traced at res x res, default 256) or count rows;
+        scenes: fit on these only (residuals are reported for all).  See
+        mprt.cost.calibrate."""
+        from .calibrate import calibrate
+
+        return calibrate(sources, scenes, **kw)
 
     # -- kernels ------------------------------------------------------------------
     def kernel_cycles(self, name: str, proc: ProcessorConfig) -> int:
@@ -161,7 +185,9 @@ class CostModel:
             raise CostModelError(f"unknown kernel {name!r} (known: {', '.join(KERNELS)})")
         if not isinstance(proc, ProcessorConfig):
             raise CostModelError(f"kernel_cycles: proc must be a ProcessorConfig, not {type(proc).__name__}")
-        return _cycles(name, proc, tuple(self.latency.items()))
+        c = _cycles(name, proc, tuple(self.latency.items()))
+        stage = KERNEL_STAGE[name]
+        return c if stage == "any" else scaled(c, self.scale[stage])
 
     def kernel_table(self, procs: Mapping[str, ProcessorConfig]) -> dict:
         """{kernel: cycles} with each kernel on its stage's processor
@@ -327,6 +353,11 @@ class _TraceContext:
         return counts, {"in": flits_in, "out": flits_out, "out_packets": n_out}
 
 
+def scaled(cycles: int, percent: int) -> int:
+    """cycles x percent / 100, rounded half up, at least 1 for a non-empty kernel."""
+    return max((cycles * percent + 50) // 100, 1 if cycles else 0)
+
+
 @lru_cache(maxsize=1 << 14)
 def _cycles(name, proc, latency_items):
     return schedule_cycles(KERNELS[name], proc, dict(latency_items))
@@ -335,5 +366,5 @@ def _cycles(name, proc, latency_items):
 @lru_cache(maxsize=1)
 def _load_default():
     if not os.path.exists(DEFAULT_FILE):
-        return CostModel.nominal()
+        raise CostModelError(f"{DEFAULT_FILE} is missing: regenerate it with 'python -m mprt.cost.calibrate --write'")
     return CostModel.load(DEFAULT_FILE)
