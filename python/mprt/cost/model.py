@@ -17,9 +17,9 @@ from typing import Mapping
 
 import numpy as np
 
-from .errors import CostModelError
+from .errors import CostModelError, int_table
 from .kernels import HIT_KERNELS, KERNEL_STAGE, KERNELS, OP_CLASSES, TEST_KERNELS
-from .packets import RAY_KINDS, STAGES, packet_flits
+from .packets import STAGES, packet_flits
 from .schedule import ProcessorConfig, schedule_cycles
 
 DEFAULT_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "default_model.json")
@@ -91,35 +91,10 @@ class CostModel:
 
     def __init__(self, latency: Mapping[str, int], visit_overhead: Mapping[str, int] | None = None,
                  scale: Mapping[str, int] | None = None, info: dict | None = None, where: str = "CostModel"):
-        lat = dict(latency)
-        for c in lat:
-            if c not in OP_CLASSES:
-                raise CostModelError(f"{where}.latency[{c!r}]: unknown operation class (known: {', '.join(OP_CLASSES)})")
-        for c in OP_CLASSES:
-            if c not in lat:
-                raise CostModelError(f"{where}.latency: operation class {c!r} is missing")
-            v = lat[c]
-            if not isinstance(v, int) or isinstance(v, bool) or v < 1:
-                raise CostModelError(f"{where}.latency[{c!r}] = {v!r}: must be a whole number of cycles >= 1")
-        ovh = dict(visit_overhead or {})
-        for s in ovh:
-            if s not in STAGES:
-                raise CostModelError(f"{where}.visit_overhead[{s!r}]: unknown stage (OS, IC, SC)")
-        for s in STAGES:
-            v = ovh.setdefault(s, 0)
-            if not isinstance(v, int) or isinstance(v, bool) or v < 0:
-                raise CostModelError(f"{where}.visit_overhead[{s!r}] = {v!r}: must be a whole number >= 0")
-        scl = dict(scale or {})
-        for s in scl:
-            if s not in STAGES:
-                raise CostModelError(f"{where}.scale[{s!r}]: unknown stage (OS, IC, SC)")
-        for s in STAGES:
-            v = scl.setdefault(s, 100)
-            if not isinstance(v, int) or isinstance(v, bool) or not 1 <= v <= 1000:
-                raise CostModelError(f"{where}.scale[{s!r}] = {v!r}: must be a whole percentage in 1..1000")
-        self.latency = {c: lat[c] for c in OP_CLASSES}
-        self.visit_overhead = {s: ovh[s] for s in STAGES}
-        self.scale = {s: scl[s] for s in STAGES}
+        self.latency = int_table(f"{where}.latency", latency, OP_CLASSES, 1, what="operation class")
+        self.visit_overhead = int_table(f"{where}.visit_overhead", visit_overhead, STAGES, 0, default=0,
+                                        what="stage")
+        self.scale = int_table(f"{where}.scale", scale, STAGES, 1, 1000, default=100, what="stage")
         self.info = dict(info or {})
 
     def __repr__(self):

@@ -23,7 +23,7 @@ from dataclasses import dataclass, field
 from functools import lru_cache
 from typing import Mapping
 
-from .errors import CostModelError
+from .errors import CostModelError, int_table
 from .kernels import OP_CLASSES, Graph
 
 #: the operation classes each kind of functional unit runs
@@ -78,14 +78,7 @@ class ProcessorConfig:
                 need = [k for k in UNIT_KINDS if c in UNIT_KINDS[k]]
                 raise CostModelError(f"{where}.units: no unit runs operation class {c!r} "
                                      f"(give at least one of: {', '.join(need)})")
-        if not isinstance(self.latency, Mapping):
-            raise CostModelError(f"{where}.latency must be a mapping of operation class to cycles")
-        for c, v in self.latency.items():
-            if c not in OP_CLASSES:
-                raise CostModelError(f"{where}.latency[{c!r}]: unknown operation class "
-                                     f"(known: {', '.join(OP_CLASSES)})")
-            if not _is_int(v) or v < 1:
-                raise CostModelError(f"{where}.latency[{c!r}] = {v!r}: must be a whole number of cycles >= 1")
+        lat = int_table(f"{where}.latency", self.latency, OP_CLASSES, 1, default=0, what="operation class")
         width = self.issue_width
         if width is None:
             width = sum(units.values())
@@ -95,7 +88,7 @@ class ProcessorConfig:
             raise CostModelError(f"{where}.pipelined = {self.pipelined!r}: must be true or false")
         # canonical, immutable: zero counts dropped, kinds in the order given
         object.__setattr__(self, "units", types.MappingProxyType(units))
-        object.__setattr__(self, "latency", types.MappingProxyType(dict(self.latency)))
+        object.__setattr__(self, "latency", types.MappingProxyType({c: v for c, v in lat.items() if v}))
         object.__setattr__(self, "issue_width", width)
 
     def __hash__(self):
