@@ -18,6 +18,9 @@ import time
 
 import numpy as np
 
+import mprt
+from mprt import Outcome, RayKind, Stage
+
 STUDIES = os.path.dirname(os.path.abspath(__file__))
 
 
@@ -36,6 +39,16 @@ def study_args(run_file: str, description: str, quick_help: str, argv=None, extr
     out = a.out or (os.path.join(here, "ref") if a.quick else os.path.join(STUDIES, "out", os.path.basename(here)))
     os.makedirs(out, exist_ok=True)
     return a, out
+
+
+def per_scene_study(run_file: str, description: str, csv_name: str, row, argv=None) -> int:
+    """Run a study whose table has one row per scene of SCENES, ``row(scene, res, threads)``,
+    at the resolution and size of quick_or_full; write it as csv_name."""
+    a, out = study_args(run_file, description, "64x64, scenes at size 2", argv)
+    res, size, _ = quick_or_full(a.quick)
+    write_table(out, csv_name, [{"scene": name, **row(mprt.Scene.spd(name, size), res, a.threads)}
+                                for name in SCENES])
+    return 0
 
 
 def log(msg: str) -> None:
@@ -199,8 +212,6 @@ def paper_counts_row(i: int = 1) -> dict:
 def by_ray_class(tr) -> dict:
     """Rays, IC -> OS returns and voxels stepped of a trace's primary, secondary, blocked shadow and
     unblocked shadow rays, as rays_<class>, returns_<class>, voxels_<class>."""
-    from mprt import Outcome, RayKind, Stage
-
     v, kind = tr.visits, tr.rays["kind"]
     blocked = np.zeros(len(tr.rays), dtype=bool)
     blocked[v["ray"][(v["stage"] == Stage.IC) & (v["outcome"] == Outcome.BLOCKED)]] = True

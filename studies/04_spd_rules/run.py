@@ -18,8 +18,7 @@ import os
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-import mprt  # noqa: E402
-from _common import SCENES, nonshadow_hits, quick_or_full, study_args, write_table  # noqa: E402
+from _common import nonshadow_hits, per_scene_study  # noqa: E402
 
 
 def spd_row(scene, res, threads) -> dict:
@@ -31,11 +30,7 @@ def spd_row(scene, res, threads) -> dict:
 
 
 def main(argv=None) -> int:
-    a, out = study_args(__file__, "ray counts under SPD's test procedure", "64x64, scenes at size 2", argv)
-    res, size, _ = quick_or_full(a.quick)
-    rows = [{"scene": name, **spd_row(mprt.Scene.spd(name, size), res, a.threads)} for name in SCENES]
-    write_table(out, "spd_rules.csv", rows)
-    return 0
+    return per_scene_study(__file__, "ray counts under SPD's test procedure", "spd_rules.csv", spd_row, argv)
 
 
 if __name__ == "__main__":

@@ -23,8 +23,7 @@ import sys
 import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
-import mprt  # noqa: E402
-from _common import SCENES, nonshadow_hits, quick_or_full, study_args, write_table  # noqa: E402
+from _common import nonshadow_hits, per_scene_study  # noqa: E402
 from mprt import Outcome, RayKind, Stage  # noqa: E402
 
 THRESHOLD = 1 / 512
@@ -62,12 +61,7 @@ def zero_luminance_row(scene, res, threads) -> dict:
 
 
 def main(argv=None) -> int:
-    a, out = study_args(__file__, "suppressed shadow rays that carry zero luminance", "64x64, scenes at size 2",
-                        argv)
-    res, size, _ = quick_or_full(a.quick)
-    rows = [{"scene": name, **zero_luminance_row(mprt.Scene.spd(name, size), res, a.threads)} for name in SCENES]
-    write_table(out, "zero_luminance.csv", rows)
-    return 0
+    return per_scene_study(__file__, "suppressed shadow rays that carry zero luminance", "zero_luminance.csv", zero_luminance_row, argv)
 
 
 if __name__ == "__main__":
