@@ -92,8 +92,13 @@ def violations(layer: str, rel: str, source: str):
             out.append(f"{where}: imports itself")
         elif LAYER[target] > LAYER[layer]:
             out.append(f"{where}: {layer} imports {target}, a layer above it")
-    if layer != "_build" and "cffi" in {n.names[0].name.split(".")[0] for n in ast.walk(ast.parse(source))
-                                        if isinstance(n, ast.Import)}:
+    tops = set()
+    for n in ast.walk(ast.parse(source)):
+        if isinstance(n, ast.Import):
+            tops |= {a.name.split(".")[0] for a in n.names}
+        elif isinstance(n, ast.ImportFrom) and n.level == 0:
+            tops.add(n.module.split(".")[0])
+    if layer != "_build" and "cffi" in tops:
         out.append(f"{rel}: only _build imports cffi")
     return out
 
@@ -113,8 +118,9 @@ def test_module_imports_only_layers_below_it(layer, rel):
     ("machine", os.path.join("machine", "pe.py"), "from ..explore import run\n", "machine imports explore"),
     ("newthing", "newthing.py", "", "no place"),
     ("tracing", "tracing.py", "from .elsewhere import x\n", "'elsewhere', which has no place"),
+    ("grid", "grid.py", "from cffi import FFI\n", "only _build imports cffi"),
 ], ids=["lazy import upward", "from-package import of a module", "package root", "extension", "subpackage",
-        "unplaced module", "unplaced import"])
+        "unplaced module", "unplaced import", "cffi"])
 def test_the_check_catches_a_broken_order(layer, rel, source, words):
     """The checker reports an upward import, an import of the extensions outside _lowlevel and an unplaced module."""
     found = violations(layer, rel, source)
