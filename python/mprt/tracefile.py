@@ -10,8 +10,10 @@ them a ``Trace``.
 """
 from __future__ import annotations
 
+import ctypes
 import io
 import json
+import mmap
 import os
 import shutil
 import zipfile
@@ -36,13 +38,52 @@ def as_bytes(a: np.ndarray) -> np.ndarray:
     return a.view(np.uint8).reshape(-1)
 
 
-def crc(a: np.ndarray, chunk: int = 1 << 26) -> int:
+try:
+    _madvise = ctypes.CDLL(None, use_errno=True).madvise
+    _madvise.argtypes = (ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int)
+    _DONTNEED = mmap.MADV_DONTNEED
+except (AttributeError, OSError):   # no madvise: pages simply stay until the kernel wants them
+    _madvise = None
+
+
+_AROUND = 1 << 21   # the kernel may map pages beyond a fault (fault-around, large folios): up to 2 MiB
+
+
+def release(a: np.ndarray) -> None:
+    """Let the kernel drop the pages of a read-only memory-mapped array from its start to the
+    end of the slice ``a`` (and a little beyond, where the kernel maps ahead) from this
+    process's resident set: they stay in the page cache and are read again if touched.  Called
+    on each slice once it is processed, reading a file of any size through (in order, or with
+    look-ups behind) keeps memory bounded.  Anything but a read-only memory map is left alone."""
+    if _madvise is None or not isinstance(a, np.memmap) or a.mode != "r" or a.nbytes == 0 \
+            or not a.flags.c_contiguous:
+        return
+    root = a
+    while isinstance(root.base, np.ndarray):
+        root = root.base
+    start = root.ctypes.data - root.ctypes.data % mmap.PAGESIZE
+    _madvise(start, min(a.ctypes.data + a.nbytes + _AROUND, root.ctypes.data + root.nbytes) - start, _DONTNEED)
+
+
+def chunks(a: np.ndarray, size: int):
+    """(offset, in-memory copy of a[offset:offset + size]) over the whole array; a memory-mapped
+    array's pages are released after each copy (``release``)."""
+    for i in range(0, len(a), size):
+        part = a[i:i + size]
+        yield i, np.array(part)
+        release(part)
+
+
+def crc(a: np.ndarray, chunk: int = 1 << 24) -> int:
     """CRC-32 of an array's bytes, read in chunks (a memory-mapped array is
-    not read whole): detects damaged or edited data."""
-    b = as_bytes(np.ascontiguousarray(a)) if a.size else np.zeros(0, np.uint8)
+    not read whole, nor kept resident): detects damaged or edited data."""
+    if not a.size:
+        return 0
+    b = as_bytes(a if a.flags.c_contiguous else np.ascontiguousarray(a))
     value = 0
     for i in range(0, b.size, chunk):
         value = zlib.crc32(memoryview(np.ascontiguousarray(b[i:i + chunk])), value)
+        release(b[i:i + chunk])
     return value
 
 
