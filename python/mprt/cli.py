@@ -214,6 +214,8 @@ def cmd_trace(a) -> int:
         _, tr = trace(grid, **kw, tiles=a.tiles, sample=a.sample, path=target, progress=_progress_wanted(a))
         if a.compress:
             tr.save(a.output, compress=True)
+    except OSError as e:   # (disk full, ...) name the user's file, not the temporary ones beside it
+        raise OSError(f"-o {a.output}: {e.strerror or e}") from None
     finally:
         if a.compress:
             os.unlink(target)
@@ -319,7 +321,7 @@ def build_parser() -> argparse.ArgumentParser:
     t = sub.add_parser("trace", help="record every stage visit of every ray (a per-ray cost trace)", epilog=EPILOG,
                        description="Trace a scene, recording every stage visit of every ray, to an .npz file "
                                    "(streamed to disk: bounded memory).  Before a run of many tiles, the file's size "
-                                   f"is estimated from {ESTIMATE_TILES} of them (or 1%%) and printed.")
+                                   f"is estimated from {ESTIMATE_TILES} of them (or 1%) and printed.")
     options.add_scene_argument(t)
     options.add_render_options(t, trace=True)
     sel = t.add_mutually_exclusive_group()

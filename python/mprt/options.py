@@ -50,7 +50,7 @@ THREADS_MAX = 64         # threads: 1..THREADS_MAX
 TILE_MAX = 256           # tile edge in samples: 1..TILE_MAX
 SPD_MAX_SIZES = {"balls": 8, "gears": 69, "mount": 12, "rings": 135, "tetra": 12, "tree": 23}
 
-OUTPUT_SUFFIX = {"png": ".png", "npz": ".npz"}   # outputs whose format is fixed by mprt
+OUTPUT_SUFFIX = {"png": ".png", "plot": ".png", "npz": ".npz"}   # outputs whose format mprt fixes
 OUTPUT_HELP = {
     "png": "PNG image to write (the name must end in .png)",
     "npz": "trace file to write (the name must end in .npz)",
@@ -176,8 +176,9 @@ def spd_size(name: str, size) -> int | None:
         v = int(size)
     except (TypeError, ValueError):
         v = None
+    what = "a whole number in" if v is None else "in"
     if v is None or not lo <= v <= hi:
-        raise UsageError(f"SPD size {size} for {name} is not in {lo}..{hi} (default {SPD_DEFAULT_SIZES[name]})")
+        raise UsageError(f"SPD size {size} for {name} is not {what} {lo}..{hi} (default {SPD_DEFAULT_SIZES[name]})")
     return v
 
 
@@ -271,9 +272,11 @@ def check_output(option: str, path, kind: str = "any") -> None:
     if path is None:
         return
     p = os.fspath(path)
+    if not p:
+        raise UsageError(f"{option}: the file name is empty")
     suffix = OUTPUT_SUFFIX.get(kind)
     if suffix and not p.lower().endswith(suffix):
-        raise UsageError(f"{option} {p}: mprt writes {kind.upper()} here; give a name ending in {suffix}")
+        raise UsageError(f"{option} {p}: mprt writes {suffix[1:].upper()} here; give a name ending in {suffix}")
     if os.path.isdir(p):
         raise UsageError(f"{option} {p}: is a directory")
     d = os.path.dirname(p) or "."
