@@ -122,6 +122,19 @@ class SystemConfig:
     def finite_fifos(self) -> bool:
         return any(s.send_fifo is not None or s.receive_fifo is not None for s in self.stages)
 
+    @property
+    def cycle_capacity(self) -> int | None:
+        """The fewest live rays a PE needs for its FIFOs to deadlock (None:
+        never): every stage of a cycle then has a full receive FIFO, a full
+        send FIFO and a packet in each of its blocked processors, so it is at
+        least the smallest sum of two stages' (receive + send + replicas)."""
+        caps = [None if s.send_fifo is None or s.receive_fifo is None else s.send_fifo + s.receive_fifo + s.replicas
+                for s in self.stages]
+        finite = sorted(c for c in caps if c is not None)
+        if len(finite) < 2:
+            return None
+        return finite[0] + finite[1]
+
     def processors(self) -> dict:
         """The processor configuration that runs each subtask (for the cost model)."""
         return {t: self.stages[self.stage_of(t)].processor for t in SUBTASKS}
@@ -261,11 +274,12 @@ def make_processor(spec, subtasks, where="processor"):
                 raise ConfigError(f"{where}: unknown paper processor {sub!r} (known: {', '.join(SUBTASKS)})")
             return ProcessorConfig.paper(sub)
         if isinstance(spec, dict):
-            return ProcessorConfig(**spec)
+            return ProcessorConfig.from_dict(spec, where=where)
     except ConfigError:
         raise
     except (TypeError, ValueError) as e:
-        raise ConfigError(f"{where}: {e}") from None
+        msg = str(e)
+        raise ConfigError(msg if msg.startswith(where) else f"{where}: {msg}") from None
     raise ConfigError(f"{where}: must be 'sequential', 'paper', 'paper:OS|IC|SC' or a table of "
                       f"units/latency/issue_width, not {spec!r}")
 
@@ -293,16 +307,18 @@ def model_3mppe() -> SystemConfig:
     """The paper's 3MPPE: VLIW OS (2 int + 2 FP) and IC (1 int + 3 FP), a
     sequential SC, on a ring (structured buffer pool, 1 cycle per flit) with
     finite FIFOs; IC and SC with resident memory and a cache in front of
-    ICGM/SCGM shared by 2 PEs.  Sizes are our choices (the paper gives none)."""
+    ICGM/SCGM shared by 2 PEs.  Sizes are our choices (the paper gives none);
+    window and FIFOs are such that the FIFOs cannot deadlock for trees of up
+    to 28 leaves (4 x 28 < 2 x (8 + 48 + 1), see README.md)."""
     return SystemConfig(
         "3mppe",
-        tuple(stage((t,), "paper", send_fifo=8, receive_fifo=16) for t in SUBTASKS),
+        tuple(stage((t,), "paper", send_fifo=8, receive_fifo=48) for t in SUBTASKS),
         ring=RingConfig(flit_time=1, buffer_classes=3),
         ic_memory=LocalMemoryConfig(resident=64 << 10, cache=CacheConfig(size=32 << 10, line=32, ways=4)),
         sc_memory=LocalMemoryConfig(resident=4 << 10, cache=CacheConfig(size=4 << 10, line=32, ways=2)),
         icgm=GlobalMemoryConfig(latency=20, bandwidth=8, contention=True),
         scgm=GlobalMemoryConfig(latency=20, bandwidth=8, contention=True),
-        pes=2, dis="dynamic", window=32)
+        pes=2, dis="dynamic", window=4)
 
 
 BUILTIN = {"S": model_s, "M": model_m, "3mppe": model_3mppe}

@@ -35,36 +35,41 @@ class Fifo:
         return self.capacity is None or len(self.items) + self.reserved < self.capacity
 
     def _mark(self):
+        """Integrate the occupancy up to now (called before each change)."""
         now = self.env._now
-        n = len(self.items) + self.reserved
-        self.area += n * (now - self.last)
+        self.area += (len(self.items) + self.reserved) * (now - self.last)
         self.last = now
+
+    def _after(self):
+        n = len(self.items) + self.reserved
+        if n > self.max:
+            self.max = n
         if self.timeline is not None:
-            self.timeline.level(self.name, now, n)
+            self.timeline.level(self.name, self.last, n)
 
     def put(self, item) -> None:
         self._mark()
         self.items.append(item)
         self.puts += 1
-        n = len(self.items) + self.reserved
-        if n > self.max:
-            self.max = n
+        self._after()
 
     def get(self):
         self._mark()
-        return self.items.popleft()
+        x = self.items.popleft()
+        if self.timeline is not None:
+            self._after()
+        return x
 
     def reserve(self) -> None:
         self._mark()
         self.reserved += 1
-        n = len(self.items) + self.reserved
-        if n > self.max:
-            self.max = n
+        self._after()
 
     def unreserve(self) -> None:
         """A reserved slot is not needed (the packet went to an idle processor)."""
         self._mark()
         self.reserved -= 1
+        self._after()
 
     def fill(self, item) -> None:
         """A packet for a reserved slot has arrived."""
@@ -72,6 +77,7 @@ class Fifo:
         self.reserved -= 1
         self.items.append(item)
         self.puts += 1
+        self._after()
 
     def mean(self, end) -> float:
         area = self.area + (len(self.items) + self.reserved) * (end - self.last)

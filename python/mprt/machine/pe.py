@@ -7,9 +7,12 @@ from .stage import Stage
 
 class DIS:
     """Admits this PE's primary rays (in its order) while fewer than
-    ``window`` rays are live in the PE.  A primary goes into the receive
-    FIFO of the stage running OS (or to an idle processor there); when that
-    FIFO is full the DIS waits for a slot, holding the primary."""
+    ``window`` rays are live in the PE.  An admitted primary is work for the
+    stage running SC, which makes the ray and sends it to OS (the paper's SC
+    makes the primary rays); when the cost model gives that work no cycles,
+    the primary goes straight to the stage running OS instead.  The work
+    goes into that stage's receive FIFO (or to an idle processor there);
+    when the FIFO is full the DIS waits for a slot, holding it."""
 
     def __init__(self, pe, order, window: int):
         self.pe = pe
@@ -24,26 +27,31 @@ class DIS:
             return
         pe = self.pe
         system = pe.system
-        os = pe.stages[pe.os_stage]
+        gen = system.gen_cycles > 0
+        dst = pe.stages[pe.sc_stage if gen else pe.os_stage]
         while pe.live < self.window:
             k = next(self.order, None)
             if k is None:
                 return
             x = system.replay.ensure_tree(k)
+            if gen:
+                x = ~k
             system.tree_pe[k] = pe.index
             pe.live += 1
+            if pe.live > pe.max_live:
+                pe.max_live = pe.live
             self.admitted += 1
-            if os.room():
-                os.accept(x)
+            if dst.room():
+                dst.accept(x)
             else:
                 self.pending = x
-                os.receive.waiters.append(self)
+                dst.receive.waiters.append(self)
                 return
 
     def release(self) -> None:
         """A slot of the OS receive FIFO is ours: the held primary goes in."""
         x, self.pending = self.pending, None
-        self.pe.stages[self.pe.os_stage].accept(x)
+        self.pe.stages[self.pe.os_stage if x >= 0 else self.pe.sc_stage].accept(x)
         self.admit()
 
 
@@ -56,7 +64,9 @@ class PE:
         self.system = system
         self.index = index
         self.live = 0
+        self.max_live = 0
         self.retired = 0
+        self.t_end = 0
         self.stages = []
         rank = first_rank
         for i, sc in enumerate(cfg.stages):
@@ -64,6 +74,7 @@ class PE:
             rank += sc.replicas
         self.next_rank = rank
         self.os_stage = cfg.stage_of("OS")
+        self.sc_stage = cfg.stage_of("SC")
         if cfg.ring is not None:
             from .ring import Ring
             self.net = Ring(system, self, cfg.ring)
@@ -80,7 +91,7 @@ class PE:
         self.retired += 1
         system = self.system
         system.retired += 1
-        system.t_end = system.env._now
+        system.t_end = self.t_end = system.env._now
         if self.live < self.dis.window:
             self.dis.admit()
 

@@ -25,7 +25,7 @@ PAGE_BITS = 14
 PAGE = 1 << PAGE_BITS
 PAGE_MASK = PAGE - 1
 SCAN = 1 << 22          # visits per chunk when scanning a (memory-mapped) trace
-COST_CHUNK = 1 << 18    # visits per cost-model call when costing lazily
+COST_CHUNK = 1 << 20    # visits per cost-model call when costing lazily
 
 RETIRE = -1             # dest: the ray ends here
 CHILDREN = -2           # dest: the ray ends here and the visit made rays (SC)
@@ -47,19 +47,28 @@ class Costs:
     (numpy arrays, one entry per visit), from arrays or from a cost model
     called on slices of the trace that start and end at ray-tree boundaries."""
 
-    def __init__(self, trace, source, processors=None, tree_vstart=None):
+    def __init__(self, trace, source, processors=None):
         self.trace = trace
         self.model = None
+        self.tree_vstart = None
         if hasattr(source, "visit_costs"):
             self.model, self.processors = source, processors
-            self.tree_vstart = tree_vstart
             self._chunk = (0, 0, None)
+            # what SC spends making one primary ray (the same for every chunk)
+            vc = self._costs(0, min(1, len(trace.visits)))
         else:
+            vc = source
             self.arrays = tuple(np.asarray(getattr(source, k)) for k in ("process", "receive", "send", "flits"))
             n = len(trace.visits)
             for k, a in zip(("process", "receive", "send", "flits"), self.arrays):
                 if a.shape != (n,):
                     raise ValueError(f"costs.{k} has shape {a.shape}, the trace has {n} visits")
+        self.inject = tuple(int(getattr(vc, k, 0)) for k in ("inject_process", "inject_send", "inject_flits"))
+
+    def _costs(self, a, b):
+        t = self.trace
+        sub = Trace(t.meta, {k: (t.visits[a:b] if k == "visits" else getattr(t, k)) for k in _ARRAY_NAMES})
+        return self.model.visit_costs(sub, self.processors)
 
     def slice(self, lo, hi):
         if self.model is None:
@@ -70,9 +79,7 @@ class Costs:
             ka = int(np.searchsorted(tv, lo, "right")) - 1
             kb = int(np.searchsorted(tv, max(hi, lo + COST_CHUNK), "left"))
             a, b = int(tv[ka]), int(tv[kb]) if kb < len(tv) else len(self.trace.visits)
-            t = self.trace
-            sub = Trace(t.meta, {k: (t.visits[a:b] if k == "visits" else getattr(t, k)) for k in _ARRAY_NAMES})
-            vc = self.model.visit_costs(sub, self.processors)
+            vc = self._costs(a, b)
             arrs = tuple(np.asarray(getattr(vc, k)) for k in ("process", "receive", "send", "flits"))
             self._chunk = (a, b, arrs)
         return tuple(x[lo - a:hi - a] for x in arrs)
@@ -135,29 +142,47 @@ class Replay:
             if bad.any():
                 _fail(f"ray {int(ids[np.argmax(bad)])} is not stored after its parent within its primary's "
                       "tree (traces made by mprt are)")
-        # first visit of every tree: visits are grouped by ray in ray order
+        # first visit of every tree: a tree's visits are contiguous, its
+        # primary's first (each ray's visits are contiguous; within a tree the
+        # rays need not be in id order)
         tv = np.full(len(prim) + 1, self.n_visits, dtype=np.int64)
-        is_prim = np.zeros(0, bool)
-        prev = -1
+        prev_tree, prev_ray = -1, -1
+        kinds = rays["kind"]
         for a in range(0, self.n_visits, SCAN):
-            vr = np.asarray(visits[a:a + SCAN]["ray"])
-            d = np.diff(np.concatenate([[prev], vr]))
-            if np.any(d < 0):
-                _fail("visits are not grouped by ray in ray order")
-            if np.any(d > 1):
-                _fail(f"ray {int(vr[np.argmax(d > 1)] - 1)} has no visit")
-            starts = np.flatnonzero(d == 1)
-            new = vr[starts]
-            is_prim = np.isin(new, prim)
-            k = np.searchsorted(prim, new[is_prim])
-            tv[k] = starts[is_prim] + a
-            prev = int(vr[-1])
-        if self.n_rays and prev != self.n_rays - 1:
-            _fail("some rays have no visits")
+            vr = np.asarray(visits[a:a + SCAN]["ray"]).astype(np.int64)
+            if len(vr) and (vr.min() < 0 or vr.max() >= self.n_rays):
+                _fail("a visit names a ray that does not exist")
+            tree = np.searchsorted(prim, vr, "right") - 1
+            dt = np.diff(np.concatenate([[prev_tree], tree]))
+            if np.any(dt < 0) or np.any(dt > 1):
+                _fail("the visits of each primary ray's tree are not contiguous, in the primaries' order "
+                      "(traces made by mprt are)")
+            starts = np.flatnonzero(dt == 1)
+            if np.any(vr[starts] != prim[tree[starts]]):
+                _fail("a tree's first visit is not its primary ray's")
+            tv[tree[starts]] = starts + a
+            prev_tree, prev_ray = int(tree[-1]), int(vr[-1])
+        if prev_tree != len(prim) - 1:
+            _fail("some primary rays have no visits")
+        del kinds
+        # the most leaves of any tree: a bound on the rays a tree has live at once
+        leaves = 0
+        for a in range(0, len(prim), max(1, SCAN // 16)):
+            r0 = int(prim[a])
+            b = min(a + max(1, SCAN // 16), len(prim))
+            r1 = int(prim[b]) if b < len(prim) else self.n_rays
+            r = np.asarray(rays[r0:r1])
+            par = r["parent"]
+            is_parent = np.zeros(r1 - r0, bool)
+            is_parent[par[par >= 0] - r0] = True
+            tree = np.searchsorted(prim[a:b], np.arange(r0, r1), "right") - 1
+            leaves = max(leaves, int(np.bincount(tree, weights=~is_parent).max()))
+        self.max_leaves = leaves
         self.prim_rays = prim
         self.tree_vstart = tv
         self.n_trees = len(prim)
         self.tree_rstart = np.concatenate([prim, [self.n_rays]]).astype(np.int64)
+        self.tree_first = tv[:-1].tolist()
 
     # -- pages ------------------------------------------------------------------
     def ensure_tree(self, k: int) -> int:

@@ -87,6 +87,7 @@ class SimResult:
     memory: dict
     rays: dict
     visits: int
+    deadlock_bound: dict = field(default_factory=dict)
     wall_seconds: float = 0.0
     log: list | None = None
     timeline: Timeline | None = field(default=None, repr=False)
@@ -113,6 +114,7 @@ class SimResult:
             "memory": self.memory,
             "rays": self.rays,
             "visits": self.visits,
+            "deadlock_bound": self.deadlock_bound,
             "wall_seconds": self.wall_seconds,
             "config": self.config,
         }

@@ -48,6 +48,7 @@ class Stage:
         self.stall = [0] * n                  # memory stall cycles (part of processing)
         self.visits = [0] * n
         self.pending = [None] * n             # packets a blocked processor still has to send
+        self.generated = 0                    # primary rays made (SC)
         self.ev = []
         for k in range(n):
             ev = Event(env)
@@ -59,13 +60,17 @@ class Stage:
     def start(self, k: int, j: int) -> None:
         """Processor k begins visit j now; its end is scheduled."""
         sysm = self.system
-        d = sysm.replay.dur[j >> PAGE_BITS][j & PAGE_MASK]
-        if self.memory is not None:
-            key = sysm.replay.memk[j >> PAGE_BITS][j & PAGE_MASK]
-            if key != -1:
-                s = self.memory.stall(key, self.env._now)
-                d += s
-                self.stall[k] += s
+        if j >= 0:
+            d = sysm.replay.dur[j >> PAGE_BITS][j & PAGE_MASK]
+            if self.memory is not None:
+                key = sysm.replay.memk[j >> PAGE_BITS][j & PAGE_MASK]
+                if key != -1:
+                    s = self.memory.stall(key, self.env._now)
+                    d += s
+                    self.stall[k] += s
+        else:                       # SC makes primary ray ~j
+            d = sysm.gen_cycles
+            self.generated += 1
         self.cur[k] = j
         self.state[k] = BUSY
         self.busy[k] += d
@@ -99,37 +104,47 @@ class Stage:
         pe = self.pe
         log = self.system.log
         output = self.output
+        tree_first = replay.tree_first
+        gen_flits = self.system.gen_flits
         while True:
             yield ev
             ev.callbacks = []
             if state[k] == BUSY:
                 j = self.cur[k]
-                p, o = j >> PAGE_BITS, j & PAGE_MASK
-                g = dest_pages[p][o]
                 if log is not None:
                     log.append((self.env._now, "end", self.name, k, j))
-                if g >= 0:
-                    f = flit_pages[p][0][o] if ring else 0
-                    ok = output(j + 1, g, f)
-                    if not ok:
-                        self._block(k, [(j + 1, g, f)])
-                    replay.visit_done(j)
+                if j < 0:               # SC made primary ray ~j: to OS
+                    x = tree_first[~j]
+                    if not output(x, pe.os_stage, gen_flits):
+                        self._block(k, [(x, pe.os_stage, gen_flits)])
+                        continue
                 else:
+                    p, o = j >> PAGE_BITS, j & PAGE_MASK
+                    g = dest_pages[p][o]
                     ok = True
-                    if g == CHILDREN:
-                        kids = kid_pages[p][o]
-                        kf = flit_pages[p][1][o] if ring else (0,) * len(kids)
-                        os_stage = pe.os_stage
-                        pe.live += len(kids)
-                        for i, c in enumerate(kids):
-                            if not output(c, os_stage, kf[i]):
-                                self._block(k, [(kids[m], os_stage, kf[m]) for m in range(i, len(kids))])
-                                ok = False
-                                break
-                    replay.visit_done(j)
-                    pe.retire()
-                if not ok:
-                    continue
+                    if g >= 0:              # the ray goes on at stage g
+                        f = flit_pages[p][0][o] if ring else 0
+                        if not output(j + 1, g, f):
+                            self._block(k, [(j + 1, g, f)])
+                            ok = False
+                        replay.visit_done(j)
+                    else:                   # the ray ends, maybe with children (to OS)
+                        if g == CHILDREN:
+                            kids = kid_pages[p][o]
+                            kf = flit_pages[p][1][o] if ring else (0,) * len(kids)
+                            os_stage = pe.os_stage
+                            pe.live += len(kids)
+                            if pe.live > pe.max_live:
+                                pe.max_live = pe.live
+                            for i, c in enumerate(kids):
+                                if not output(c, os_stage, kf[i]):
+                                    self._block(k, [(kids[m], os_stage, kf[m]) for m in range(i, len(kids))])
+                                    ok = False
+                                    break
+                        replay.visit_done(j)
+                        pe.retire()
+                    if not ok:
+                        continue
             # take the next packet: local queue first, then the receive FIFO
             if local:
                 self.start(k, local.popleft())

@@ -47,6 +47,9 @@ class System:
         self.replay = Replay(trace, Costs(trace, source, config.processors()),
                              [config.stage_of(t) for t in SUBTASKS], kid_flits, memory=config.level == 3)
         n_trees = self.replay.n_trees
+        ip, isend, iflits = self.replay.costs.inject
+        self.gen_process, self.gen_send = ip, isend
+        self.gen_cycles, self.gen_flits = ip + isend, iflits
         if config.pes > n_trees:
             where = f"{config.source}: " if config.source else ""
             raise ConfigError(f"{where}pes: {config.pes} PEs but the trace has only {n_trees} primary rays "
@@ -118,8 +121,18 @@ class System:
     def _deadlock(self) -> DeadlockError:
         state = {"rays_retired": self.retired, "rays": self.replay.n_rays,
                  "pes": {f"PE{pe.index}": pe.state() for pe in self.pes}}
-        lines = [f"deadlock: the machine stopped with {self.replay.n_rays - self.retired} of "
-                 f"{self.replay.n_rays} rays still in it (no stage can proceed; no cycle count is given)"]
+        cfg, rp = self.config, self.replay
+        lines = [f"deadlock: the machine stopped with {rp.n_rays - self.retired} of "
+                 f"{rp.n_rays} rays still in it (no stage can proceed; no cycle count is given)"]
+        cap = cfg.cycle_capacity
+        if cap is not None and cfg.window * rp.max_leaves >= cap:
+            lines.append(f"  the FIFOs can fill: window {cfg.window} x up to {rp.max_leaves} live rays per tree "
+                         f">= {cap} packets (the fewest that fill two stages' FIFOs); a window below "
+                         f"{-(-cap // rp.max_leaves)} rules this out")
+        if cfg.ring is not None and cfg.ring.buffer_classes < len(cfg.stages):
+            lines.append(f"  the ring has {cfg.ring.buffer_classes} buffer class(es) for {len(cfg.stages)} stages: "
+                         f"headers can wait on each other in a cycle (the structured pool, "
+                         f"buffer_classes = {len(cfg.stages)}, cannot)")
         for pe in self.pes:
             st = pe.state()
             lines.append(f"  PE{pe.index}: {st['live_rays']} live rays"
@@ -159,6 +172,12 @@ class System:
             if tag in self.memories:
                 for m in self.memories[tag]["local"]:
                     stall[m.pe, t] += m.stall_cycles
+        # SC's making of primary rays
+        made = np.zeros(npe, dtype=np.int64)
+        for pe in self.pes:
+            made[pe.index] = sum(st.generated for st in pe.stages)
+        proc[:, 2] += made * self.gen_process
+        comm[:, 2] += made * self.gen_send
         proc_all = proc + stall
         processors, nodes, pes = [], {}, []
         sub_wait = np.zeros((npe, 3), dtype=np.int64)
@@ -171,7 +190,7 @@ class System:
                 wait = total - busy
                 # the processor's waiting, split over its subtasks by their busy cycles
                 loads = [int(proc_all[pe.index, i] + comm[pe.index, i]) for i in subs]
-                if sum(st.visits) != int(vis[pe.index, subs].sum()) or sum(loads) != busy:
+                if sum(st.visits) - st.generated != int(vis[pe.index, subs].sum()) or sum(loads) != busy:
                     raise AssertionError(f"{st.name}: visits or busy cycles differ from the trace's")
                 rest = wait
                 for n, i in enumerate(subs):
@@ -189,19 +208,22 @@ class System:
                        "blocked": blocked, "idle": wait - blocked, "visits": sum(st.visits),
                        "utilisation": busy / total if total else 0.0}
                 pe_nodes[st.cfg.name] = fig
-                agg = nodes.setdefault(st.cfg.name, {k: (0 if isinstance(v, int) else v) for k, v in fig.items()})
-                for key in ("processing", "communication", "waiting", "busy", "blocked", "idle", "visits"):
+                summed = ("processing", "communication", "waiting", "busy", "blocked", "idle", "visits")
+                agg = nodes.setdefault(st.cfg.name, {**fig, **dict.fromkeys(summed, 0)})
+                for key in summed:
                     agg[key] += fig[key]
-            pes.append({"pe": pe.index, "primaries": pe.dis.admitted, "rays": pe.retired, "end": T,
+            pes.append({"pe": pe.index, "primaries": pe.dis.admitted, "rays": pe.retired, "end": pe.t_end,
+                        "max_live_rays": pe.max_live,
                         "stages": pe_nodes})
-        for name, agg in nodes.items():
-            agg["replicas"] = agg["replicas"]
+        for agg in nodes.values():
             agg["utilisation"] = agg["busy"] / (T * agg["replicas"] * npe) if T else 0.0
         stages = {}
         for i, t in enumerate(SUBTASKS):
             d = {"processing": int(proc_all[:, i].sum()), "communication": int(comm[:, i].sum()),
                  "waiting": int(sub_wait[:, i].sum()), "rays_in": int(vis[:, i].sum()),
                  "memory_stall": int(stall[:, i].sum())}
+            if t == "SC":
+                d["primaries_made"] = int(made.sum())
             tot = sum(d[c] for c in CATEGORIES)
             d["share"] = {c: d[c] / tot if tot else 0.0 for c in CATEGORIES}
             d["utilisation"] = (d["processing"] + d["communication"]) / tot if tot else 0.0
@@ -228,7 +250,12 @@ class System:
         rays = self.trace.rays
         for a in range(0, len(rays), 1 << 22):
             kinds += np.bincount(np.asarray(rays[a:a + (1 << 22)]["kind"]), minlength=len(RAY_KINDS))
+        cap = cfg.cycle_capacity
+        bound = {"window": cfg.window, "max_leaves_per_tree": rp.max_leaves, "cycle_capacity": cap,
+                 "fifos_cannot_deadlock": cap is None or cfg.window * rp.max_leaves < cap,
+                 "max_live_rays": max(p.max_live for p in self.pes)}
         return SimResult(
+            deadlock_bound=bound,
             cycles=int(T), model=cfg.name, level=cfg.level, config=cfg.to_dict(), stages=stages, nodes=nodes,
             processors=processors, pes=pes, fifos=fifos, links=links, memory=memory,
             rays={k: int(kinds[i]) for i, k in enumerate(RAY_KINDS)}, visits=rp.n_visits, log=self.log,
