@@ -284,7 +284,7 @@ def make_processor(spec, subtasks, where="processor"):
                       f"units/latency/issue_width, not {spec!r}")
 
 
-def stage(subtasks, processor="sequential", replicas=1, send_fifo=None, receive_fifo=None) -> StageConfig:
+def make_stage(subtasks, processor="sequential", replicas=1, send_fifo=None, receive_fifo=None) -> StageConfig:
     """A StageConfig with its processor built from a specification."""
     subtasks = tuple(subtasks)
     return StageConfig(subtasks, make_processor(processor, subtasks), replicas, send_fifo, receive_fifo, processor)
@@ -294,13 +294,13 @@ def stage(subtasks, processor="sequential", replicas=1, send_fifo=None, receive_
 
 def model_s() -> SystemConfig:
     """The paper's model S: one sequential processor runs OS, IC and SC."""
-    return SystemConfig("S", (stage(SUBTASKS),))
+    return SystemConfig("S", (make_stage(SUBTASKS),))
 
 
 def model_m() -> SystemConfig:
     """The paper's model M: three identical sequential processors, unbounded
     FIFOs, zero network latency, every data access a hit."""
-    return SystemConfig("M", tuple(stage((t,)) for t in SUBTASKS))
+    return SystemConfig("M", tuple(make_stage((t,)) for t in SUBTASKS))
 
 
 def model_3mppe() -> SystemConfig:
@@ -312,7 +312,7 @@ def model_3mppe() -> SystemConfig:
     to 28 leaves (4 x 28 < 2 x (8 + 48 + 1), see README.md)."""
     return SystemConfig(
         "3mppe",
-        tuple(stage((t,), "paper", send_fifo=8, receive_fifo=48) for t in SUBTASKS),
+        tuple(make_stage((t,), "paper", send_fifo=8, receive_fifo=48) for t in SUBTASKS),
         ring=RingConfig(flit_time=1, buffer_classes=3),
         ic_memory=LocalMemoryConfig(resident=64 << 10, cache=CacheConfig(size=32 << 10, line=32, ways=4)),
         sc_memory=LocalMemoryConfig(resident=4 << 10, cache=CacheConfig(size=4 << 10, line=32, ways=2)),
