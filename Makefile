@@ -28,7 +28,7 @@ $(B)/obj/%.o: c/src/%.c $(HDR)
 $(B)/libmprt.a: $(patsubst c/src/%.c,$(B)/obj/%.o,$(SRC))
 	ar rcs $@ $^
 
-$(B)/test_%: tests/c/test_%.c $(B)/libmprt.a tests/c/check.h
+$(B)/test_%: tests/c/test_%.c $(B)/libmprt.a $(wildcard tests/c/*.h)
 	$(CC) $(CFLAGS) $< $(B)/libmprt.a -o $@ $(LDLIBS)
 
 # C tests run from tests/c (they read ../data/spd-reference).
@@ -55,7 +55,7 @@ demo: $(VENV)/.installed
 
 bench: $(VENV)/.installed
 	$(PY) -m pip install -q embreex
-	$(PY) studies/bench.py
+	$(PY) studies/03_bench/run.py
 
 # The C tests under AddressSanitizer and UndefinedBehaviorSanitizer.
 asan:

@@ -1,8 +1,13 @@
 """Grid walking and intersection against brute force, hard cases, scale."""
+import functools
+import zlib
+
 import numpy as np
 import pytest
 
 import mprt
+
+SUBDIVISIONS = (4, 17, (3, 29, 8), 60)
 
 
 def random_rays(scene, n, seed):
@@ -22,35 +27,38 @@ def random_rays(scene, n, seed):
     return o, d
 
 
-@pytest.mark.parametrize("name", mprt.SPD_SCENES)
-def test_grid_hits_equal_brute_force(name):
-    """For every SPD scene, closest hits through several grids equal the one-voxel grid's (brute force), bit for bit."""
+@functools.cache
+def brute_force(name):
+    """A scene, random and camera rays, and their closest hits through a one-voxel grid (every
+    primitive tested: brute force).  The seed comes from the name, stable across runs."""
     scene = mprt.Scene.spd(name, 2 if name != "tree" else 5)
-    o, d = random_rays(scene, 4000, seed=hash(name) % 1000)
-    co, cd = scene.camera_rays(48, 48)
+    o, d = random_rays(scene, 4000, seed=zlib.crc32(name.encode()))
+    brute = scene.grid(1)
+    co, cd = brute.camera_rays(48, 48)
     o, d = np.vstack([o, co]), np.vstack([d, cd])
-    t_ref, p_ref = scene.grid(1).intersect(o, d)
+    t, p = brute.intersect(o, d)
+    return scene, o, d, t, p
+
+
+@pytest.mark.parametrize("n", SUBDIVISIONS, ids=str)
+@pytest.mark.parametrize("name", mprt.SPD_SCENES)
+def test_grid_hits_equal_brute_force(name, n):
+    """For every SPD scene, closest hits through a grid equal the one-voxel grid's (brute force), bit for bit."""
+    scene, o, d, t_ref, p_ref = brute_force(name)
     assert np.isfinite(t_ref).sum() > 500, "too few hits to mean anything"
-    for n in (4, 17, (3, 29, 8), 60):
-        t, p = scene.grid(n).intersect(o, d)
-        assert np.array_equal(p, p_ref), f"grid {n}: {np.sum(p != p_ref)} rays hit another primitive"
-        assert np.array_equal(t, t_ref), f"grid {n}"
+    t, p = scene.grid(n).intersect(o, d)
+    assert np.array_equal(p, p_ref), f"{np.sum(p != p_ref)} rays hit another primitive"
+    assert np.array_equal(t, t_ref)
 
 
-def polygon_groups(scene):
-    """Polygons of the scene's NFF text, grouped by material (one group per 'f' line)."""
-    groups, i = [], 0
-    lines = scene.to_nff().splitlines()
-    while i < len(lines):
-        parts = lines[i].split()
-        if parts and parts[0] == "f":
-            groups.append([])
-        if parts and parts[0] == "p":
-            n = int(parts[1])
-            groups[-1].append(np.array([[float(v) for v in lines[i + 1 + k].split()] for k in range(n)]))
-            i += n + 1
-        else:
-            i += 1
+def polygons_by_material(scene):
+    """The scene's polygons (vertex arrays), grouped by material index, from the library."""
+    prims = scene.primitives()
+    polys = prims["polygons"]
+    groups = {}
+    for k, pid in enumerate(polys["id"]):
+        verts = polys["vertices"][polys["vstart"][k]:polys["vstart"][k + 1]]
+        groups.setdefault(int(prims["material"][pid]), []).append(verts)
     return groups
 
 
@@ -63,11 +71,11 @@ def edge_points(polys):
 
 def closed_solids(name):
     scene = mprt.Scene.spd(name, 4 if name == "tetra" else 3)
-    groups = polygon_groups(scene)
+    groups = polygons_by_material(scene)
     if name == "tetra":  # one material; every 4 consecutive triangles close a tetrahedron
         polys = groups[0]
         return scene, [polys[k:k + 4] for k in range(0, len(polys), 4)]
-    return scene, groups[1:]  # gears: one material per gear; the first group is the floor
+    return scene, [groups[m] for m in sorted(groups)[1:]]  # gears: one material per gear; material 0 is the floor
 
 
 @pytest.mark.parametrize("name", ["tetra", "gears"])
@@ -96,7 +104,7 @@ def test_rays_from_inside_a_closed_mesh_through_its_edges_and_vertices_never_lea
 def test_vertical_rays_through_the_mount_heightfield_never_leak():
     """Vertical rays through every interior vertex and edge midpoint of mount's terrain hit it: 0 leaks."""
     scene = mprt.Scene.spd("mount", 5)
-    terrain = polygon_groups(scene)[1]
+    terrain = polygons_by_material(scene)[1]  # material 0: the spheres
     pts = edge_points(terrain)
     inner = (np.abs(pts[:, 0]) < 1 - 1e-9) & (np.abs(pts[:, 1]) < 1 - 1e-9)
     pts = pts[inner]
@@ -108,71 +116,117 @@ def test_vertical_rays_through_the_mount_heightfield_never_leak():
     assert int(np.sum(~np.isfinite(t))) == 0, "rays slipped between terrain triangles"
 
 
-def test_tangent_and_grazing_rays_on_a_sphere():
-    """Rays tangent to a sphere and grazing past it are decided consistently by grid and brute force."""
+def grazing_rays():
+    """Two spheres and rays along x at heights 1 +- 1e-6 past the unit sphere at the origin."""
     s = mprt.Scene()
     s.add_sphere((0, 0, 0), 1.0)
     s.add_sphere((3, 0, 0), 0.5)
     y = np.linspace(0.999999, 1.000001, 201)
     o = np.stack([np.full_like(y, -5), y, np.zeros_like(y)], axis=1)
     d = np.tile([1.0, 0, 0], (len(y), 1))
+    return s, y, o, d
+
+
+def test_tangent_and_grazing_rays_are_decided_alike_by_grid_and_brute_force():
+    """Rays tangent to a sphere and grazing past it hit the same primitives at the same t with 1 or 9^3 voxels."""
+    s, _, o, d = grazing_rays()
     t1, p1 = s.grid(1).intersect(o, d)
     t9, p9 = s.grid(9).intersect(o, d)
     assert np.array_equal(p1, p9) and np.array_equal(t1, t9)
-    assert np.all(p1[y < 1] == 0) and np.all(p1[y > 1.0000001] != 0)
+
+
+def test_grazing_rays_hit_the_sphere_exactly_below_its_radius():
+    """Rays below height 1 hit the unit sphere where geometry says; rays clearly above miss it."""
+    s, y, o, d = grazing_rays()
+    t, p = s.grid(1).intersect(o, d)
+    assert np.all(p[y < 1] == 0) and np.all(p[y > 1.0000001] != 0)
     hit = y < 1
-    np.testing.assert_allclose(t1[hit], 5 - np.sqrt(1 - y[hit] ** 2), rtol=0, atol=2e-6)
+    np.testing.assert_allclose(t[hit], 5 - np.sqrt(1 - y[hit] ** 2), rtol=0, atol=2e-6)
+
+
+def scaled_copy(scene, scale):
+    """The scene (spheres and polygons) with every length multiplied by scale, built through
+    the scene API from the library's own arrays."""
+    info, prims, mats, lights = scene.info(), scene.primitives(), scene.materials(), scene.lights()
+    out = mprt.Scene()
+    out.set_view(np.array(info["from"]) * scale, np.array(info["at"]) * scale, info["up"], info["angle"],
+                 info["hither"] * scale, info["resolution"])
+    out.set_background(info["background"])
+    for pos, rgb in zip(lights["position"], lights["rgb"]):
+        out.add_light(pos * scale, rgb)
+    shapes = {int(i): ("sphere", k) for k, i in enumerate(prims["spheres"]["id"])}
+    shapes.update({int(i): ("polygon", k) for k, i in enumerate(prims["polygons"]["id"])})
+    assert len(shapes) == info["prims"] and info["patches"] == 0, "the copy handles spheres and flat polygons only"
+    current = None
+    for pid in range(info["prims"]):
+        m = int(prims["material"][pid])
+        if m != current:
+            out.set_material(mats["rgb"][m], mats["kd"][m], mats["ks"][m], mats["shine"][m], mats["t"][m],
+                             mats["ior"][m])
+            current = m
+        kind, k = shapes[pid]
+        if kind == "sphere":
+            out.add_sphere(prims["spheres"]["center"][k] * scale, prims["spheres"]["radius"][k] * scale)
+        else:
+            p = prims["polygons"]
+            out.add_polygon(p["vertices"][p["vstart"][k]:p["vstart"][k + 1]] * scale)
+    return out
 
 
 @pytest.mark.parametrize("scale", [1e-6, 1e6])
 def test_scaled_scene_hits_the_same_primitives(scale):
     """The same scene scaled by 1e-6 or 1e6 gives the same hit primitives and scaled distances."""
     base = mprt.Scene.spd("balls", 2)
-    text = base.to_nff()
-    out = []
-    for line in text.splitlines():
-        parts = line.split()
-        if parts and parts[0] == "s":
-            x, yy, z, r = map(float, parts[1:])
-            out.append(f"s {x * scale!r} {yy * scale!r} {z * scale!r} {r * scale!r}")
-        elif parts and parts[0] in ("from", "at"):
-            out.append(parts[0] + " " + " ".join(repr(float(v) * scale) for v in parts[1:]))
-        elif parts and parts[0] == "hither":
-            out.append(f"hither {float(parts[1]) * scale!r}")
-        elif len(parts) == 3 and parts[0][0] in "-0123456789":
-            out.append(" ".join(repr(float(v) * scale) for v in parts))
-        elif parts and parts[0] == "l":
-            out.append("l " + " ".join(repr(float(v) * scale) for v in parts[1:4]))
-        else:
-            out.append(line)
-    scaled = mprt.Scene.from_text("\n".join(out) + "\n", "scaled.nff")
-    o, d = base.camera_rays(64, 64)
-    so, sd = scaled.camera_rays(64, 64)
-    t0, p0 = base.grid(12).intersect(o, d)
-    t1, p1 = scaled.grid(12).intersect(so, sd)
+    scaled = scaled_copy(base, scale)
+    g0, g1 = base.grid(12), scaled.grid(12)
+    o, d = g0.camera_rays(64, 64)
+    so, sd = g1.camera_rays(64, 64)
+    t0, p0 = g0.intersect(o, d)
+    t1, p1 = g1.intersect(so, sd)
     assert np.mean(p0 == p1) > 0.999
     both = (p0 == p1) & np.isfinite(t0)
     np.testing.assert_allclose(t1[both] / scale, t0[both], rtol=1e-9)
 
 
-def test_grid_stats_and_bad_subdivisions():
-    """Grid statistics add up, and impossible subdivisions are clear errors."""
-    scene = mprt.Scene.spd("balls", 1)
-    st = scene.grid((4, 5, 6)).stats()
+def test_grid_stats_add_up():
+    """A 4x5x6 grid has 120 voxels, some non-empty, and mean list length refs / non-empty."""
+    st = mprt.Scene.spd("balls", 1).grid((4, 5, 6)).stats()
     assert st["voxels"] == 120 and st["n"] == [4, 5, 6]
     assert 0 < st["nonempty"] <= 120
     assert st["mean_len"] == pytest.approx(st["refs"] / st["nonempty"])
+
+
+def test_subdivision_over_1024_is_an_invalid_argument():
+    """A subdivision of 2000 is InvalidArgument naming the allowed range."""
     with pytest.raises(mprt.InvalidArgument, match="1..1024"):
-        scene.grid(2000)
+        mprt.Scene.spd("balls", 1).grid(2000)
+
+
+def test_grid_over_its_memory_bound_is_a_memory_error():
+    """A 1024^3 grid within 1 MiB is a MemoryError saying what is allowed."""
     with pytest.raises(MemoryError, match="allowed"):
-        scene.grid(1024, max_bytes=1 << 20)
+        mprt.Scene.spd("balls", 1).grid(1024, max_bytes=1 << 20)
 
 
-def test_intersect_rejects_nan_and_zero_directions():
-    """A NaN origin or a zero direction is an InvalidArgument naming the ray."""
-    scene = mprt.Scene.spd("balls", 1)
-    g = scene.grid(4)
+def test_intersect_rejects_a_nan_origin_naming_the_ray():
+    """A NaN in ray 1's origin is an InvalidArgument naming ray 1."""
+    g = mprt.Scene.spd("balls", 1).grid(4)
     with pytest.raises(mprt.InvalidArgument, match="ray 1"):
         g.intersect([[0, 0, 5], [np.nan, 0, 5]], [[0, 0, -1], [0, 0, -1]])
+
+
+def test_intersect_rejects_a_zero_direction_naming_the_ray():
+    """A zero direction in ray 0 is an InvalidArgument naming ray 0."""
+    g = mprt.Scene.spd("balls", 1).grid(4)
     with pytest.raises(mprt.InvalidArgument, match="ray 0"):
         g.intersect([[0, 0, 5]], [[0, 0, 0]])
+
+
+def test_camera_rays_of_spd_rules_go_through_pixel_corners():
+    """Under spd rules a WxH render has (W+1)(H+1) eye rays, under paper rules WxH, all from the eye."""
+    g = mprt.Scene.spd("balls", 1).grid(4)
+    po, pd = g.camera_rays(8, 6)
+    so, sd = g.camera_rays(8, 6, rules="spd")
+    assert len(po) == 48 and len(so) == 63
+    assert np.all(po == g.scene.info()["from"]) and np.all(so == g.scene.info()["from"])
+    np.testing.assert_allclose(np.linalg.norm(sd, axis=1), 1, rtol=1e-15)

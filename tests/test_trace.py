@@ -1,16 +1,14 @@
-"""Per-ray cost traces: agreement with the renderer, invariants, determinism, files."""
-import io
-import json
-import os
-import zipfile
+"""Per-ray cost traces: agreement with the renderer, invariants, determinism."""
+import dataclasses
+import functools
 
 import numpy as np
 import pytest
 
 import mprt
-from mprt.trace import BLOCKED, IC, OS, SC, SHADED, TraceError
+from mprt import Outcome, RayKind, Stage
+from mprt.stats import trace_stats
 
-GOLDEN = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "golden")
 SCENE_SIZES = {"balls": 1, "gears": 1, "mount": 2, "rings": 1, "tetra": 2, "tree": 4}
 
 
@@ -19,8 +17,8 @@ def traced(name, n=8, w=24, h=24, **kw):
     return grid, grid.trace(w, h, **kw)
 
 
-@pytest.mark.parametrize("name", mprt.SPD_SCENES)
 @pytest.mark.parametrize("rules", ["paper", "spd"])
+@pytest.mark.parametrize("name", mprt.SPD_SCENES)
 def test_trace_agrees_with_render_and_keeps_its_invariants(name, rules):
     """A trace's image and counts equal the untraced render's, and its invariants hold."""
     grid, (img, tr) = traced(name, rules=rules)
@@ -37,6 +35,14 @@ def test_trace_agrees_with_render_and_keeps_its_invariants(name, rules):
     assert st["ic_to_sc"] + st["os_to_sc_late_hits"] + st["ic_kills"] == c["hits"]
 
 
+def test_primary_rays_start_as_the_camera_rays_say():
+    """The trace's primary rays are one per sample, in sample order within each tile, as many as camera_rays."""
+    grid, (_, tr) = traced("balls", w=16, h=16, tile=8)
+    primary = tr.rays[tr.rays["kind"] == RayKind.PRIMARY]
+    assert len(primary) == len(grid.camera_rays(16, 16)[0])
+    assert sorted(primary["pixel"]) == list(range(256))
+
+
 def test_traces_are_the_same_bits_with_any_thread_count():
     """1 and 3 threads give identical ray and visit arrays."""
     grid = mprt.Scene.spd("mount", 2).grid(10)
@@ -45,160 +51,111 @@ def test_traces_are_the_same_bits_with_any_thread_count():
     assert np.array_equal(a.rays, b.rays) and np.array_equal(a.visits, b.visits)
 
 
-def test_save_load_round_trip_and_streaming_to_disk(tmp_path):
-    """A saved trace loads back equal; a trace streamed to disk equals one built in memory."""
-    grid = mprt.Scene.spd("balls", 1).grid(6)
-    _, mem = grid.trace(20, 20, tile=4)
-    p = tmp_path / "t.npz"
-    mem.save(p)
-    back = mprt.load_trace(p)
-    for k in ("rays", "visits", "voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material"):
-        assert np.array_equal(getattr(back, k), getattr(mem, k)), k
-    assert back.meta["grid"] == [6, 6, 6] and back.meta["version"] == mprt.trace.FORMAT_VERSION
-    _, disk = grid.trace(20, 20, tile=4, path=tmp_path / "s.npz")
-    assert isinstance(disk.visits, np.memmap)
-    assert np.array_equal(disk.rays, mem.rays) and np.array_equal(disk.visits, mem.visits)
-    mapped = mprt.load_trace(tmp_path / "s.npz", mmap=True)
-    assert mapped.stats() == mem.stats()
-    assert mem.stats() == mprt.trace.trace_stats(mem, chunk=7)  # chunk edges split rays' visit runs
+@functools.cache
+def balls_trace():
+    return traced("balls", w=12, h=12)[1][1]
 
 
-def test_bad_trace_files_are_clear_errors(tmp_path):
-    """Unknown version, truncation and tampering each raise TraceError saying so."""
-    _, (_, tr) = traced("tetra", w=12, h=12)
-    good = tmp_path / "good.npz"
-    tr.save(good)
-    data = good.read_bytes()
-    (tmp_path / "trunc.npz").write_bytes(data[: len(data) // 2])
-    with pytest.raises(TraceError, match="trunc.npz"):
-        mprt.load_trace(tmp_path / "trunc.npz")
-    # tamper: change one byte inside the visits array
-    with zipfile.ZipFile(good) as z:
-        members = {n: z.read(n) for n in z.namelist()}
-    v = bytearray(members["visits.npy"])
-    v[-5] ^= 0xFF
-    members["visits.npy"] = bytes(v)
-    with zipfile.ZipFile(tmp_path / "tamper.npz", "w") as z:
-        for n, b in members.items():
-            z.writestr(n, b)
-    with pytest.raises(TraceError, match="checksum"):
-        mprt.load_trace(tmp_path / "tamper.npz")
-    meta = json.loads(members["meta.json"])
-    meta["version"] = 99
-    members["meta.json"] = json.dumps(meta).encode()
-    members["visits.npy"] = zipfile.ZipFile(good).read("visits.npy")
-    with zipfile.ZipFile(tmp_path / "v99.npz", "w") as z:
-        for n, b in members.items():
-            z.writestr(n, b)
-    with pytest.raises(TraceError, match="version 99"):
-        mprt.load_trace(tmp_path / "v99.npz")
+def test_stats_in_chunks_equal_stats_in_one_pass():
+    """Statistics computed 7 visits at a time (chunk edges split rays' visit runs) equal those in one pass."""
+    tr = balls_trace()
+    assert trace_stats(tr, chunk=7) == tr.stats()
 
 
-def test_check_catches_broken_traces():
-    """check() rejects a trace with a missing SC visit, a reordered visit, or a wrong child count."""
-    _, (_, tr) = traced("balls", w=12, h=12)
-    tr.check()
+def test_check_rejects_a_trace_missing_an_sc_visit():
+    """Deleting a shaded SC visit breaks the invariants."""
+    tr = balls_trace()
     v = tr.visits
-    sc = np.flatnonzero((v["stage"] == SC) & (v["outcome"] == SHADED))[0]
-    broken = mprt.Trace(tr.meta, dict(tr._arrays, visits=np.delete(v, sc)))
-    with pytest.raises(TraceError):
-        broken.check()
-    swapped = v.copy()
-    i = np.flatnonzero(swapped["stage"] == IC)[0]
+    sc = np.flatnonzero((v["stage"] == Stage.SC) & (v["outcome"] == Outcome.SHADED))[0]
+    with pytest.raises(mprt.TraceError):
+        dataclasses.replace(tr, visits=np.delete(v, sc)).check()
+
+
+def test_check_rejects_an_ic_visit_before_its_os_visit():
+    """Swapping the first IC visit with the OS visit before it breaks the invariants."""
+    tr = balls_trace()
+    swapped = tr.visits.copy()
+    i = np.flatnonzero(swapped["stage"] == Stage.IC)[0]
     swapped[[i - 1, i]] = swapped[[i, i - 1]]
-    with pytest.raises(TraceError):
-        mprt.Trace(tr.meta, dict(tr._arrays, visits=swapped)).check()
-    made = v.copy()
+    with pytest.raises(mprt.TraceError, match="does not start at OS|followed by"):
+        dataclasses.replace(tr, visits=swapped).check()
+
+
+def test_check_rejects_a_wrong_child_count():
+    """An SC visit claiming one child more than the trace holds breaks the 'made' invariant."""
+    tr = balls_trace()
+    made = tr.visits.copy()
+    sc = np.flatnonzero((made["stage"] == Stage.SC) & (made["outcome"] == Outcome.SHADED))[0]
     made["made"][sc] += 1
-    with pytest.raises(TraceError, match="made"):
-        mprt.Trace(tr.meta, dict(tr._arrays, visits=made)).check()
+    with pytest.raises(mprt.TraceError, match="made"):
+        dataclasses.replace(tr, visits=made).check()
 
 
-def test_subsets_trace_only_their_tiles_with_the_same_records():
-    """A tile subset's records equal the same tiles' records in the full trace."""
+@functools.cache
+def rings_subset(sample):
+    """rings at 32x32 in 8x8 tiles: the full trace, and a subset."""
     grid = mprt.Scene.spd("rings", 1).grid(8)
-    _, full = grid.trace(32, 32, tile=8)
-    _, part = grid.trace(32, 32, tile=8, sample="regular:3")
+    return grid.trace(32, 32, tile=8)[1], grid.trace(32, 32, tile=8, sample=sample)[1]
+
+
+def test_regular_subset_holds_the_same_records_as_the_full_trace():
+    """'regular:3' traces tiles 0, 3, ..., 15 with the records those tiles have in the full trace."""
+    full, part = rings_subset("regular:3")
     assert part.meta["tiles"] == [0, 3, 6, 9, 12, 15]
-    tile_of = lambda pix: (pix // 32 // 8) * 4 + (pix % 32) // 8  # noqa: E731
-    keep = np.isin(tile_of(full.rays["pixel"]), part.meta["tiles"])
+    tile_of = (full.rays["pixel"] // 32 // 8) * 4 + (full.rays["pixel"] % 32) // 8
+    keep = np.isin(tile_of, part.meta["tiles"])
     assert np.array_equal(full.rays["pixel"][keep], part.rays["pixel"])
     fv = full.visits[np.isin(full.visits["ray"], np.flatnonzero(keep))]
     for f in ("stage", "outcome", "steps", "tests", "prim", "made", "suppressed"):
         assert np.array_equal(fv[f], part.visits[f]), f
     part.check()
-    _, rnd = grid.trace(32, 32, tile=8, sample="random:5:42")
-    assert len(rnd.meta["tiles"]) == 5
-    with pytest.raises(mprt.InvalidArgument):
+
+
+def test_random_subset_traces_the_asked_number_of_tiles():
+    """'random:5:42' traces 5 distinct tiles."""
+    _, part = rings_subset("random:5:42")
+    assert len(set(part.meta["tiles"])) == 5
+
+
+def test_unknown_sample_form_is_an_invalid_argument():
+    """'every:2' is not a sample form: InvalidArgument naming the accepted ones."""
+    grid = mprt.Scene.spd("rings", 1).grid(8)
+    with pytest.raises(mprt.InvalidArgument, match="regular:K"):
         grid.trace(32, 32, tile=8, sample="every:2")
 
 
-def test_shadow_rays_die_at_ic_or_reach_sc():
-    """Blocked shadow rays end at IC; the others reach SC through OS."""
-    _, (_, tr) = traced("tree", w=16, h=16)
-    v, r = tr.visits, tr.rays
-    shadow = r["kind"][v["ray"]] == 3
-    assert np.all(v["outcome"][shadow & (v["stage"] == IC)] != 3)
-    assert np.sum(shadow & (v["outcome"] == BLOCKED)) > 0
-    assert np.all(v["stage"][shadow & (v["stage"] != OS) & (v["stage"] != IC)] == SC)
+@functools.cache
+def tree_trace():
+    return traced("tree", w=16, h=16)[1][1]
 
 
-@pytest.mark.parametrize("fname", sorted(f for f in os.listdir(GOLDEN) if f.endswith(".npz")) if os.path.isdir(GOLDEN) else [])
-def test_golden_traces_regenerate_bit_identical(fname):
-    """Each committed golden trace regenerates bit-identically (1 and 2 threads) with its recorded statistics."""
-    gold = mprt.load_trace(os.path.join(GOLDEN, fname))
-    m = gold.meta
-    name, size = m["scene"].split(":")
-    grid = mprt.Scene.spd(name, int(size)).grid(tuple(m["grid"]))
-    for threads in (1, 2):
-        _, t = grid.trace(m["width"], m["height"], rules=m["rules"], threshold=m["threshold"], tile=m["tile"],
-                          threads=threads)
-        for k in ("rays", "visits", "voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material"):
-            assert np.array_equal(getattr(t, k), getattr(gold, k)), k
-        assert np.array_equal(t.samples, gold.samples)
-    with open(os.path.join(GOLDEN, fname.replace(".npz", ".stats.json"))) as f:
-        assert gold.check() == json.load(f)
+def test_shadow_rays_are_never_shaded_as_hits():
+    """No IC visit of a shadow ray accepts a hit for shading."""
+    tr = tree_trace()
+    v = tr.visits
+    shadow = tr.rays["kind"][v["ray"]] == RayKind.SHADOW
+    assert np.all(v["outcome"][shadow & (v["stage"] == Stage.IC)] != Outcome.HIT)
 
 
-def test_golden_traces_exist():
-    """The golden traces are committed: every SPD scene at two grids."""
-    names = sorted(f for f in os.listdir(GOLDEN) if f.endswith(".npz"))
-    assert len(names) == 12
+def test_some_shadow_rays_are_blocked_at_ic():
+    """In tree some shadow rays are blocked by an IC visit."""
+    tr = tree_trace()
+    v = tr.visits
+    shadow = tr.rays["kind"][v["ray"]] == RayKind.SHADOW
+    assert np.sum(shadow & (v["stage"] == Stage.IC) & (v["outcome"] == Outcome.BLOCKED)) > 0
 
 
-def test_format_version_1_loads_with_renamed_fields(tmp_path):
-    """A version-1 file (visit fields 'voxel' and 'voxels') loads with today's names and values."""
-    import zipfile
+def test_unblocked_shadow_rays_reach_sc_lit():
+    """Every SC visit of a shadow ray is 'lit'."""
+    tr = tree_trace()
+    v = tr.visits
+    shadow = tr.rays["kind"][v["ray"]] == RayKind.SHADOW
+    assert np.sum(shadow & (v["stage"] == Stage.SC)) > 0
+    assert np.all(v["outcome"][shadow & (v["stage"] == Stage.SC)] == Outcome.LIT)
 
-    grid = mprt.Scene.spd("tetra", 1).grid(4)
-    _, tr = grid.trace(16, 16, tile=8)
-    v1 = np.dtype({"names": ["voxel" if n == "voxel_id" else "voxels" if n == "steps" else n
-                             for n in tr.visits.dtype.names],
-                   "formats": [tr.visits.dtype.fields[n][0] for n in tr.visits.dtype.names],
-                   "offsets": [tr.visits.dtype.fields[n][1] for n in tr.visits.dtype.names],
-                   "itemsize": tr.visits.dtype.itemsize})
-    p = tmp_path / "v2.npz"
-    tr.save(p)
-    old = tmp_path / "v1.npz"
-    with zipfile.ZipFile(p) as src, zipfile.ZipFile(old, "w") as dst:
-        for name in src.namelist():
-            data = src.read(name)
-            if name == "meta.json":
-                meta = json.loads(data)
-                meta["version"] = 1
-                data = json.dumps(meta).encode()
-            elif name == "visits.npy":
-                buf = io.BytesIO()
-                np.lib.format.write_array(buf, tr.visits.view(v1))
-                data = buf.getvalue()
-            dst.writestr(name, data)
-    back = mprt.load_trace(old)
-    assert back.meta["version"] == mprt.trace.FORMAT_VERSION
-    assert np.array_equal(back.visits["steps"], tr.visits["steps"])
-    assert np.array_equal(back.visits["voxel_id"], tr.visits["voxel_id"])
-    meta["version"] = 99
-    with zipfile.ZipFile(p) as src, zipfile.ZipFile(tmp_path / "v99.npz", "w") as dst:
-        for name in src.namelist():
-            dst.writestr(name, json.dumps(meta) if name == "meta.json" else src.read(name))
-    with pytest.raises(mprt.TraceError, match="regenerate"):
-        mprt.load_trace(tmp_path / "v99.npz")
+
+def test_enums_are_the_headers():
+    """The Python enums carry the C header's values (spot checks against mprt.h's definitions)."""
+    assert [s.name for s in Stage] == ["OS", "IC", "SC"]
+    assert Outcome.LATE_HIT == 8 and Outcome.TO_IC == 0 and RayKind.SHADOW == 3
+    assert mprt.KINDS == ("sphere", "polygon", "cylinder", "cone")

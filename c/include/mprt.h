@@ -21,8 +21,10 @@
  *
  * Ownership and threads: the caller owns every handle it creates and destroys
  * it with the matching *_destroy (which accepts NULL).  A grid keeps a pointer
- * to its scene: destroy grids before their scene, and do not change a scene
- * that has grids.  The library owns error message strings; one stays valid
+ * to its scene: destroy grids before their scene.  A scene with grids cannot
+ * change: every call that would change it (add, set, load, parse, spd) fails
+ * with MPRT_ERR_STATE until its grids are destroyed (a grid that failed to
+ * build does not count).  The library owns error message strings; one stays valid
  * until the next call on the same handle.  There is no global mutable state:
  * different handles may be used from different threads at once, and one grid
  * may be rendered or intersected by several threads at once.  The library
@@ -145,10 +147,36 @@ int mprt_scene_get_info(const mprt_scene *scene, mprt_scene_info *info);
  * material index; n entries each (cap >= primitive count). OUT: all three. */
 int mprt_scene_get_prims(const mprt_scene *scene, int32_t *kind, int32_t *words, int32_t *material, size_t cap);
 
+/* Shape data by kind, in primitive-id order within each kind, as the
+ * renderer stores it (float values in MPRT_SINGLE builds); ids receive the
+ * primitive ids.  spheres: 4 doubles each (centre xyz, radius).  cones: 8
+ * doubles each (base centre xyz, base radius, apex centre xyz, apex radius);
+ * the scene keeps cylinders and cones as one kind of shape, so this returns
+ * both, MPRT_CYLINDER and MPRT_CONE, in id order (count[MPRT_CYLINDER] +
+ * count[MPRT_CONE] entries; mprt_scene_get_prims tells them apart).
+ * polygons: vstart (cap_polys + 1 entries) receives npoly + 1 offsets into
+ * verts counted in vertices (polygon k is vertices vstart[k] ..
+ * vstart[k+1]), verts 3 doubles per vertex.  cap and cap_* are capacities in
+ * entries (shapes, polygons, vertices); the counts come from
+ * mprt_scene_info (count[kind], vertices).  MPRT_ERR_CAPACITY when a
+ * capacity is below its count; a NULL buffer is allowed for a count of 0.
+ * OUT: ids, data (vstart, verts). */
+int mprt_scene_get_spheres(const mprt_scene *scene, int32_t *ids, double *data, size_t cap);
+int mprt_scene_get_cones(const mprt_scene *scene, int32_t *ids, double *data, size_t cap);
+int mprt_scene_get_polygons(const mprt_scene *scene, int32_t *ids, int32_t *vstart, size_t cap_polys,
+                            double *verts, size_t cap_verts);
+/* Materials in table order (mprt_scene_get_prims gives each primitive's
+ * index): 8 doubles each (r, g, b, kd, ks, shine, t, ior).  Lights in the
+ * order added: 6 doubles each (position xyz, intensity rgb); a light added
+ * without a colour gets the intensity the renderer gives it, 1/sqrt(number
+ * of lights) per channel.  cap: capacity in materials or lights. OUT: data. */
+int mprt_scene_get_materials(const mprt_scene *scene, double *data, size_t cap);
+int mprt_scene_get_lights(const mprt_scene *scene, double *data, size_t cap);
+
 /* ---- Grid --------------------------------------------------------------- */
 
 /* Build a uniform grid of nx*ny*nz voxels (each 1..1024) over the scene's
- * bounding box.  OUT: grid.  On failure *out still holds a grid in a failed
+ * bounding box; the scene refuses changes while the grid exists.  OUT: grid.  On failure *out still holds a grid in a failed
  * state whose errmsg says why (or NULL when even that could not be
  * allocated); destroy it.  max_bytes bounds the memory the grid may use
  * (0 selects the default, 4 GiB). */
@@ -212,6 +240,13 @@ typedef struct {
 
 /* Fill a render description with defaults. OUT: desc. */
 void mprt_render_desc_init(mprt_render_desc *desc);
+
+/* Resolve a render description's defaults against the grid's scene: width
+ * and height 0 -> the view's resolution, max_depth 0 -> the rules' default
+ * (paper 64, spd 5), threads 0 -> 1, tile <= 0 -> 16; and validate every
+ * field (the same checks, with the same messages, as mprt_grid_render).
+ * OUT: out (may alias desc). */
+int mprt_grid_resolve_desc(mprt_grid *grid, const mprt_render_desc *desc, mprt_render_desc *out);
 
 /* Render the grid's scene.  rgb receives width*height*3 floats, row-major
  * from the top row; cap is its length in floats.  OUT: rgb, counters
@@ -278,6 +313,28 @@ typedef struct {
  * row and column (tile edge desc->tile). OUT: all four. */
 int mprt_grid_tiling(mprt_grid *grid, const mprt_render_desc *desc, int *samples_w, int *samples_h,
                      int *tiles_x, int *tiles_y);
+
+/* Rectangle of tile number tile (0 .. tiles_x*tiles_y-1, row by row) in
+ * sample coordinates: x0, y0 (inclusive), x1, y1 (exclusive). OUT: rect. */
+int mprt_grid_tile_rect(mprt_grid *grid, const mprt_render_desc *desc, int tile, int rect[4]);
+
+/* Eye rays of samples first .. first+n-1 (sample index = y * samples_w + x,
+ * samples as in mprt_grid_tiling: pixel centres under paper rules, pixel
+ * corners under spd rules), exactly as the renderer makes them: the eye and
+ * a unit direction (a ray starts at the hither plane, hither /
+ * dot(direction, view direction) along it). OUT: origins, directions (3
+ * doubles per ray). */
+int mprt_grid_camera_rays(mprt_grid *grid, const mprt_render_desc *desc, size_t first, size_t n,
+                          double *origins, double *directions);
+
+/* Pixels from samples exactly as the renderer reconstructs them: under spd
+ * rules the mean of each pixel's four corners (an image of (samples_w-1) x
+ * (samples_h-1) pixels), under paper rules the sample itself (samples_w x
+ * samples_h pixels).  samples: samples_h*samples_w*3 doubles, row by row
+ * from the top; rgb receives width*height*3 floats (cap floats).
+ * MPRT_ERR_CAPACITY when cap is too small. OUT: rgb. */
+int mprt_samples_to_image(int rules, int samples_w, int samples_h, const double *samples, float *rgb,
+                          size_t cap);
 
 /* Trace one tile of samples.  samples receives the tile's sample colours
  * (rows of the tile, 3 doubles each; cap_samples doubles); rays and visits

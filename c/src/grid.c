@@ -33,6 +33,7 @@ const char *mprt_grid_errmsg(const mprt_grid *g) { return g ? g->errmsg : "no gr
 void mprt_grid_destroy(mprt_grid *g)
 {
     if (!g) return;
+    if (g->counted) mprt__scene_count_grid(g->scene, -1);
     free(g->start);
     free(g->flag);
     free(g->ids);
@@ -40,14 +41,17 @@ void mprt_grid_destroy(mprt_grid *g)
     free(g);
 }
 
-/* Surface of primitive i may touch the box [lo, hi]. */
+/* Surface of primitive i may touch the box [lo, hi]: 1 yes, 0 no, -1 for a
+ * primitive of unknown kind. */
 static int prim_box(const mprt_scene *s, long long i, vec3 lo, vec3 hi)
 {
     const mprt__prim *p = &s->prims[i];
     switch (p->kind) {
     case MPRT_SPHERE: return mprt__sphere_box(&s->spheres[p->index], lo, hi);
     case MPRT_POLYGON: return mprt__polygon_box(&s->polygons[p->index], s->verts, lo, hi);
-    default: return mprt__cone_box(&s->cones[p->index], lo, hi);
+    case MPRT_CYLINDER:
+    case MPRT_CONE: return mprt__cone_box(&s->cones[p->index], lo, hi);
+    default: return -1;
     }
 }
 
@@ -123,7 +127,10 @@ static int build(mprt_grid *g, size_t max_bytes)
     for (i = 0; i < s->nprims; i++) {
         vec3 blo, bhi;
         int a0[3], a1[3], x, y, z, a;
-        mprt__prim_bounds(s, i, &blo, &bhi);
+        if (mprt__prim_bounds(s, i, &blo, &bhi) != MPRT_OK) {
+            st = grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
+            goto done;
+        }
         for (a = 0; a < 3; a++) {
             a0[a] = axis_cell(g, a, vget(blo, a) - margin);
             a1[a] = axis_cell(g, a, vget(bhi, a) + margin);
@@ -135,7 +142,12 @@ static int build(mprt_grid *g, size_t max_bytes)
                     vec3 hi = mprt__grid_voxel_lo(g, x + 1, y + 1, z + 1);
                     lo = v3(lo.x - margin, lo.y - margin, lo.z - margin);
                     hi = v3(hi.x + margin, hi.y + margin, hi.z + margin);
-                    if (!prim_box(s, i, lo, hi)) continue;
+                    int touch = prim_box(s, i, lo, hi);
+                    if (touch < 0) {
+                        st = grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
+                        goto done;
+                    }
+                    if (!touch) continue;
                     if (pairs_push(&P, (uint32_t)(((long long)z * g->n[1] + y) * g->n[0] + x), (int32_t)i,
                                    pair_limit)) {
                         st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY,
@@ -180,8 +192,8 @@ done:
 int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, mprt_grid **out)
 {
     mprt_grid *g;
-    mprt_scene_info info;
-    int a;
+    long long bad;
+    int a, st;
     real ext;
     if (!out) return MPRT_ERR_INVALID_ARG;
     *out = NULL;
@@ -201,9 +213,8 @@ int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_byt
     g->n[1] = ny;
     g->n[2] = nz;
     g->voxels = (long long)nx * ny * nz;
-    mprt_scene_get_info(s, &info);
-    g->lo = v3((real)info.lo[0], (real)info.lo[1], (real)info.lo[2]);
-    g->hi = v3((real)info.hi[0], (real)info.hi[1], (real)info.hi[2]);
+    if (mprt__scene_bounds(s, &g->lo, &g->hi, &bad) != MPRT_OK)
+        return grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, bad, s->prims[bad].kind);
     /* A flat scene still needs a box of some thickness on every axis. */
     ext = vmaxabs(vsub(g->hi, g->lo));
     if (ext == 0) ext = vmaxabs(g->lo) > 0 ? vmaxabs(g->lo) : 1;
@@ -219,7 +230,13 @@ int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_byt
     }
     g->cell = v3((g->hi.x - g->lo.x) / (real)nx, (g->hi.y - g->lo.y) / (real)ny, (g->hi.z - g->lo.z) / (real)nz);
     g->inv_cell = v3(1 / g->cell.x, 1 / g->cell.y, 1 / g->cell.z);
-    return build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES);
+    st = build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES);
+    if (st == MPRT_OK) {
+        /* The scene now refuses changes until this grid is destroyed */
+        mprt__scene_count_grid(s, +1);
+        g->counted = 1;
+    }
+    return st;
 }
 
 int mprt_grid_get_stats(const mprt_grid *g, mprt_grid_stats *st)

@@ -1,4 +1,4 @@
-/* grid.h: the voxel grid and its 3DDDA walk (internal). */
+/* grid.h: the voxel grid (internal).  Its 3DDDA walk is in dda.h. */
 #ifndef MPRT_GRID_H
 #define MPRT_GRID_H
 
@@ -18,6 +18,7 @@ struct mprt_grid {
     int32_t *ids;      /* primitive ids, voxel by voxel */
     long long refs;
     int failed;
+    int counted;       /* 1 once counted among the scene's grids (see mprt__scene_count_grid) */
     pthread_mutex_t errlock; /* renders may fail in several threads at once */
     char errmsg[MPRT__ERRMSG];
 };
@@ -31,27 +32,5 @@ int mprt__grid_fail(mprt_grid *g, int status, const char *fmt, ...)
 
 /* Lower corner of voxel (i, j, k); i == n gives the upper boundary. */
 vec3 mprt__grid_voxel_lo(const mprt_grid *g, int i, int j, int k);
-
-/* State of one 3DDDA walk (Amanatides & Woo).  The walk visits voxels in ray
- * order; voxel k covers the ray stretch [t_enter, t_exit], and consecutive
- * stretches share their boundary value, so the stretches tile the ray's
- * part inside the grid without gaps whatever the rounding. */
-typedef struct {
-    int cell[3];       /* current voxel */
-    int step[3];       /* +1 or -1 per axis */
-    long long stride[3]; /* change of the linear voxel id per step on each axis */
-    real tnext[3];     /* t at which the ray crosses the next boundary per axis */
-    real tdelta[3];    /* t between boundaries per axis */
-    real t_enter;      /* start of the current voxel's stretch */
-    real t_exit;       /* end of the current voxel's stretch */
-    real t_end;        /* where the walk stops: min(ray tmax, grid exit) */
-    long long voxel;   /* linear id of the current voxel */
-} mprt__dda;
-
-/* Start a walk for ray over (tmin, tmax].  Returns 0 when the ray misses the
- * grid box within that range; otherwise the state holds the first voxel. */
-int mprt__dda_start(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, mprt__dda *w);
-/* Step to the next voxel; returns 0 when the walk has ended. */
-int mprt__dda_next(const mprt_grid *g, mprt__dda *w);
 
 #endif

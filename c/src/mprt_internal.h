@@ -6,6 +6,7 @@
 #include "mprt.h"
 
 #include <math.h>
+#include <pthread.h>
 #include <stdarg.h>
 #include <stddef.h>
 
@@ -99,25 +100,53 @@ typedef struct {
 #define MPRT__ERRMSG 512
 
 struct mprt_scene {
-    mprt__prim *prims;       long long nprims, capprims;
-    mprt__sphere *spheres;   long long nspheres, capspheres;
-    mprt__polygon *polygons; long long npolygons, cappolygons;
-    mprt__cone *cones;       long long ncones, capcones;
-    vec3 *verts;             long long nverts, capverts;
-    vec3 *vnormals;          long long capvnormals; /* parallel to verts; allocated lazily */
-    mprt__material *materials; long long nmaterials, capmaterials;
-    mprt__light *lights;     long long nlights, caplights;
-    long long ncylinders;    /* cones with equal radii */
-    long long npatches;
-    long long dropped;
-    int material;            /* current material, -1 before the first set */
+    /* Storage: the arrays and their capacities in elements.  A rollback
+     * keeps them as they are (entries past the restored counts are unused). */
+    mprt__prim *prims;         long long capprims;
+    mprt__sphere *spheres;     long long capspheres;
+    mprt__polygon *polygons;   long long cappolygons;
+    mprt__cone *cones;         long long capcones;  /* cones and cylinders */
+    vec3 *verts;               long long capverts;
+    vec3 *vnormals;            long long capvnormals; /* parallel to verts; allocated lazily */
+    mprt__material *materials; long long capmaterials;
+    mprt__light *lights;       long long caplights;
+
+    /* Contents: every field from nprims up to errmsg is saved by
+     * mprt__scene_mark and put back by mprt__scene_rollback, so a field
+     * added here is rolled back without further code. */
+    long long nprims, nspheres, npolygons, ncones, nverts, nmaterials, nlights;
+    long long ncylinders;      /* cones with equal radii */
+    long long npatches;        /* polygons with vertex normals */
+    long long dropped;         /* entities dropped with a warning */
+    int material;              /* current material, -1 before the first set */
     vec3 from, at, up;
     double angle, hither;
     int width, height;
     double background[3];
-    char errmsg[MPRT__ERRMSG];
     char warning[MPRT__ERRMSG]; /* first dropped entity */
+
+    /* Neither saved nor restored */
+    char errmsg[MPRT__ERRMSG];
+    int grids;                 /* grids built on the scene and not yet destroyed */
+    pthread_mutex_t grids_lock; /* grids may be made and destroyed in several threads */
 };
+
+/* The scene's contents at a mark (see struct mprt_scene). */
+typedef struct {
+    unsigned char bytes[offsetof(struct mprt_scene, errmsg) - offsetof(struct mprt_scene, nprims)];
+} mprt__scene_saved;
+
+/* Save the scene's contents; rollback puts them back, undoing every entity
+ * added, material set, view and background changed and warning recorded
+ * since the mark (the error message stays as it is). */
+void mprt__scene_mark(const mprt_scene *scene, mprt__scene_saved *saved);
+void mprt__scene_rollback(mprt_scene *scene, const mprt__scene_saved *saved);
+
+/* Count a grid built on the scene (delta +1) or destroyed (-1). */
+void mprt__scene_count_grid(const mprt_scene *scene, int delta);
+/* MPRT_OK while no grid uses the scene; else MPRT_ERR_STATE with a message
+ * "CALL: ..." (call names the refused API call). */
+int mprt__scene_check_unshared(mprt_scene *scene, const char *call);
 
 /* Record an error message on the scene; returns status. printf-style. */
 int mprt__scene_fail(mprt_scene *scene, int status, const char *fmt, ...)
@@ -137,12 +166,24 @@ void mprt__scene_warn(mprt_scene *scene, const char *fmt, ...)
 
 /* mprt_scene_add_polygon with the reason for a rejection: *reason (may be
  * NULL) is set to the value mprt__polygon_prepare returned (0 when accepted
- * or rejected for another cause). */
+ * or rejected for another cause).  A polygon of zero area rejected with
+ * reason != NULL leaves the scene's error message as it was: the caller
+ * drops it with a warning (mprt__scene_warn). */
 int mprt__scene_add_polygon(mprt_scene *scene, int n, const double *verts, const double *normals,
                             int *reason);
 
-/* Bounds of primitive i. */
-void mprt__prim_bounds(const mprt_scene *scene, long long i, vec3 *lo, vec3 *hi);
+/* Intensity of each channel of a light given without a colour: the NFF
+ * reader's rule, 1/sqrt(number of lights). */
+double mprt__light_default_rgb(const mprt_scene *scene);
+
+/* Bounds of primitive i; MPRT_ERR_STATE for a primitive of unknown kind. */
+int mprt__prim_bounds(const mprt_scene *scene, long long i, vec3 *lo, vec3 *hi);
+/* Message text for a primitive of unknown kind (a corrupted scene). */
+#define MPRT__UNKNOWN_KIND "primitive %lld has unknown kind %d"
+
+/* Bounding box of all primitives (zeros for none); MPRT_ERR_STATE with
+ * *bad_prim set for a primitive of unknown kind. */
+int mprt__scene_bounds(const mprt_scene *scene, vec3 *lo, vec3 *hi, long long *bad_prim);
 
 /* ---- Geometry: preparation and validation (prim_*.c) --------------------- */
 /* Each *_prepare checks its input and fills derived fields; on bad input it
@@ -197,9 +238,8 @@ vec3 mprt__cone_normal(const mprt__cone *c, vec3 p);
 int mprt__cone_box(const mprt__cone *c, vec3 lo, vec3 hi);
 void mprt__cone_bounds(const mprt__cone *c, vec3 *lo, vec3 *hi);
 
-/* ---- NFF and SPD (nff.c, spd*.c) ----------------------------------------- */
-int mprt__nff_parse(mprt_scene *scene, const char *text, size_t len, const char *name);
-int mprt__nff_write(const mprt_scene *scene, char *buf, size_t cap, size_t *needed);
-int mprt__spd_generate(mprt_scene *scene, const char *name, int size);
+/* ---- NFF (nff.c, nff_write.c) ------------------------------------------ */
+/* The C library's decimal point in the current locale (NFF text uses '.'). */
+char mprt__decimal_point(void);
 
 #endif

@@ -1,4 +1,6 @@
-/* scene.c: scene storage, validation of every entity added, summary. */
+/* scene.c: scene storage, validation of every entity added, the mark and
+ * rollback of a failed load, and the refusal of changes while grids use the
+ * scene.  Queries (summary, arrays) are in scene_query.c. */
 #include "mprt_internal.h"
 
 #include <stdio.h>
@@ -70,6 +72,10 @@ int mprt_scene_create(mprt_scene **out)
     s->angle = 45;
     s->hither = 0;
     s->width = s->height = 512;
+    if (pthread_mutex_init(&s->grids_lock, NULL) != 0) {
+        free(s);
+        return MPRT_ERR_OUT_OF_MEMORY;
+    }
     *out = s;
     return MPRT_OK;
 }
@@ -85,6 +91,7 @@ void mprt_scene_destroy(mprt_scene *s)
     free(s->vnormals);
     free(s->materials);
     free(s->lights);
+    pthread_mutex_destroy(&s->grids_lock);
     free(s);
 }
 
@@ -121,6 +128,7 @@ int mprt_scene_set_view(mprt_scene *s, const double from[3], const double at[3],
 {
     vec3 f, a, u, dir;
     if (!s || !from || !at || !up) return MPRT_ERR_INVALID_ARG;
+    if (mprt__scene_check_unshared(s, "set_view") != MPRT_OK) return MPRT_ERR_STATE;
     if (!finite3(from) || !finite3(at) || !finite3(up) || !isfinite(angle) || !finite1(hither))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: NaN or infinite value");
     if (!(angle > 0 && angle < 180))
@@ -150,6 +158,7 @@ int mprt_scene_set_view(mprt_scene *s, const double from[3], const double at[3],
 int mprt_scene_set_background(mprt_scene *s, const double rgb[3])
 {
     if (!s || !rgb) return MPRT_ERR_INVALID_ARG;
+    if (mprt__scene_check_unshared(s, "set_background") != MPRT_OK) return MPRT_ERR_STATE;
     if (!finite3(rgb)) return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "background: NaN or infinite colour");
     memcpy(s->background, rgb, sizeof s->background);
     return MPRT_OK;
@@ -160,6 +169,7 @@ int mprt_scene_add_light(mprt_scene *s, const double pos[3], const double *rgb)
     int st;
     mprt__light *l;
     if (!s || !pos) return MPRT_ERR_INVALID_ARG;
+    if (mprt__scene_check_unshared(s, "add_light") != MPRT_OK) return MPRT_ERR_STATE;
     if (!finite3(pos) || (rgb && !finite3(rgb)))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "light: NaN or infinite value");
     if ((st = GROW(s, lights, nlights, caplights, 1)) != MPRT_OK) return st;
@@ -177,6 +187,7 @@ int mprt_scene_set_material(mprt_scene *s, const double rgb[3], double kd, doubl
     int st;
     mprt__material *m;
     if (!s || !rgb) return MPRT_ERR_INVALID_ARG;
+    if (mprt__scene_check_unshared(s, "set_material") != MPRT_OK) return MPRT_ERR_STATE;
     if (!finite3(rgb) || !isfinite(kd) || !isfinite(ks) || !isfinite(shine) || !isfinite(t) || !isfinite(ior))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "material: NaN or infinite value");
     if (kd < 0 || ks < 0 || t < 0 || shine < 0)
@@ -221,6 +232,7 @@ int mprt_scene_add_sphere(mprt_scene *s, const double center[3], double radius)
 {
     int st;
     if (!s || !center) return MPRT_ERR_INVALID_ARG;
+    if (mprt__scene_check_unshared(s, "add_sphere") != MPRT_OK) return MPRT_ERR_STATE;
     if (!finite3(center) || !finite1(radius))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "sphere: NaN or infinite value");
     if (!(radius > 0))
@@ -245,6 +257,7 @@ int mprt__scene_add_polygon(mprt_scene *s, int n, const double *verts, const dou
     mprt__polygon p;
     char err[200];
     if (!s || !verts) return MPRT_ERR_INVALID_ARG;
+    if (mprt__scene_check_unshared(s, "add_polygon") != MPRT_OK) return MPRT_ERR_STATE;
     if (n < 3) return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "polygon: %d vertices, at least 3 needed", n);
     for (i = 0; i < n; i++) {
         if (!finite3(verts + 3 * i) || (normals && !finite3(normals + 3 * i)))
@@ -270,6 +283,7 @@ int mprt__scene_add_polygon(mprt_scene *s, int n, const double *verts, const dou
     if (reason) *reason = 0;
     if ((why = mprt__polygon_prepare(&p, s->verts, err, sizeof err)) != 0) {
         if (reason) *reason = why;
+        if (reason && why == MPRT__DEGENERATE) return MPRT_ERR_INVALID_ARG; /* the caller drops it */
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "polygon: %s", err);
     }
     if (normals) {
@@ -295,6 +309,7 @@ int mprt_scene_add_cone(mprt_scene *s, const double base[3], double base_r, cons
     mprt__cone c;
     char err[200];
     if (!s || !base || !apex) return MPRT_ERR_INVALID_ARG;
+    if (mprt__scene_check_unshared(s, "add_cone") != MPRT_OK) return MPRT_ERR_STATE;
     if (!finite3(base) || !finite3(apex) || !finite1(base_r) || !finite1(apex_r))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "cone: NaN or infinite value");
     memset(&c, 0, sizeof c);
@@ -313,111 +328,49 @@ int mprt_scene_add_cone(mprt_scene *s, const double base[3], double base_r, cons
     return MPRT_OK;
 }
 
-void mprt__prim_bounds(const mprt_scene *s, long long i, vec3 *lo, vec3 *hi)
+int mprt__prim_bounds(const mprt_scene *s, long long i, vec3 *lo, vec3 *hi)
 {
     const mprt__prim *p = &s->prims[i];
     switch (p->kind) {
-    case MPRT_SPHERE: mprt__sphere_bounds(&s->spheres[p->index], lo, hi); break;
-    case MPRT_POLYGON: mprt__polygon_bounds(&s->polygons[p->index], s->verts, lo, hi); break;
-    default: mprt__cone_bounds(&s->cones[p->index], lo, hi); break;
+    case MPRT_SPHERE: mprt__sphere_bounds(&s->spheres[p->index], lo, hi); return MPRT_OK;
+    case MPRT_POLYGON: mprt__polygon_bounds(&s->polygons[p->index], s->verts, lo, hi); return MPRT_OK;
+    case MPRT_CYLINDER:
+    case MPRT_CONE: mprt__cone_bounds(&s->cones[p->index], lo, hi); return MPRT_OK;
+    default: return MPRT_ERR_STATE;
     }
 }
 
-int mprt_scene_get_info(const mprt_scene *s, mprt_scene_info *info)
+/* ---- Mark and rollback ---------------------------------------------------- */
+
+/* The contents are the bytes from nprims up to errmsg (see struct mprt_scene). */
+void mprt__scene_mark(const mprt_scene *s, mprt__scene_saved *saved)
 {
-    long long i;
-    vec3 lo = v3(0, 0, 0), hi = v3(0, 0, 0);
-    if (!s || !info) return MPRT_ERR_INVALID_ARG;
-    memset(info, 0, sizeof *info);
-    info->prims = s->nprims;
-    info->count[MPRT_SPHERE] = s->nspheres;
-    info->count[MPRT_POLYGON] = s->npolygons;
-    info->count[MPRT_CYLINDER] = s->ncylinders;
-    info->count[MPRT_CONE] = s->ncones - s->ncylinders;
-    info->patches = s->npatches;
-    info->vertices = s->nverts;
-    info->lights = s->nlights;
-    info->materials = s->nmaterials;
-    info->dropped = s->dropped;
-    for (i = 0; i < s->nprims; i++) {
-        vec3 a, b;
-        mprt__prim_bounds(s, i, &a, &b);
-        if (i == 0) { lo = a; hi = b; continue; }
-        lo = v3(a.x < lo.x ? a.x : lo.x, a.y < lo.y ? a.y : lo.y, a.z < lo.z ? a.z : lo.z);
-        hi = v3(b.x > hi.x ? b.x : hi.x, b.y > hi.y ? b.y : hi.y, b.z > hi.z ? b.z : hi.z);
-    }
-    info->lo[0] = lo.x; info->lo[1] = lo.y; info->lo[2] = lo.z;
-    info->hi[0] = hi.x; info->hi[1] = hi.y; info->hi[2] = hi.z;
-    info->from[0] = s->from.x; info->from[1] = s->from.y; info->from[2] = s->from.z;
-    info->at[0] = s->at.x; info->at[1] = s->at.y; info->at[2] = s->at.z;
-    info->up[0] = s->up.x; info->up[1] = s->up.y; info->up[2] = s->up.z;
-    info->angle = s->angle;
-    info->hither = s->hither;
-    info->width = s->width;
-    info->height = s->height;
-    memcpy(info->background, s->background, sizeof info->background);
-    return MPRT_OK;
+    memcpy(saved->bytes, (const unsigned char *)s + offsetof(struct mprt_scene, nprims), sizeof saved->bytes);
 }
 
-int mprt_scene_load_nff(mprt_scene *s, const char *path)
+void mprt__scene_rollback(mprt_scene *s, const mprt__scene_saved *saved)
 {
-    FILE *f;
-    char *buf;
-    long len;
-    size_t got;
-    int st;
-    if (!s || !path) return MPRT_ERR_INVALID_ARG;
-    f = fopen(path, "rb");
-    if (!f) return mprt__scene_fail(s, MPRT_ERR_IO, "%s: cannot open for reading", path);
-    if (fseek(f, 0, SEEK_END) != 0 || (len = ftell(f)) < 0 || fseek(f, 0, SEEK_SET) != 0) {
-        fclose(f);
-        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: cannot determine the file size", path);
-    }
-    buf = malloc((size_t)len + 1);
-    if (!buf) {
-        fclose(f);
-        return mprt__scene_fail(s, MPRT_ERR_OUT_OF_MEMORY, "%s: out of memory reading %ld bytes", path, len);
-    }
-    got = fread(buf, 1, (size_t)len, f);
-    fclose(f);
-    if (got != (size_t)len) {
-        free(buf);
-        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: read failed", path);
-    }
-    buf[len] = '\0';
-    st = mprt__nff_parse(s, buf, (size_t)len, path);
-    free(buf);
-    return st;
+    memcpy((unsigned char *)s + offsetof(struct mprt_scene, nprims), saved->bytes, sizeof saved->bytes);
 }
 
-int mprt_scene_parse_nff(mprt_scene *s, const char *text, size_t len, const char *name)
+/* ---- Grids on the scene ------------------------------------------------------ */
+
+void mprt__scene_count_grid(const mprt_scene *scene, int delta)
 {
-    if (!s || (!text && len)) return MPRT_ERR_INVALID_ARG;
-    return mprt__nff_parse(s, text ? text : "", len, name ? name : "<string>");
+    /* The grid count is bookkeeping, not content: a const scene counts too */
+    mprt_scene *s = (mprt_scene *)(uintptr_t)scene;
+    pthread_mutex_lock(&s->grids_lock);
+    s->grids += delta;
+    pthread_mutex_unlock(&s->grids_lock);
 }
 
-int mprt_scene_write_nff(const mprt_scene *s, char *buf, size_t cap, size_t *needed)
+int mprt__scene_check_unshared(mprt_scene *s, const char *call)
 {
-    if (!s || !needed || (!buf && cap)) return MPRT_ERR_INVALID_ARG;
-    return mprt__nff_write(s, buf, cap, needed);
-}
-
-int mprt_scene_spd(mprt_scene *s, const char *name, int size)
-{
-    if (!s || !name) return MPRT_ERR_INVALID_ARG;
-    return mprt__spd_generate(s, name, size);
-}
-
-int mprt_scene_get_prims(const mprt_scene *s, int32_t *kind, int32_t *words, int32_t *material, size_t cap)
-{
-    long long i;
-    if (!s || !kind || !words || !material) return MPRT_ERR_INVALID_ARG;
-    if (cap < (size_t)s->nprims) return MPRT_ERR_CAPACITY;
-    for (i = 0; i < s->nprims; i++) {
-        const mprt__prim *p = &s->prims[i];
-        kind[i] = p->kind;
-        material[i] = p->material;
-        words[i] = p->kind == MPRT_SPHERE ? 4 : p->kind == MPRT_POLYGON ? 3 * s->polygons[p->index].n + 4 : 8;
-    }
-    return MPRT_OK;
+    int grids;
+    pthread_mutex_lock(&s->grids_lock);
+    grids = s->grids;
+    pthread_mutex_unlock(&s->grids_lock);
+    if (grids == 0) return MPRT_OK;
+    return mprt__scene_fail(s, MPRT_ERR_STATE, "%s: the scene has %d grid%s; a scene cannot change while grids use it",
+                            call, grids, grids == 1 ? "" : "s");
 }

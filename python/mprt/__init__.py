@@ -9,27 +9,25 @@ intersection calculation (IC) and shading calculation (SC).
     >>> scene = mprt.Scene.spd("balls", size=1)
     >>> grid = scene.grid(16)
     >>> image, counters = grid.render(width=64, height=64)
+    >>> image, trace = grid.trace(32, 32)
+
+The package is built in layers, each module importing only those before it
+(tests/test_layers.py checks the order): _lowlevel (the C calls), errors,
+scene, grid, tracefile, tracecheck, stats, trace, tracing, then the models
+and the command line.
 """
 from __future__ import annotations
 
 from importlib.metadata import PackageNotFoundError, version as _dist_version
 
-from ._core import (
-    KINDS,
-    SPD_DEFAULT_SIZES,
-    SPD_SCENES,
-    Grid,
-    InvalidArgument,
-    MprtError,
-    Scene,
-    SceneParseError,
-    SceneStateError,
-    write_png,
-)
-from . import _core
-from .trace import Trace, TraceError, load_trace
+from . import tracing
+from ._lowlevel import EXT_VERSION, KINDS, Kind, Outcome, RayKind, Rules, Stage
+from .errors import InvalidArgument, MprtError, SceneParseError, SceneStateError, TraceError
+from .grid import Grid, write_png
+from .scene import SPD_DEFAULT_SIZES, SPD_SCENES, Scene
+from .trace import Trace, load_trace
 
-__version__ = _core.EXT_VERSION
+__version__ = EXT_VERSION
 
 try:  # the compiled extension must match the installed package
     _pkg = _dist_version("mprt")
@@ -47,12 +45,18 @@ __all__ = [
     "SPD_SCENES",
     "Grid",
     "InvalidArgument",
+    "Kind",
     "MprtError",
+    "Outcome",
+    "RayKind",
+    "Rules",
     "Scene",
     "SceneParseError",
     "SceneStateError",
-    "write_png",
+    "Stage",
     "Trace",
     "TraceError",
     "load_trace",
+    "tracing",
+    "write_png",
 ]

@@ -7,8 +7,12 @@ import os
 import sys
 import time
 
-from ._core import SPD_SCENES, MprtError, Scene, write_png
-
+from ._lowlevel import binding
+from .errors import MprtError
+from .grid import write_png
+from .scene import SPD_SCENES, Scene
+from .trace import load_trace
+from .tracing import trace
 
 
 def _grid_arg(text: str):
@@ -67,9 +71,7 @@ def cmd_render(a) -> int:
         print(f"wrote   {a.output}")
     if a.stats:
         with open(a.stats, "w") as f:
-            json.dump({k: counters[k] for k in ("eye_rays", "eye_hits", "reflect_rays", "refract_rays",
-                                                "shadow_rays", "suppressed_rays", "voxels_traversed", "hits",
-                                                "tests")}, f, indent=2)
+            json.dump(counters, f, indent=2)
         print(f"wrote   {a.stats}")
     return 0
 
@@ -86,14 +88,14 @@ def cmd_trace(a) -> int:
     grid = scene.grid(a.grid)
     w, h = a.res or (0, 0)
     t0 = time.perf_counter()
-    image, trace = grid.trace(w, h, rules=a.rules, threshold=a.threshold, threads=a.threads, tiles=a.tiles,
-                              sample=a.sample, tile=a.tile, path=a.output, progress=sys.stderr.isatty() or a.progress,
-                              mailbox=a.mailbox)
+    _, tr = trace(grid, w, h, rules=a.rules, threshold=a.threshold, threads=a.threads, tiles=a.tiles,
+                  sample=a.sample, tile=a.tile, path=a.output, progress=sys.stderr.isatty() or a.progress,
+                  mailbox=a.mailbox)
     t1 = time.perf_counter()
     size = os.path.getsize(a.output)
-    nr, nv = len(trace.rays), len(trace.visits)  # memory-mapped: not read here
-    print(f"trace   {scene.name}, grid {'x'.join(map(str, grid.n))}, {trace.meta['width']}x{trace.meta['height']} "
-          f"{a.rules}, {len(trace.meta['tiles'])} of {trace.meta['tiles_total']} tiles: "
+    nr, nv = len(tr.rays), len(tr.visits)  # memory-mapped: not read here
+    print(f"trace   {scene.name}, grid {'x'.join(map(str, grid.n))}, {tr.meta['width']}x{tr.meta['height']} "
+          f"{a.rules}, {len(tr.meta['tiles'])} of {tr.meta['tiles_total']} tiles: "
           f"{nr} rays, {nv} visits in {t1 - t0:.2f} s")
     print(f"wrote   {a.output}: {size} bytes ({size / max(nv, 1):.1f} bytes per visit, rays included); "
           f"'mprt stats {a.output}' gives the statistics")
@@ -101,14 +103,12 @@ def cmd_trace(a) -> int:
 
 
 def cmd_stats(a) -> int:
-    from .trace import load_trace
-
-    trace = load_trace(a.trace)
-    st = trace.check() if a.check else trace.stats()
+    tr = load_trace(a.trace)
+    st = tr.check() if a.check else tr.stats()
     if a.json:
         print(json.dumps(st, indent=2))
         return 0
-    m = trace.meta
+    m = tr.meta
     print(f"{m['scene']}  grid {'x'.join(map(str, m['grid']))}  {m['width']}x{m['height']}  rules {m['rules']}"
           f"  threshold {m['threshold']:g}  tiles {len(m['tiles'])}/{m['tiles_total']}")
     rows = [
@@ -152,7 +152,7 @@ def build_parser() -> argparse.ArgumentParser:
     r = sub.add_parser("render", help="render a scene to PNG and print its statistics")
     r.add_argument("scene", help="NFF path, or SPD name with optional size (balls, balls:2)")
     r.add_argument("--grid", type=_grid_arg, default=None,
-                   help="N or NX,NY,NZ (default: about 3 N^(1/3) along the longest axis, see Scene.default_grid)")
+                   help="N or NX,NY,NZ (default: Scene.default_grid)")
     r.add_argument("--res", type=_res_arg, default=None, help="WxH (default: the scene's view resolution)")
     r.add_argument("--rules", choices=("paper", "spd"), default="paper")
     r.add_argument("--threshold", type=float, default=None, help="contribution cutoff (paper rules)")
@@ -168,7 +168,8 @@ def build_parser() -> argparse.ArgumentParser:
     t.add_argument("--rules", choices=("paper", "spd"), default="paper")
     t.add_argument("--threshold", type=float, default=None, help="contribution cutoff (paper rules)")
     t.add_argument("--threads", type=int, default=1)
-    t.add_argument("--tile", type=int, default=16, help="tile edge in samples (the unit of subsets)")
+    t.add_argument("--tile", type=int, default=None, help="tile edge in samples, the unit of subsets "
+                   f"(default {binding().render_desc_init()['tile']})")
     sel = t.add_mutually_exclusive_group()
     sel.add_argument("--tiles", type=_tiles_arg, default=None, help="only these tiles, e.g. 0,5,9")
     sel.add_argument("--sample", default=None, help="regular:K (every K-th tile) or random:N:SEED")

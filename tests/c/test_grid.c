@@ -1,6 +1,6 @@
 /* test_grid.c: the voxel grid and the 3DDDA walk. */
 #include "check.h"
-#include "grid.h"
+#include "dda.h"
 
 #include <stdint.h>
 #include <stdlib.h>

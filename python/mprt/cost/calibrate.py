@@ -97,9 +97,9 @@ def counts_row(trace) -> dict:
     if len(set(g)) != 1:
         raise CostModelError(f"calibration needs a cubic grid (the paper's n^3), not {g}")
     scene, _, size = str(meta["scene"]).partition(":")
-    import mprt
+    from ..scene import SPD_DEFAULT_SIZES
 
-    if scene not in PAPER or not size or int(size) != mprt.SPD_DEFAULT_SIZES[scene]:
+    if scene not in PAPER or not size or int(size) != SPD_DEFAULT_SIZES[scene]:
         raise CostModelError(f"trace of {meta['scene']!r}: the paper measured balls, mount, rings, tetra, tree "
                              "at the SPD default sizes only")
     if meta.get("rules") != "paper":
@@ -114,9 +114,9 @@ def counts_row(trace) -> dict:
 
 
 def trace_cell(scene: str, n: int, res: int = 256, threads: int = 2):
-    import mprt
+    from ..scene import Scene
 
-    _, tr = mprt.Scene.spd(scene).grid(n).trace(res, res, rules="paper", threads=threads)
+    _, tr = Scene.spd(scene).grid(n).trace(res, res, rules="paper", threads=threads)
     return tr
 
 

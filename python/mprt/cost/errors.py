@@ -1,7 +1,7 @@
 """The cost model's error: bad processor configurations, kernel names, model files."""
 from __future__ import annotations
 
-from .. import InvalidArgument
+from ..errors import InvalidArgument
 
 
 class CostModelError(InvalidArgument):

@@ -1,0 +1,231 @@
+/* pipeline.c: the 3MPRT loop.  Every ray moves through the paper's three
+ * stages: OS (object search) walks voxels with the 3DDDA until one holds
+ * primitives and hands the ray to IC; IC (intersection calculation) tests
+ * that voxel's primitives and either sends the ray to SC (a hit), kills it
+ * (a blocked shadow ray) or returns it to OS; SC (shading calculation,
+ * shade.c) shades, makes the shadow, reflection and refraction rays and
+ * sends them to OS.  A ray leaving the grid at OS dies (primary and
+ * secondary rays: the background) or, for a shadow ray, reaches its light
+ * and goes to SC.  Every stage visit is emitted once (record.h).
+ *
+ * Grid independence: IC keeps the nearest hit it has found so far, also when
+ * that hit lies beyond the current voxel's stretch of the ray, and accepts
+ * it only in the voxel whose stretch reaches it.  Ties in t go to the lower
+ * primitive id.  The accepted hit is therefore the nearest hit over all
+ * primitives, whatever the subdivision, and so are the image and every ray
+ * count. */
+#include "dda.h"
+#include "render.h"
+
+#include <string.h>
+
+#define INF_REAL ((real)INFINITY)
+
+/* ---- IC: one voxel's primitives ------------------------------------------- */
+
+/* Mailbox: primitive ids this ray has tested, direct-mapped.  A primitive
+ * tested once need not be tested again in a later voxel: its hit, if any
+ * within the (shrinking) search range, is already the candidate. */
+#define MAILBOX_SIZE 64
+typedef struct {
+    int32_t id[MAILBOX_SIZE];
+} mailbox;
+
+/* Test primitive id against ray over (tmin, tmax]; the test is counted in
+ * the IC visit.  Returns 1 with *t for a hit. */
+static int test_prim(const mprt_scene *s, int32_t id, const mprt__ray *ray, real tmin, real tmax, real *t,
+                     mprt__visit *ic, mprt__sink *sink)
+{
+    const mprt__prim *p = &s->prims[id];
+    switch (p->kind) {
+    case MPRT_SPHERE:
+        ic->tests[MPRT_SPHERE]++;
+        return mprt__sphere_hit(&s->spheres[p->index], ray, tmin, tmax, t);
+    case MPRT_POLYGON:
+        ic->tests[MPRT_POLYGON]++;
+        ic->vertices += s->polygons[p->index].n;
+        return mprt__polygon_hit(&s->polygons[p->index], s->verts, ray, tmin, tmax, t);
+    case MPRT_CYLINDER:
+        ic->tests[MPRT_CYLINDER]++;
+        return mprt__cylinder_hit(&s->cones[p->index], ray, tmin, tmax, t);
+    case MPRT_CONE:
+        ic->tests[MPRT_CONE]++;
+        return mprt__cone_hit(&s->cones[p->index], ray, tmin, tmax, t);
+    default:
+        sink->bad_prim = id;
+        return 0;
+    }
+}
+
+/* IC visit: test the voxel's list, counting into ic.  For a shadow ray
+ * return 1 on any hit in (tmin, tmax].  Otherwise update the nearest hit
+ * *best and return 1 when it lies within this voxel's stretch (accepted). */
+static int ic_visit(const mprt_grid *g, const mprt__dda *walk, const mprt__ray *ray, real tmin, real tmax, int shadow,
+                    mprt__hit *best, mailbox *mb, mprt__visit *ic, mprt__sink *sink)
+{
+    const mprt_scene *s = g->scene;
+    uint32_t k, end = g->start[walk->voxel + 1];
+    for (k = g->start[walk->voxel]; k < end; k++) {
+        int32_t id = g->ids[k];
+        real t;
+        real limit = shadow ? tmax : best->t;
+        if (mb) {
+            if (mb->id[id & (MAILBOX_SIZE - 1)] == id) continue;
+            mb->id[id & (MAILBOX_SIZE - 1)] = id;
+        }
+        if (!test_prim(s, id, ray, tmin, limit, &t, ic, sink)) continue;
+        if (shadow) {
+            best->t = t;
+            best->prim = id;
+            return 1;
+        }
+        if (t < best->t || (t == best->t && id < best->prim)) {
+            best->t = t;
+            best->prim = id;
+        }
+    }
+    return !shadow && best->prim >= 0 && best->t <= walk->t_exit;
+}
+
+/* ---- OS + IC ----------------------------------------------------------------- */
+
+/* Emit the OS visit that ends a walk (or a stretch of it, handing to IC). */
+static inline void emit_os(mprt__sink *sink, int64_t ray_id, int ray_kind, int outcome, int32_t steps, int64_t voxel_id,
+                    int32_t prim)
+{
+    mprt__visit os;
+    mprt__visit_init(&os, ray_id, ray_kind, MPRT_STAGE_OS, outcome);
+    os.steps = steps;
+    os.voxel_id = voxel_id;
+    os.prim = prim;
+    mprt__emit_visit(sink, &os);
+}
+
+int mprt__os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
+                mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind)
+{
+    mprt__dda walk;
+    mailbox mb, *pmb = NULL;
+    const uint8_t *flag = g->flag;
+    int32_t steps;  /* voxels the walk entered since OS last had the ray */
+    int left = shadow ? MPRT_OUT_TO_SC : MPRT_OUT_LEFT;
+    best->t = tmax;
+    best->prim = -1;
+    if (!mprt__dda_start(g, ray, tmin, tmax, &walk)) {
+        emit_os(sink, ray_id, ray_kind, left, 0, -1, -1);
+        return 0;
+    }
+    if (use_mailbox) {
+        memset(&mb, 0xff, sizeof mb); /* -1: no primitive */
+        pmb = &mb;
+    }
+    steps = 1;
+    for (;;) {
+        if (flag[walk.voxel]) {
+            /* OS hands the ray to IC */
+            mprt__visit ic;
+            int accepted;
+            emit_os(sink, ray_id, ray_kind, MPRT_OUT_TO_IC, steps, walk.voxel, -1);
+            mprt__visit_init(&ic, ray_id, ray_kind, MPRT_STAGE_IC, MPRT_OUT_RETURN);
+            ic.voxel_id = walk.voxel;
+            accepted = ic_visit(g, &walk, ray, tmin, tmax, shadow, best, pmb, &ic, sink);
+            if (accepted) {
+                ic.outcome = shadow ? MPRT_OUT_BLOCKED : MPRT_OUT_HIT;
+                ic.prim = best->prim;
+            }
+            mprt__emit_visit(sink, &ic);
+            if (accepted) return 1;
+            /* a return ray: back to OS */
+            steps = 0;
+        }
+        if (!mprt__dda_next(g, &walk)) break;
+        steps++;
+    }
+    /* The walk has tested every voxel the ray crosses, so the nearest
+     * candidate is the nearest hit even when rounding put it past the
+     * last stretch (a primitive lying on the grid box's face). */
+    if (!shadow && best->prim >= 0) {
+        emit_os(sink, ray_id, ray_kind, MPRT_OUT_LATE_HIT, steps, -1, best->prim);
+        return 1;
+    }
+    emit_os(sink, ray_id, ray_kind, left, steps, -1, -1);
+    return 0;
+}
+
+/* ---- A sample's ray tree -------------------------------------------------- */
+
+void mprt__trace_sample(const mprt__render_setup *setup, mprt__tree_ray eye, int sample, double rgb[3],
+                        mprt__tree_ray *stack, mprt__sink *sink)
+{
+    const mprt_scene *s = setup->scene;
+    int top = 0;
+    eye.id = mprt__emit_ray(sink, -1, MPRT_RAY_PRIMARY, 1, sample, -1, 1.0);
+    stack[top++] = eye;
+    rgb[0] = rgb[1] = rgb[2] = 0;
+    while (top > 0) {
+        mprt__tree_ray tree_ray = stack[--top];
+        mprt__ray ray;
+        mprt__hit hit;
+        int shadow = tree_ray.kind == MPRT_RAY_SHADOW;
+        mprt__ray_prepare(&ray, tree_ray.origin, tree_ray.dir);
+        if (mprt__os_ic(setup->grid, &ray, tree_ray.tmin, tree_ray.tmax, shadow, setup->desc.mailbox, &hit, sink,
+                        tree_ray.id, tree_ray.kind)) {
+            if (shadow) continue; /* blocked shadow ray dies at IC */
+            mprt__sc_shade(setup, &tree_ray, hit, sample, rgb, stack, &top, sink);
+        } else if (shadow) {
+            /* unblocked shadow ray: OS -> SC, adds its light */
+            mprt__visit sc;
+            mprt__visit_init(&sc, tree_ray.id, tree_ray.kind, MPRT_STAGE_SC, MPRT_OUT_LIT);
+            mprt__emit_visit(sink, &sc);
+            rgb[0] += tree_ray.light_rgb[0];
+            rgb[1] += tree_ray.light_rgb[1];
+            rgb[2] += tree_ray.light_rgb[2];
+        } else {
+            /* left the space: the background */
+            rgb[0] += tree_ray.contribution * s->background[0];
+            rgb[1] += tree_ray.contribution * s->background[1];
+            rgb[2] += tree_ray.contribution * s->background[2];
+        }
+    }
+}
+
+/* ---- Batch closest hit ------------------------------------------------------ */
+
+int mprt_grid_intersect(mprt_grid *g, size_t n, const double *org, const double *dir, double *t, int32_t *prim,
+                        mprt_counters *counters)
+{
+    size_t i;
+    mprt_counters sum;
+    mprt__sink sink;
+    if (!g) return MPRT_ERR_INVALID_ARG;
+    if (g->failed) return MPRT_ERR_STATE;
+    if (n && (!org || !dir || !t || !prim)) return MPRT_ERR_INVALID_ARG;
+    memset(&sum, 0, sizeof sum);
+    sink.counters = &sum;
+    sink.recorder = NULL;
+    sink.bad_prim = -1;
+    for (i = 0; i < n; i++) {
+        mprt__ray ray;
+        mprt__hit hit;
+        const double *o = org + 3 * i, *d = dir + 3 * i;
+        if (!(isfinite(o[0]) && isfinite(o[1]) && isfinite(o[2]) && isfinite(d[0]) && isfinite(d[1]) &&
+              isfinite(d[2])) ||
+            (d[0] == 0 && d[1] == 0 && d[2] == 0)) {
+            return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG,
+                                   "intersect: ray %zu has a NaN or infinite component or a zero direction", i);
+        }
+        mprt__ray_prepare(&ray, v3((real)o[0], (real)o[1], (real)o[2]), v3((real)d[0], (real)d[1], (real)d[2]));
+        if (mprt__os_ic(g, &ray, 0, INF_REAL, 0, 1, &hit, &sink, 0, MPRT__RAY_QUERY)) {
+            t[i] = (double)hit.t;
+            prim[i] = hit.prim;
+        } else {
+            t[i] = INFINITY;
+            prim[i] = -1;
+        }
+    }
+    if (sink.bad_prim >= 0)
+        return mprt__grid_fail(g, MPRT_ERR_STATE, "intersect: " MPRT__UNKNOWN_KIND, (long long)sink.bad_prim,
+                               g->scene->prims[sink.bad_prim].kind);
+    if (counters) *counters = sum;
+    return MPRT_OK;
+}

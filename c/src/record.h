@@ -1,0 +1,120 @@
+/* record.h: the one place where a stage visit or a new ray is recorded
+ * (internal).  mprt__emit_visit and mprt__emit_ray feed both the counters
+ * of a render and, when tracing, the trace records, so the two cannot
+ * disagree: every counter of mprt_counters is a sum over the emitted visits
+ * and rays. */
+#ifndef MPRT_RECORD_H
+#define MPRT_RECORD_H
+
+#include "mprt_internal.h"
+
+#include <stdint.h>
+
+/* A ray that belongs to no ray tree (mprt_grid_intersect's rays). */
+#define MPRT__RAY_QUERY (-1)
+
+/* What one stage visit did: the fields of mprt_trace_visit, in full width. */
+typedef struct {
+    int64_t ray;            /* tile-local ray number (0 when not tracing) */
+    int ray_kind;           /* mprt_ray_kind, or MPRT__RAY_QUERY */
+    int stage;              /* mprt_stage */
+    int outcome;            /* mprt_outcome */
+    int64_t voxel_id;       /* OS: voxel handed to IC, IC: voxel tested; else -1 */
+    int32_t steps;          /* OS: voxels the 3DDDA entered during the visit */
+    int32_t tests[MPRT_NKINDS]; /* IC: intersection tests by primitive kind */
+    int32_t vertices;       /* IC: polygon vertices touched by the tests */
+    int32_t prim;           /* IC/SC: primitive hit, or -1 */
+    int made;               /* SC: rays made */
+    int suppressed;         /* SC: rays not made (threshold or depth) */
+} mprt__visit;
+
+/* Fill a visit with its identity and no counts. */
+static inline void mprt__visit_init(mprt__visit *v, int64_t ray, int ray_kind, int stage, int outcome)
+{
+    int k;
+    v->ray = ray;
+    v->ray_kind = ray_kind;
+    v->stage = stage;
+    v->outcome = outcome;
+    v->voxel_id = -1;
+    v->steps = 0;
+    for (k = 0; k < MPRT_NKINDS; k++) v->tests[k] = 0;
+    v->vertices = 0;
+    v->prim = -1;
+    v->made = 0;
+    v->suppressed = 0;
+}
+
+/* The trace records of one tile (mprt_grid_trace_tile's buffers). */
+typedef struct {
+    mprt_trace_ray *rays;
+    size_t cap_rays, nrays;     /* nrays counts every ray, also past cap_rays */
+    mprt_trace_visit *visits;
+    size_t cap_visits, nvisits; /* likewise */
+    int too_wide;               /* 1 when a value did not fit its record field */
+} mprt__recorder;
+
+/* Where the visits and rays of a tile go. */
+typedef struct {
+    mprt_counters *counters;
+    mprt__recorder *recorder;   /* NULL unless tracing */
+    int64_t bad_prim;           /* -1, or a primitive of unknown kind met (an error) */
+} mprt__sink;
+
+/* Append the records (record.c). */
+void mprt__record_visit(mprt__recorder *recorder, const mprt__visit *visit);
+int64_t mprt__record_ray(mprt__recorder *recorder, int64_t parent, int kind, int depth, int sample, int light,
+                         double contribution);
+
+/* A stage visit: counted, and recorded when tracing. */
+static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
+{
+    mprt_counters *counters = sink->counters;
+    int k;
+    switch (v->stage) {
+    case MPRT_STAGE_OS:
+        counters->os_visits++;
+        counters->voxels_traversed += v->steps;
+        break;
+    case MPRT_STAGE_IC:
+        counters->ic_visits++;
+        for (k = 0; k < MPRT_NKINDS; k++) counters->tests[k] += v->tests[k];
+        counters->polygon_vertices += v->vertices;
+        break;
+    default: /* MPRT_STAGE_SC */
+        counters->sc_visits++;
+        counters->suppressed_rays += v->suppressed;
+        break;
+    }
+    /* A hit ends the ray's search: IC accepts it (a shadow ray is blocked),
+     * or OS finds it held when the walk ends */
+    if (v->outcome == MPRT_OUT_HIT || v->outcome == MPRT_OUT_BLOCKED || v->outcome == MPRT_OUT_LATE_HIT) {
+        counters->hits++;
+        if (v->ray_kind == MPRT_RAY_PRIMARY) counters->eye_hits++;
+    }
+    if (sink->recorder) {
+        /* A copy, so that the caller's visit can live in registers when not tracing */
+        mprt__visit copy = *v;
+        mprt__record_visit(sink->recorder, &copy);
+    }
+}
+
+/* A new ray: counted by kind, and recorded when tracing.  Returns its
+ * tile-local number (0 when not tracing). */
+static inline int64_t mprt__emit_ray(mprt__sink *sink, int64_t parent, int kind, int depth, int sample, int light,
+                                     double contribution)
+{
+    mprt_counters *counters = sink->counters;
+    switch (kind) {
+    case MPRT_RAY_PRIMARY: counters->eye_rays++; break;
+    case MPRT_RAY_REFLECT: counters->reflect_rays++; break;
+    case MPRT_RAY_REFRACT: counters->refract_rays++; break;
+    default: /* MPRT_RAY_SHADOW */ counters->shadow_rays++; break;
+    }
+    return sink->recorder ? mprt__record_ray(sink->recorder, parent, kind, depth, sample, light, contribution) : 0;
+}
+
+/* counters += more, field by field. */
+void mprt__counters_add(mprt_counters *counters, const mprt_counters *more);
+
+#endif

@@ -1,0 +1,397 @@
+"""The binding layer: the only module that imports the compiled extensions.
+
+A ``Binding`` wraps one build of the C library (``double``: ``mprt._mprt``;
+``single``: ``mprt._mprt32``, float geometry) with one method per C call.
+Each method turns its arguments into C buffers (numpy arrays handed over
+without copies by a typed ``ffi.from_buffer``, which keeps them alive for the
+call), makes the call, and turns a failed status into the matching exception
+of ``mprt.errors`` carrying the library's own message.  Nothing from cffi
+leaves this module but opaque handles, which callers only hand back.
+
+Everything the header defines is read from it, never written again here:
+the enums (``Status``, ``Kind``, ``Rules``, ``Stage``, ``RayKind``,
+``Outcome``), the render description's fields and defaults, the counters'
+names, and the trace records' numpy layout (``RAY_DTYPE``, ``VISIT_DTYPE``,
+built from the C structs' fields and offsets).
+"""
+from __future__ import annotations
+
+import enum
+import os
+
+import numpy as np
+
+from . import _mprt, _mprt32
+from .errors import CapacityError, InvalidArgument, MprtError, SceneParseError, SceneStateError
+
+_FFI = _mprt.ffi
+
+
+def _enum(name: str, ctype: str, prefix: str, skip=()) -> type[enum.IntEnum]:
+    """An IntEnum of the header's enum ``ctype``: members named without ``prefix``, in value order."""
+    members = sorted((value, cname[len(prefix):]) for cname, value in _FFI.typeof(ctype).relements.items()
+                     if cname.startswith(prefix) and cname not in skip)
+    return enum.IntEnum(name, [(n, v) for v, n in members], module=__name__)
+
+
+Status = _enum("Status", "mprt_status", "MPRT_")
+Kind = _enum("Kind", "mprt_kind", "MPRT_", skip=("MPRT_NKINDS",))
+Rules = _enum("Rules", "mprt_rules", "MPRT_RULES_")
+Stage = _enum("Stage", "mprt_stage", "MPRT_STAGE_")
+RayKind = _enum("RayKind", "mprt_ray_kind", "MPRT_RAY_")
+Outcome = _enum("Outcome", "mprt_outcome", "MPRT_OUT_")
+if len(Kind) != _mprt.lib.MPRT_NKINDS or [k.value for k in Kind] != list(range(len(Kind))):
+    raise ImportError("mprt_kind is not 0..MPRT_NKINDS-1 in the header")
+
+KINDS = tuple(k.name.lower() for k in Kind)     # "sphere", "polygon", "cylinder", "cone"
+RULES = {r.name.lower(): r for r in Rules}      # "paper", "spd"
+
+_ERRORS = {
+    Status.ERR_INVALID_ARG: InvalidArgument,
+    Status.ERR_PARSE: SceneParseError,
+    Status.ERR_STATE: SceneStateError,
+    Status.ERR_CAPACITY: CapacityError,
+    Status.ERR_OUT_OF_MEMORY: MemoryError,
+    Status.ERR_IO: OSError,
+}
+
+
+def error_class(status: int) -> type[Exception]:
+    """The exception raised for a failed status code."""
+    return _ERRORS.get(status, MprtError)
+
+
+# ---- trace records: numpy views of the C structs ------------------------------------------
+
+_NUMPY_OF_C = {"int64_t": "<i8", "int32_t": "<i4", "int16_t": "<i2", "uint8_t": "u1", "uint32_t": "<u4",
+               "double": "<f8"}
+
+
+def _record_dtype(ffi, ctype: str) -> np.dtype:
+    names, formats, offsets = [], [], []
+    for name, field in ffi.typeof(ctype).fields:
+        t = field.type
+        names.append(name)
+        offsets.append(field.offset)
+        formats.append((_NUMPY_OF_C[t.item.cname], (t.length,)) if t.kind == "array" else _NUMPY_OF_C[t.cname])
+    return np.dtype({"names": names, "formats": formats, "offsets": offsets, "itemsize": ffi.sizeof(ctype)},
+                    align=True)
+
+
+RAY_DTYPE = _record_dtype(_FFI, "mprt_trace_ray")
+VISIT_DTYPE = _record_dtype(_FFI, "mprt_trace_visit")
+for _ctype, _dt in (("mprt_trace_ray", RAY_DTYPE), ("mprt_trace_visit", VISIT_DTYPE)):
+    if _record_dtype(_mprt32.ffi, _ctype) != _dt:
+        raise ImportError(f"{_ctype} differs between the double and the single build")
+
+
+# ---- argument conversion ---------------------------------------------------------------------
+
+def vec3(name: str, value) -> np.ndarray:
+    """Three doubles, or InvalidArgument naming the argument."""
+    a = np.ascontiguousarray(value, dtype=np.float64).reshape(-1)
+    if a.shape != (3,):
+        raise InvalidArgument(f"{name}: expected 3 numbers, got {a.size}")
+    return a
+
+
+def points(name: str, value) -> np.ndarray:
+    """An (n, 3) array of doubles, or InvalidArgument naming the argument."""
+    a = np.ascontiguousarray(value, dtype=np.float64)
+    if a.ndim != 2 or a.shape[1] != 3:
+        raise InvalidArgument(f"{name} must have shape (n, 3), not {a.shape}")
+    return a
+
+
+def _struct_dict(ffi, cdata, ctype: str) -> dict:
+    """A C struct's fields by name (arrays as lists)."""
+    return {name: list(getattr(cdata, name)) if f.type.kind == "array" else getattr(cdata, name)
+            for name, f in ffi.typeof(ctype).fields}
+
+
+class Binding:
+    """One build of the library; one method per C function."""
+
+    def __init__(self, ext, precision: str):
+        self.ffi, self.lib = ext.ffi, ext.lib
+        self.precision = precision
+        self.version = self.ffi.string(self.lib.mprt_ext_version()).decode()
+
+    # -- status ------------------------------------------------------------------------
+    def status_str(self, status: int) -> str:
+        return self.ffi.string(self.lib.mprt_status_str(status)).decode()
+
+    def _text(self, ptr) -> str:
+        return "" if ptr == self.ffi.NULL else self.ffi.string(ptr).decode(errors="replace")
+
+    def _check(self, rc: int, errmsg, handle) -> None:
+        """Raise the status's exception with the handle's message (read after the call)."""
+        if rc != Status.OK:
+            raise error_class(rc)(self._text(errmsg(handle)) or self.status_str(rc))
+
+    def _scene(self, h, rc):
+        self._check(rc, self.lib.mprt_scene_errmsg, h)
+
+    def _grid(self, h, rc):
+        self._check(rc, self.lib.mprt_grid_errmsg, h)
+
+    def _in(self, ctype: str, a: np.ndarray):
+        return self.ffi.from_buffer(ctype + "[]", a)
+
+    def _out(self, ctype: str, a: np.ndarray):
+        return self.ffi.from_buffer(ctype + "[]", a, require_writable=True)
+
+    # -- scene -------------------------------------------------------------------------
+    def scene_create(self):
+        out = self.ffi.new("mprt_scene **")
+        if self.lib.mprt_scene_create(out) != Status.OK:
+            raise MemoryError("mprt_scene_create: out of memory")
+        return self.ffi.gc(out[0], self.lib.mprt_scene_destroy)
+
+    def scene_warning(self, h) -> str:
+        return self._text(self.lib.mprt_scene_warning(h))
+
+    def scene_load_nff(self, h, path) -> None:
+        self._scene(h, self.lib.mprt_scene_load_nff(h, os.fsencode(path)))
+
+    def scene_parse_nff(self, h, text: str, name: str) -> None:
+        data = text.encode()
+        self._scene(h, self.lib.mprt_scene_parse_nff(h, data, len(data), name.encode()))
+
+    def scene_write_nff(self, h) -> str:
+        ffi, lib = self.ffi, self.lib
+        need = ffi.new("size_t *")
+        rc = lib.mprt_scene_write_nff(h, ffi.NULL, 0, need)   # asks for the size
+        if rc != Status.ERR_CAPACITY:
+            self._scene(h, rc)
+        buf = ffi.new("char[]", need[0])
+        self._scene(h, lib.mprt_scene_write_nff(h, buf, need[0], need))
+        return ffi.string(buf).decode()
+
+    def scene_spd(self, h, name: str, size: int) -> None:
+        self._scene(h, self.lib.mprt_scene_spd(h, name.encode(), int(size)))
+
+    def scene_set_view(self, h, eye, at, up, angle, hither, width, height) -> None:
+        self._scene(h, self.lib.mprt_scene_set_view(
+            h, self._in("double", vec3("eye", eye)), self._in("double", vec3("at", at)),
+            self._in("double", vec3("up", up)), float(angle), float(hither), int(width), int(height)))
+
+    def scene_set_background(self, h, rgb) -> None:
+        self._scene(h, self.lib.mprt_scene_set_background(h, self._in("double", vec3("rgb", rgb))))
+
+    def scene_add_light(self, h, pos, rgb=None) -> None:
+        c = self.ffi.NULL if rgb is None else self._in("double", vec3("rgb", rgb))
+        self._scene(h, self.lib.mprt_scene_add_light(h, self._in("double", vec3("pos", pos)), c))
+
+    def scene_set_material(self, h, rgb, kd, ks, shine, t, ior) -> None:
+        self._scene(h, self.lib.mprt_scene_set_material(
+            h, self._in("double", vec3("rgb", rgb)), float(kd), float(ks), float(shine), float(t), float(ior)))
+
+    def scene_add_sphere(self, h, center, radius) -> None:
+        self._scene(h, self.lib.mprt_scene_add_sphere(h, self._in("double", vec3("center", center)), float(radius)))
+
+    def scene_add_polygon(self, h, vertices, normals=None) -> None:
+        v = points("polygon vertices", vertices)
+        nrm = self.ffi.NULL
+        if normals is not None:
+            nn = np.ascontiguousarray(normals, dtype=np.float64)
+            if nn.shape != v.shape:
+                raise InvalidArgument(f"polygon normals must have shape {v.shape}, not {nn.shape}")
+            nrm = self._in("double", nn)
+        self._scene(h, self.lib.mprt_scene_add_polygon(h, v.shape[0], self._in("double", v), nrm))
+
+    def scene_add_cone(self, h, base, base_radius, apex, apex_radius) -> None:
+        self._scene(h, self.lib.mprt_scene_add_cone(
+            h, self._in("double", vec3("base", base)), float(base_radius), self._in("double", vec3("apex", apex)),
+            float(apex_radius)))
+
+    def scene_get_info(self, h) -> dict:
+        """The mprt_scene_info fields by name (arrays as lists)."""
+        i = self.ffi.new("mprt_scene_info *")
+        self._scene(h, self.lib.mprt_scene_get_info(h, i))
+        return _struct_dict(self.ffi, i, "mprt_scene_info")
+
+    def scene_get_prims(self, h, n: int) -> dict:
+        """Per primitive id: kind, words (shape data size) and material, int32 arrays of length n."""
+        out = {k: np.zeros(n, dtype=np.int32) for k in ("kind", "words", "material")}
+        self._scene(h, self.lib.mprt_scene_get_prims(
+            h, self._out("int32_t", out["kind"]), self._out("int32_t", out["words"]),
+            self._out("int32_t", out["material"]), n))
+        return out
+
+    def scene_get_spheres(self, h, n: int):
+        """(ids int32[n], data float64[n, 4]: centre xyz, radius) in primitive-id order."""
+        ids, data = np.zeros(n, dtype=np.int32), np.zeros((n, 4))
+        self._scene(h, self.lib.mprt_scene_get_spheres(h, self._out("int32_t", ids), self._out("double", data), n))
+        return ids, data
+
+    def scene_get_cones(self, h, n: int):
+        """(ids int32[n], data float64[n, 8]: base xyz, base radius, apex xyz, apex radius) of the
+        cones and cylinders, in primitive-id order."""
+        ids, data = np.zeros(n, dtype=np.int32), np.zeros((n, 8))
+        self._scene(h, self.lib.mprt_scene_get_cones(h, self._out("int32_t", ids), self._out("double", data), n))
+        return ids, data
+
+    def scene_get_polygons(self, h, npoly: int, nverts: int):
+        """(ids int32[npoly], vstart int32[npoly + 1], verts float64[nverts, 3]): polygon k has the
+        vertices verts[vstart[k]:vstart[k + 1]]."""
+        ids, vstart, verts = np.zeros(npoly, dtype=np.int32), np.zeros(npoly + 1, dtype=np.int32), np.zeros((nverts, 3))
+        self._scene(h, self.lib.mprt_scene_get_polygons(h, self._out("int32_t", ids), self._out("int32_t", vstart),
+                                                        npoly, self._out("double", verts), nverts))
+        return ids, vstart, verts
+
+    def scene_get_materials(self, h, n: int) -> np.ndarray:
+        """float64[n, 8]: r, g, b, kd, ks, shine, t, ior per material."""
+        data = np.zeros((n, 8))
+        self._scene(h, self.lib.mprt_scene_get_materials(h, self._out("double", data), n))
+        return data
+
+    def scene_get_lights(self, h, n: int) -> np.ndarray:
+        """float64[n, 6]: position xyz, intensity rgb per light."""
+        data = np.zeros((n, 6))
+        self._scene(h, self.lib.mprt_scene_get_lights(h, self._out("double", data), n))
+        return data
+
+    # -- grid --------------------------------------------------------------------------
+    def grid_create(self, scene_h, dims, max_bytes: int):
+        ffi, lib = self.ffi, self.lib
+        out = ffi.new("mprt_grid **")
+        rc = lib.mprt_grid_create(scene_h, dims[0], dims[1], dims[2], int(max_bytes), out)
+        if out[0] == ffi.NULL:
+            raise MemoryError("mprt_grid_create: out of memory")
+        h = ffi.gc(out[0], lib.mprt_grid_destroy)
+        self._grid(h, rc)
+        return h
+
+    def grid_get_stats(self, h) -> dict:
+        s = self.ffi.new("mprt_grid_stats *")
+        self._grid(h, self.lib.mprt_grid_get_stats(h, s))
+        return _struct_dict(self.ffi, s, "mprt_grid_stats")
+
+    def grid_get_lists(self, h, voxels: int, refs: int):
+        """The voxel lists in CSR form: (start uint32[voxels + 1], ids int32[refs])."""
+        start = np.zeros(voxels + 1, dtype=np.uint32)
+        ids = np.zeros(max(refs, 1), dtype=np.int32)
+        self._grid(h, self.lib.mprt_grid_get_lists(h, self._out("uint32_t", start), start.size,
+                                                   self._out("int32_t", ids), ids.size))
+        return start, ids[:refs]
+
+    def render_desc_init(self) -> dict:
+        """The library's default render description, field by field."""
+        d = self.ffi.new("mprt_render_desc *")
+        self.lib.mprt_render_desc_init(d)
+        return _struct_dict(self.ffi, d, "mprt_render_desc")
+
+    def _desc(self, desc: dict):
+        d = self.ffi.new("mprt_render_desc *")
+        self.lib.mprt_render_desc_init(d)
+        for k, v in desc.items():
+            try:
+                setattr(d, k, v)
+            except AttributeError:
+                raise InvalidArgument(f"render description has no field {k!r}") from None
+            except (TypeError, OverflowError) as e:
+                raise InvalidArgument(f"render description field {k!r}: {e}") from None
+        return d
+
+    def _counters(self, c) -> dict:
+        """mprt_counters by name; the per-kind array as a dict by kind name."""
+        out = {}
+        for name, f in self.ffi.typeof("mprt_counters").fields:
+            v = getattr(c, name)
+            out[name] = {k: v[i] for i, k in enumerate(KINDS)} if f.type.kind == "array" else v
+        return out
+
+    def grid_resolve_desc(self, h, desc: dict) -> dict:
+        """Every field of the description with the defaults resolved for the grid's scene, validated."""
+        d = self._desc(desc)
+        self._grid(h, self.lib.mprt_grid_resolve_desc(h, d, d))
+        return _struct_dict(self.ffi, d, "mprt_render_desc")
+
+    def grid_tile_rect(self, h, desc: dict, tile: int) -> tuple:
+        """(x0, y0, x1, y1): tile's samples, columns x0..x1-1 and rows y0..y1-1."""
+        rect = self.ffi.new("int[4]")
+        self._grid(h, self.lib.mprt_grid_tile_rect(h, self._desc(desc), int(tile), rect))
+        return tuple(rect)
+
+    def grid_camera_rays(self, h, desc: dict, first: int, n: int):
+        """Eye rays of samples first..first+n-1 as the renderer makes them: (origins, unit
+        directions), float64[n, 3] each."""
+        o, d = np.zeros((n, 3)), np.zeros((n, 3))
+        self._grid(h, self.lib.mprt_grid_camera_rays(h, self._desc(desc), int(first), int(n), self._out("double", o),
+                                                     self._out("double", d)))
+        return o, d
+
+    def grid_render(self, h, desc: dict, rgb: np.ndarray) -> dict:
+        """Render into rgb (float32, C order, height*width*3); returns the counters."""
+        c = self.ffi.new("mprt_counters *")
+        self._grid(h, self.lib.mprt_grid_render(h, self._desc(desc), self._out("float", rgb), rgb.size, c))
+        return self._counters(c)
+
+    def grid_intersect(self, h, origins, directions):
+        """Closest hits: (t float64[n], prim int32[n], counters)."""
+        o = points("origins", origins)
+        d = np.ascontiguousarray(directions, dtype=np.float64)
+        if d.shape != o.shape:
+            raise InvalidArgument(f"origins and directions must both have shape (n, 3), not {o.shape} and {d.shape}")
+        n = o.shape[0]
+        t = np.empty(n, dtype=np.float64)
+        prim = np.empty(n, dtype=np.int32)
+        c = self.ffi.new("mprt_counters *")
+        self._grid(h, self.lib.mprt_grid_intersect(h, n, self._in("double", o), self._in("double", d),
+                                                   self._out("double", t), self._out("int32_t", prim), c))
+        return t, prim, self._counters(c)
+
+    def grid_tiling(self, h, desc: dict):
+        """(samples_w, samples_h, tiles_x, tiles_y) of a render."""
+        out = [self.ffi.new("int *") for _ in range(4)]
+        self._grid(h, self.lib.mprt_grid_tiling(h, self._desc(desc), *out))
+        return tuple(int(p[0]) for p in out)
+
+    def grid_trace_tile(self, h, desc: dict, tile: int, samples: np.ndarray, rays: np.ndarray, visits: np.ndarray):
+        """Trace one tile into the buffers: (nrays, nvisits, fitted).  When the records do not fit,
+        fitted is False and nrays/nvisits are the numbers needed."""
+        ffi = self.ffi
+        nr, nv = ffi.new("size_t *"), ffi.new("size_t *")
+        rc = self.lib.mprt_grid_trace_tile(
+            h, self._desc(desc), int(tile), self._out("double", samples), samples.size,
+            self._out("mprt_trace_ray", rays), len(rays), nr, self._out("mprt_trace_visit", visits), len(visits),
+            nv, ffi.NULL)
+        if rc == Status.ERR_CAPACITY and (nr[0] > len(rays) or nv[0] > len(visits)):
+            return int(nr[0]), int(nv[0]), False
+        self._grid(h, rc)
+        return int(nr[0]), int(nv[0]), True
+
+    # -- images ------------------------------------------------------------------------
+    def samples_to_image(self, rules: int, samples: np.ndarray) -> np.ndarray:
+        """Pixels (float32 (H, W, 3)) from samples (float64 (samples_h, samples_w, 3)) as the
+        renderer reconstructs them under ``rules``."""
+        s = np.ascontiguousarray(samples, dtype=np.float64)
+        if s.ndim != 3 or s.shape[2] != 3:
+            raise InvalidArgument(f"samples must have shape (h, w, 3), not {s.shape}")
+        shrink = 1 if rules == Rules.SPD else 0
+        rgb = np.zeros((max(s.shape[0] - shrink, 0), max(s.shape[1] - shrink, 0), 3), dtype=np.float32)
+        rc = self.lib.mprt_samples_to_image(int(rules), s.shape[1], s.shape[0], self._in("double", s),
+                                            self._out("float", rgb), rgb.size)
+        if rc != Status.OK:
+            raise error_class(rc)(f"samples_to_image: {self.status_str(rc)}")
+        return rgb
+
+    def image_write_png(self, path, rgb: np.ndarray) -> None:
+        """Write rgb (float32, C order, (H, W, 3)) as an 8-bit PNG."""
+        rc = self.lib.mprt_image_write_png(os.fsencode(path), rgb.shape[1], rgb.shape[0], self._in("float", rgb))
+        if rc != Status.OK:
+            raise error_class(rc)(f"{os.fspath(path)}: cannot write PNG ({self.status_str(rc)})")
+
+
+_BINDINGS = {"double": Binding(_mprt, "double"), "single": Binding(_mprt32, "single")}
+PRECISIONS = tuple(_BINDINGS)
+EXT_VERSION = _BINDINGS["double"].version
+
+
+def binding(precision: str = "double") -> Binding:
+    """The build of the library for ``precision`` ('double' or 'single')."""
+    try:
+        return _BINDINGS[precision]
+    except (KeyError, TypeError):
+        raise InvalidArgument(f"precision must be 'double' or 'single', not {precision!r}") from None

@@ -1,0 +1,133 @@
+"""The package's layers: each module of python/mprt imports only modules of layers below its own.
+
+The order, bottom first.  A new module must be given its place here (a module
+missing from the list fails), and a subpackage (cost/, machine/, ...) is one
+layer: its modules may import each other and any layer below.
+"""
+import ast
+import os
+
+import pytest
+
+PACKAGE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__))), "python", "mprt")
+
+ORDER = [
+    "_build",      # cffi builder of the extensions (imports none of the package)
+    "errors",      # exceptions
+    "_lowlevel",   # the only importer of the compiled extensions: one wrapper per C call, enums, record dtypes
+    "scene",       # Scene
+    "grid",        # Grid (adds Scene.grid), render, intersect, camera rays, per-tile calls
+    "tracefile",   # the .npz format of (meta, arrays)
+    "tracecheck",  # trace invariants
+    "stats",       # the paper's statistics of a trace
+    "trace",       # Trace, load_trace, the record enums and dtypes
+    "tracing",     # trace(grid, ...) -> (image, Trace) (adds Grid.trace)
+    "cost",        # operation costs of stage visits (takes a Trace)
+    "replay",      # costed trace -> per-PE ray streams
+    "machine",     # the SimPy machine model (takes a Trace, never a Grid)
+    "fidelity",    # levels of model detail
+    "explore",     # design-space exploration
+    "prepass",     # low-resolution tracing to choose a subdivision
+    "cli",         # the mprt command
+    "__init__",    # the package's public names
+    "__main__",    # python -m mprt
+]
+EXTENSIONS = {"_mprt", "_mprt32"}   # compiled; imported by _lowlevel alone
+LAYER = {name: i for i, name in enumerate(ORDER)}
+
+
+def module_files():
+    """(layer name, path relative to the package) of every Python file in the package."""
+    out = []
+    for root, dirs, files in os.walk(PACKAGE):
+        dirs[:] = [d for d in dirs if d != "__pycache__"]
+        for f in sorted(files):
+            if f.endswith(".py"):
+                rel = os.path.relpath(os.path.join(root, f), PACKAGE)
+                out.append((rel.split(os.sep)[0].removesuffix(".py"), rel))
+    return sorted(out)
+
+
+def is_module(name: str) -> bool:
+    """Whether a name imported from the package root is one of its modules (not a public name)."""
+    return name in LAYER or name in EXTENSIONS or os.path.exists(os.path.join(PACKAGE, name + ".py")) \
+        or os.path.isdir(os.path.join(PACKAGE, name))
+
+
+def imported_layers(source: str, rel: str):
+    """(line, layer imported) for every import of the package's own modules in a file's source
+    (function bodies included); rel is the file's path relative to the package."""
+    package = ["mprt"] + rel.split(os.sep)[:-1]       # the file's package, as a dotted path
+    found = []
+    for node in ast.walk(ast.parse(source)):
+        if isinstance(node, ast.Import):
+            targets = [a.name.split(".") for a in node.names]
+        elif isinstance(node, ast.ImportFrom):
+            base = package[: len(package) - node.level + 1] if node.level else []
+            mod = base + (node.module.split(".") if node.module else [])
+            # 'from mprt import name': name is a module of the package, or one of its public names
+            targets = [mod + [a.name if is_module(a.name) else "__init__"] if mod == ["mprt"] else mod
+                       for a in node.names]
+        else:
+            continue
+        for t in targets:
+            if t[0] == "mprt":
+                found.append((node.lineno, t[1] if len(t) > 1 else "__init__"))
+    return found
+
+
+def violations(layer: str, rel: str, source: str):
+    """The imports of a file that break the order, as messages."""
+    out = []
+    if layer not in LAYER:
+        return [f"{rel}: module {layer!r} has no place in tests/test_layers.py ORDER"]
+    for line, target in imported_layers(source, rel):
+        where = f"{rel}:{line}"
+        if target in EXTENSIONS:
+            if layer != "_lowlevel":
+                out.append(f"{where}: only _lowlevel may import the compiled extension {target}")
+        elif target not in LAYER:
+            out.append(f"{where}: imports {target!r}, which has no place in ORDER")
+        elif target == layer and os.sep not in rel:
+            out.append(f"{where}: imports itself")
+        elif LAYER[target] > LAYER[layer]:
+            out.append(f"{where}: {layer} imports {target}, a layer above it")
+    tops = set()
+    for n in ast.walk(ast.parse(source)):
+        if isinstance(n, ast.Import):
+            tops |= {a.name.split(".")[0] for a in n.names}
+        elif isinstance(n, ast.ImportFrom) and n.level == 0:
+            tops.add(n.module.split(".")[0])
+    if layer != "_build" and "cffi" in tops:
+        out.append(f"{rel}: only _build imports cffi")
+    return out
+
+
+@pytest.mark.parametrize("layer, rel", module_files(), ids=[r for _, r in module_files()])
+def test_module_imports_only_layers_below_it(layer, rel):
+    """The module has a place in the order and imports only modules of lower layers."""
+    with open(os.path.join(PACKAGE, rel)) as f:
+        assert violations(layer, rel, f.read()) == []
+
+
+@pytest.mark.parametrize("layer, rel, source, words", [
+    ("grid", "grid.py", "def f():\n    from .tracing import trace\n", "grid imports tracing, a layer above"),
+    ("scene", "scene.py", "from . import grid\n", "scene imports grid"),
+    ("trace", "trace.py", "from mprt import Scene\n", "trace imports __init__"),
+    ("stats", "stats.py", "from . import _mprt\n", "only _lowlevel"),
+    ("machine", os.path.join("machine", "pe.py"), "from ..explore import run\n", "machine imports explore"),
+    ("newthing", "newthing.py", "", "no place"),
+    ("tracing", "tracing.py", "from .elsewhere import x\n", "'elsewhere', which has no place"),
+    ("grid", "grid.py", "from cffi import FFI\n", "only _build imports cffi"),
+], ids=["lazy import upward", "from-package import of a module", "package root", "extension", "subpackage",
+        "unplaced module", "unplaced import", "cffi"])
+def test_the_check_catches_a_broken_order(layer, rel, source, words):
+    """The checker reports an upward import, an import of the extensions outside _lowlevel and an unplaced module."""
+    found = violations(layer, rel, source)
+    assert any(words in v for v in found), found
+
+
+def test_subpackage_modules_may_import_each_other_and_lower_layers():
+    """Within a subpackage, sibling imports and imports of lower layers are allowed."""
+    rel = os.path.join("machine", "pe.py")
+    assert violations("machine", rel, "from . import fifo\nfrom ..trace import Trace\nfrom .. import errors\n") == []
