@@ -86,7 +86,9 @@ def _check_output(path: str, what: str) -> None:
 
 def _load_source(a):
     """(trace, settings) from a trace file or a scene traced now."""
-    from .. import Scene, load_trace
+    from ..scene import Scene
+    from ..trace import load_trace
+    from ..tracing import trace as trace_grid
 
     src = a.source
     if src.endswith(".npz"):
@@ -99,7 +101,7 @@ def _load_source(a):
         grid = scene.grid(a.grid)
         w, h = a.res or (0, 0)
         t0 = time.perf_counter()
-        _, trace = grid.trace(w, h, rules=a.rules, threshold=a.threshold, threads=a.threads, tile=a.tile,
+        _, trace = trace_grid(grid, w, h, rules=a.rules, threshold=a.threshold, threads=a.threads, tile=a.tile,
                               progress=sys.stderr.isatty())
         how = (f"traced  {scene.name}, grid {'x'.join(map(str, grid.n))}, {trace.meta['width']}x"
                f"{trace.meta['height']} {a.rules} in {time.perf_counter() - t0:.2f} s")
@@ -112,7 +114,8 @@ def _load_source(a):
 
 
 def run(a) -> int:
-    from .. import MprtError, __version__
+    from .._lowlevel import EXT_VERSION
+    from ..errors import MprtError
     from .system import System
 
     try:
@@ -146,7 +149,7 @@ def run(a) -> int:
         out["wall_seconds"] = wall
         out["replay_seconds"] = res.wall_seconds
         out["settings"] = {**settings, "model": cfg.name, "config_file": cfg.source, "pes": cfg.pes,
-                           "mprt_version": __version__, "cost_model": "default"}
+                           "mprt_version": EXT_VERSION, "cost_model": "default"}
         with open(a.json, "w") as f:
             json.dump(out, f, indent=2)
         print(f"wrote   {a.json}")

@@ -1,7 +1,7 @@
 """Errors of the machine model."""
 from __future__ import annotations
 
-from .. import MprtError
+from ..errors import MprtError
 
 
 class ConfigError(MprtError, ValueError):

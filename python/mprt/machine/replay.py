@@ -18,8 +18,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import Trace
-from ..trace import OS, IC, SC, PRIMARY
+import dataclasses
+
+from ..errors import TraceError
+from ..trace import IC, PRIMARY, SC
 
 PAGE_BITS = 14
 PAGE = 1 << PAGE_BITS
@@ -30,15 +32,7 @@ COST_CHUNK = 1 << 20    # visits per cost-model call when costing lazily
 RETIRE = -1             # dest: the ray ends here
 CHILDREN = -2           # dest: the ray ends here and the visit made rays (SC)
 
-_ARRAY_NAMES = ("rays", "visits", "voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material", "samples")
-
-
-class ReplayError(ValueError):
-    pass
-
-
 def _fail(msg):
-    from ..trace import TraceError
     raise TraceError(f"cannot replay this trace: {msg}")
 
 
@@ -66,9 +60,8 @@ class Costs:
         self.inject = tuple(int(getattr(vc, k, 0)) for k in ("inject_process", "inject_send", "inject_flits"))
 
     def _costs(self, a, b):
-        t = self.trace
-        sub = Trace(t.meta, {k: (t.visits[a:b] if k == "visits" else getattr(t, k)) for k in _ARRAY_NAMES})
-        return self.model.visit_costs(sub, self.processors)
+        return self.model.visit_costs(dataclasses.replace(self.trace, visits=self.trace.visits[a:b]),
+                                      self.processors)
 
     def slice(self, lo, hi):
         if self.model is None:
