@@ -186,12 +186,10 @@ class Replay:
                 self._load(p)
         return v0
 
-    def visit_done(self, j: int) -> None:
-        p = j >> PAGE_BITS
-        self.left[p] -= 1
-        if not self.left[p]:
-            self.dur[p] = self.dest[p] = self.kids[p] = self.flits[p] = self.memk[p] = None
-            self._held -= 1
+    def drop(self, p: int) -> None:
+        """Every visit of page p has run (the caller counts them in ``left``)."""
+        self.dur[p] = self.dest[p] = self.kids[p] = self.flits[p] = self.memk[p] = None
+        self._held -= 1
 
     def _load(self, p):
         lo, hi = p << PAGE_BITS, min((p + 1) << PAGE_BITS, self.n_visits)
