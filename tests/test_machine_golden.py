@@ -218,3 +218,16 @@ def test_plot_writes_png(traces, tmp_path):
     # the IC utilisation over time averages to its utilisation over the run
     widths = np.diff(times + [r.cycles])
     assert abs(float(np.dot(util, widths)) / r.cycles - r.nodes["IC"]["utilisation"]) < 1e-9
+
+
+def test_costing_in_slices_equals_costing_whole(traces, monkeypatch):
+    # the cost model is called on self-contained slices of whole trees (bounded
+    # memory), here one per page of 2**14 visits (2 for this trace); the run
+    # equals the one with the whole trace costed at once
+    import mprt.machine.replay as replay
+
+    t = traces["rings-g9"]
+    cfg = builtin("M")
+    whole = CostModel.default().visit_costs(t, cfg.processors())
+    monkeypatch.setattr(replay, "COST_CHUNK", 1000)
+    assert simulate(t, cfg).cycles == simulate(t, cfg, costs=whole).cycles == PINNED["rings-g9"][1]

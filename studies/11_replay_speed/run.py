@@ -18,8 +18,8 @@ import cProfile
 import io
 import os
 import pstats
-import resource
 import sys
+import threading
 import time
 
 import simpy
@@ -79,20 +79,45 @@ def profile_m(trace, top: int = 15) -> str:
     return s.getvalue()
 
 
+def rss_anon_mb() -> float:
+    """Resident anonymous memory (MB): the process's own data, not the file pages it maps."""
+    try:
+        with open("/proc/self/status") as f:
+            for line in f:
+                if line.startswith("RssAnon:"):
+                    return int(line.split()[1]) / 1024
+    except OSError:
+        pass
+    return float("nan")
+
+
 def frame(path: str) -> dict:
-    """Model M on a whole traced frame read from its file."""
+    """Model M on a whole traced frame read from its file (memory-mapped), with the
+    peak of anonymous memory sampled every 0.2 s while it runs."""
+    peak = [rss_anon_mb()]
+    base = peak[0]
+    stop = threading.Event()
+
+    def sample():
+        while not stop.wait(0.2):
+            peak[0] = max(peak[0], rss_anon_mb())
+
+    th = threading.Thread(target=sample, daemon=True)
+    th.start()
     t0 = time.perf_counter()
     tr = load_trace(path, mmap=True)
     sysm = System(tr, builtin("M"))
     t1 = time.perf_counter()
     res = sysm.run(progress=sys.stderr.isatty())
     t2 = time.perf_counter()
+    stop.set()
+    th.join()
     rp = sysm.replay
     return {"trace": os.path.basename(path), "scene": tr.meta["scene"], "grid": "x".join(map(str, tr.meta["grid"])),
             "resolution": f"{tr.meta['width']}x{tr.meta['height']}", "visits": res.visits,
             "rays": sum(res.rays.values()), "cycles": res.cycles, "setup_s": t1 - t0, "replay_s": t2 - t1,
             "visits_per_s": res.visits / (t2 - t1), "pages": rp.pages_loaded, "max_pages_held": rp.max_pages_held,
-            "max_rss_MB": resource.getrusage(resource.RUSAGE_SELF).ru_maxrss / 1024}
+            "anon_memory_before_MB": base, "anon_memory_peak_MB": peak[0]}
 
 
 def main(argv=None) -> int:

@@ -26,8 +26,8 @@ from ..trace import IC, PRIMARY, SC
 PAGE_BITS = 14
 PAGE = 1 << PAGE_BITS
 PAGE_MASK = PAGE - 1
-SCAN = 1 << 22          # visits per chunk when scanning a (memory-mapped) trace
-COST_CHUNK = 1 << 20    # visits per cost-model call when costing lazily
+SCAN = 1 << 20          # visits (rays) per chunk when scanning a (memory-mapped) trace
+COST_CHUNK = 1 << 18    # visits per cost-model call when costing lazily
 
 RETIRE = -1             # dest: the ray ends here
 CHILDREN = -2           # dest: the ray ends here and the visit made rays (SC)
@@ -44,7 +44,7 @@ class Costs:
     def __init__(self, trace, source, processors=None):
         self.trace = trace
         self.model = None
-        self.tree_vstart = None
+        self.tree_vstart = self.tree_rstart = None
         if hasattr(source, "visit_costs"):
             self.model, self.processors = source, processors
             self._chunk = (0, 0, None)
@@ -59,20 +59,30 @@ class Costs:
                     raise ValueError(f"costs.{k} has shape {a.shape}, the trace has {n} visits")
         self.inject = tuple(int(getattr(vc, k, 0)) for k in ("inject_process", "inject_send", "inject_flits"))
 
-    def _costs(self, a, b):
-        return self.model.visit_costs(dataclasses.replace(self.trace, visits=self.trace.visits[a:b]),
-                                      self.processors)
+    def _costs(self, a, b, ra=None, rb=None):
+        """The cost model on visits [a, b); with the rays [ra, rb) of the same
+        whole trees, on a self-contained copy of them (ids from 0), so that
+        what the model computes per ray stays the size of the slice."""
+        t = self.trace
+        if ra is None:
+            return self.model.visit_costs(dataclasses.replace(t, visits=t.visits[a:b]), self.processors)
+        v = np.array(t.visits[a:b])
+        v["ray"] -= ra
+        r = np.array(t.rays[ra:rb])
+        r["id"] -= ra
+        r["parent"] = np.where(r["parent"] >= 0, r["parent"] - ra, -1)
+        return self.model.visit_costs(dataclasses.replace(t, rays=r, visits=v), self.processors)
 
     def slice(self, lo, hi):
         if self.model is None:
             return tuple(a[lo:hi] for a in self.arrays)
         a, b, arrs = self._chunk
         if not (a <= lo and hi <= b):
-            tv = self.tree_vstart
+            tv, tr = self.tree_vstart, self.tree_rstart
             ka = int(np.searchsorted(tv, lo, "right")) - 1
-            kb = int(np.searchsorted(tv, max(hi, lo + COST_CHUNK), "left"))
-            a, b = int(tv[ka]), int(tv[kb]) if kb < len(tv) else len(self.trace.visits)
-            vc = self._costs(a, b)
+            kb = min(int(np.searchsorted(tv, max(hi, lo + COST_CHUNK), "left")), len(tv) - 1)
+            a, b = int(tv[ka]), int(tv[kb])
+            vc = self._costs(a, b, int(tr[ka]), int(tr[kb]))
             arrs = tuple(np.asarray(getattr(vc, k)) for k in ("process", "receive", "send", "flits"))
             self._chunk = (a, b, arrs)
         return tuple(x[lo - a:hi - a] for x in arrs)
@@ -94,7 +104,7 @@ class Replay:
         rays, visits = trace.rays, trace.visits
         self.n_rays, self.n_visits = len(rays), len(visits)
         self._scan()
-        costs.tree_vstart = self.tree_vstart
+        costs.tree_vstart, costs.tree_rstart = self.tree_vstart, self.tree_rstart
         npages = (self.n_visits + PAGE - 1) >> PAGE_BITS
         self.dur = [None] * npages
         self.dest = [None] * npages
