@@ -11,8 +11,10 @@ memory-mapped from a file replays in memory bounded by the rays in flight,
 whatever its size.
 
 A ray tree is a primary ray and all the rays made from it.  Traces made by
-mprt store each tree's rays contiguously, parents before children, and each
-ray's visits contiguously in ray order; the replay checks this.
+mprt store each tree's rays contiguously (parents before children) and its
+visits contiguously (each ray's visits together, the primary's first; the
+other rays in the order the tracer took them), trees in the primaries'
+order; the replay checks this.
 """
 from __future__ import annotations
 
