@@ -9,6 +9,7 @@ import time
 
 from ._lowlevel import binding
 from .errors import MprtError
+from .machine.cli import add_parser as add_simulate
 from .grid import write_png
 from .scene import SPD_SCENES, Scene
 from .trace import load_trace
@@ -183,6 +184,7 @@ def build_parser() -> argparse.ArgumentParser:
     st.add_argument("--check", action="store_true", help="validate the trace's invariants first")
     st.add_argument("--json", action="store_true", help="print the statistics as JSON")
     st.set_defaults(func=cmd_stats)
+    add_simulate(sub)
     return p
 
 
