@@ -364,7 +364,8 @@ int mprt_image_write_png(const char *path, int width, int height, const float *r
  *     mprt_replay_config c;  mprt_replay *r;  mprt_replay_info info;
  *     mprt_replay_config_init(&c);            // model M: 3 stages, 1 PE
  *     mprt_replay_create(&c, &r);
- *     if (mprt_replay_run(r, rays, nrays, visits, nvisits, process, receive, send, NULL, 0) != MPRT_OK)
+ *     if (mprt_replay_load(r, rays, nrays, visits, nvisits, process, receive, send) != MPRT_OK ||
+ *         mprt_replay_run(r, NULL, 0) != MPRT_OK)
  *         fprintf(stderr, "%s\n", mprt_replay_errmsg(r));   // bad input, or a deadlock
  *     mprt_replay_get_info(r, &info);          // info.cycles
  *     mprt_replay_destroy(r);
@@ -411,21 +412,28 @@ void mprt_replay_destroy(mprt_replay *r);
 /* Message of the last failed call on this replay ("" if none). */
 const char *mprt_replay_errmsg(const mprt_replay *r);
 
-/* Replay a trace (rays and visits as mprt_grid_trace_tile records them,
- * tiles joined: ray ids 0..nrays-1, each primary ray's tree contiguous,
- * parents before children) with per-visit costs (nvisits entries each).
- * log (may be NULL) receives 4 int64 per event: cycle, 0 start / 1 end,
- * processor, visit (~t: making primary ray t); log_cap (int64 entries) must
- * hold 8 * (nvisits + primary rays).  A malformed trace or cost fails with
- * MPRT_ERR_INVALID_ARG; a machine that stops with rays still in it (full
- * FIFOs waiting on each other) fails with MPRT_ERR_STATE and info.deadlocked
- * set, its final state readable by the getters below. */
-int mprt_replay_run(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
-                    size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send,
-                    int64_t *log, size_t log_cap);
+/* Change the configuration (the loaded trace stays). */
+int mprt_replay_set_config(mprt_replay *r, const mprt_replay_config *cfg);
+
+/* Load a trace (rays and visits as mprt_grid_trace_tile records them, tiles
+ * joined: ray ids 0..nrays-1, each primary ray's tree contiguous, parents
+ * before children) with its per-visit costs (nvisits entries each): checked
+ * and copied in the replay's own compact form (16 bytes per visit), so the
+ * caller's arrays may go, and one load serves runs of any configuration.  A
+ * malformed trace or cost fails with MPRT_ERR_INVALID_ARG naming it. */
+int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                     size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send);
+
+/* Replay the loaded trace on the configuration.  log (may be NULL)
+ * receives 4 int64 per event: cycle, 0 start / 1 end, processor, visit (~t:
+ * making primary ray t); log_cap (int64 entries) must hold 8 * (visits +
+ * primary rays).  A machine that stops with rays still in it (full FIFOs
+ * waiting on each other) fails with MPRT_ERR_STATE and info.deadlocked set,
+ * its final state readable by the getters below. */
+int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap);
 
 typedef struct {
-    int64_t cycles;         /* when the last ray retired; -1 after a deadlock */
+    int64_t cycles;         /* when the last ray retired; -1 after a deadlock or before a run */
     int64_t deadlocked;     /* 1: the machine stopped with rays still in it */
     int64_t rays, visits, trees;   /* of the trace; trees = primary rays */
     int64_t retired;        /* rays retired */
@@ -468,7 +476,8 @@ typedef struct {
     int64_t visits[3];      /* visits run */
 } mprt_replay_pe;
 
-/* Figures of the last run (also after a deadlock).  cap: entries. OUT: out. */
+/* Figures of the last run (also after a deadlock; info also after a load,
+ * with nothing run yet).  cap: entries. OUT: out. */
 int mprt_replay_get_info(const mprt_replay *r, mprt_replay_info *info);
 int mprt_replay_get_procs(const mprt_replay *r, mprt_replay_proc *out, size_t cap);
 int mprt_replay_get_nodes(const mprt_replay *r, mprt_replay_node *out, size_t cap);

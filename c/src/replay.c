@@ -35,6 +35,10 @@
 
 #define RETIRE (-1)
 #define CHILDREN (-2)
+/* what follows a visit (vinfo.next bits 0-1) */
+#define NEXT_VISIT 0     /* bits 2-3: the next visit's subtask */
+#define NEXT_RETIRE 1
+#define NEXT_CHILDREN 2  /* bits 2-9: rays made; bits 10-: their first in child[] */
 #define DIS_WAITER (-1)
 #define MAX_PES (1 << 20)
 #define MAX_PROCS (1 << 24)
@@ -76,13 +80,18 @@ typedef struct {
     int holding;
     int64_t hold;
     int64_t next, step, stop;    /* static DIS order */
-    int64_t cost_proc[3], cost_comm[3], nvis[3];
+    int64_t cost[9];             /* by subtask: process, communication cycles, visits */
 } pe_t;
 
 typedef struct {
     int64_t t, prio;
     int32_t i;
 } event;
+
+/* What the replay reads of a visit: its cycles and what follows it. */
+typedef struct {
+    int64_t dur, next;
+} vinfo;
 
 struct mprt_replay {
     mprt_replay_config cfg;
@@ -93,13 +102,20 @@ struct mprt_replay {
     pe_t *pes;
     event *heap;
     int nheap;
-    /* the trace */
-    const mprt_trace_visit *v;
+    /* the trace (buffers kept from run to run; cap_*: their capacities) */
     size_t nv, nr;
-    const int64_t *process, *receive, *send;
+    vinfo *vi;                   /* per visit */
+    int64_t *ray_first;          /* per ray: its first visit */
+    int64_t *child_start;        /* per ray + 1: its children are child[child_start[r] .. child_start[r+1]) */
+    int64_t *tree_of;            /* per ray: its tree */
+    int64_t *child;              /* rays made, by parent, in id order: ray ids, then their first visits */
+    int64_t *tree_first;         /* per tree: its first visit */
+    int64_t *tree_cost;          /* per tree: process, communication cycles, visits by subtask */
+    int32_t *tree_pe;            /* per tree: the PE that admitted it */
+    size_t cap_vi, cap_ray, cap_ray2, cap_ray3, cap_child, cap_tree, cap_tree9, cap_tree_pe;
     int64_t ntrees, max_leaves;
-    int64_t *ray_first, *child_start, *child, *tree_first;
-    int32_t *tree_pe;
+    int64_t total;               /* the visits' cycles in all */
+    int loaded;
     /* the run */
     int64_t now, retired, t_end, shared_next;
     int64_t *log;
@@ -223,6 +239,13 @@ static event heap_pop(mprt_replay *r)
 
 /* ---- the machine ------------------------------------------------------------- */
 
+/* A hint to fetch memory soon needed (a tree's later visits are read later). */
+#if defined(__GNUC__)
+#define PREFETCH(p) __builtin_prefetch(p)
+#else
+#define PREFETCH(p) ((void)(p))
+#endif
+
 static int ctz64(uint64_t x)
 {
 #if defined(__GNUC__)
@@ -267,13 +290,8 @@ static void start(mprt_replay *r, int i, int64_t j)
     proc *p = &r->procs[i];
     int64_t d;
     if (j >= 0) {
-        int64_t a = r->process[j], c = r->receive[j] + r->send[j];
-        pe_t *e = &r->pes[p->pe];
-        int s = r->v[j].stage;
-        d = a + c;
-        e->cost_proc[s] += a;
-        e->cost_comm[s] += c;
-        e->nvis[s]++;
+        d = r->vi[j].dur;
+        PREFETCH(&r->vi[j + 4]);
     } else {
         d = r->cfg.gen_cycles;
         r->nodes[p->node].generated++;
@@ -382,6 +400,15 @@ static int64_t next_tree(mprt_replay *r, pe_t *e)
     return -1;
 }
 
+/* Fetch a tree's visits ahead of their use (its rays jump about in them). */
+static void prefetch_tree(const mprt_replay *r, int64_t t)
+{
+    const char *a = (const char *)&r->vi[r->tree_first[t]];
+    const char *b = t + 1 < r->ntrees ? (const char *)&r->vi[r->tree_first[t + 1]] : (const char *)&r->vi[r->nv];
+    if (b - a > 4096) b = a + 4096;
+    for (; a < b; a += 64) PREFETCH(a);
+}
+
 static void dis_admit(mprt_replay *r, int pe)
 {
     pe_t *e = &r->pes[pe];
@@ -392,6 +419,7 @@ static void dis_admit(mprt_replay *r, int pe)
         int64_t t = next_tree(r, e), x;
         if (t < 0) return;
         x = gen ? ~t : r->tree_first[t];
+        prefetch_tree(r, t);
         r->tree_pe[t] = pe;
         e->live++;
         if (e->live > e->max_live) e->max_live = e->live;
@@ -448,9 +476,12 @@ static void block(mprt_replay *r, proc *p, node *nd)
 /* Where visit j's ray goes after it: a stage, RETIRE or CHILDREN. */
 static int dest(const mprt_replay *r, int64_t j)
 {
-    const mprt_trace_visit *a = &r->v[j];
-    if ((size_t)j + 1 < r->nv && a[1].ray == a->ray) return r->cfg.stage_of[a[1].stage];
-    return (a->stage == MPRT_STAGE_SC && a->made > 0) ? CHILDREN : RETIRE;
+    int64_t a = r->vi[j].next;
+    switch (a & 3) {
+    case NEXT_VISIT: return r->cfg.stage_of[(a >> 2) & 3];
+    case NEXT_RETIRE: return RETIRE;
+    default: return CHILDREN;
+    }
 }
 
 /* Processor i's event: its visit ended, or it resumes after a block. */
@@ -484,7 +515,7 @@ static void handle(mprt_replay *r, int i)
             } else {
                 if (g == CHILDREN) {
                     pe_t *e = &r->pes[p->pe];
-                    int64_t ray = r->v[j].ray, a = r->child_start[ray], b = r->child_start[ray + 1], c;
+                    int64_t nx = r->vi[j].next, a = nx >> 10, b = a + ((nx >> 2) & 255), c;
                     e->live += b - a;
                     if (e->live > e->max_live) e->max_live = e->live;
                     for (c = a; c < b; c++) {
@@ -588,18 +619,39 @@ static void free_run(mprt_replay *r)
     free(r->procs);
     free(r->pes);
     free(r->heap);
-    free(r->ray_first);
-    free(r->child_start);
-    free(r->child);
-    free(r->tree_first);
-    free(r->tree_pe);
     r->nodes = NULL;
     r->procs = NULL;
     r->pes = NULL;
     r->heap = NULL;
-    r->ray_first = r->child_start = r->child = r->tree_first = NULL;
-    r->tree_pe = NULL;
+    r->nnode = r->nproc = r->nheap = 0;
     r->ran = 0;
+}
+
+static void free_trace(mprt_replay *r)
+{
+    free(r->vi);
+    free(r->ray_first);
+    free(r->child_start);
+    free(r->tree_of);
+    free(r->child);
+    free(r->tree_first);
+    free(r->tree_cost);
+    free(r->tree_pe);
+    r->vi = NULL;
+    r->ray_first = r->child_start = r->tree_of = r->child = r->tree_first = r->tree_cost = NULL;
+    r->tree_pe = NULL;
+    r->cap_vi = r->cap_ray = r->cap_ray2 = r->cap_ray3 = r->cap_child = r->cap_tree = r->cap_tree9 = r->cap_tree_pe = 0;
+    r->loaded = 0;
+}
+
+/* The per-ray arrays are needed while loading only. */
+static void free_ray_arrays(mprt_replay *r)
+{
+    free(r->ray_first);
+    free(r->child_start);
+    free(r->tree_of);
+    r->ray_first = r->child_start = r->tree_of = NULL;
+    r->cap_ray = r->cap_ray2 = r->cap_ray3 = 0;
 }
 
 int mprt_replay_create(const mprt_replay_config *cfg, mprt_replay **out)
@@ -618,10 +670,23 @@ int mprt_replay_create(const mprt_replay_config *cfg, mprt_replay **out)
     return MPRT_OK;
 }
 
+int mprt_replay_set_config(mprt_replay *r, const mprt_replay_config *cfg)
+{
+    int rc;
+    if (!r) return MPRT_ERR_INVALID_ARG;
+    if (!cfg) return fail(r, MPRT_ERR_INVALID_ARG, "no configuration");
+    rc = check_config(r, cfg);
+    if (rc != MPRT_OK) return rc;
+    free_run(r);
+    r->cfg = *cfg;
+    return MPRT_OK;
+}
+
 void mprt_replay_destroy(mprt_replay *r)
 {
     if (!r) return;
     free_run(r);
+    free_trace(r);
     free(r);
 }
 
@@ -631,149 +696,139 @@ const char *mprt_replay_errmsg(const mprt_replay *r) { return r ? r->errmsg : "n
 
 #define TRACE_FAIL(r, ...) fail((r), MPRT_ERR_INVALID_ARG, "cannot replay this trace: " __VA_ARGS__)
 
-/* Check the trace and build its per-ray and per-tree arrays. */
-static int prepare(mprt_replay *r, const mprt_trace_ray *rays, size_t nr, const mprt_trace_visit *v, size_t nv)
+/* Make room for n elements of size bytes in *p (capacity *cap, kept between runs). */
+static int reserve(void **p, size_t *cap, size_t n, size_t size)
 {
-    size_t i, j;
-    int64_t t = -1, root = -1, *tree_of, *fill;
-    int64_t nkids = 0, leaves = 0, prev_t = -1;
-    if (nr > ((size_t)1 << 60) || nv > ((size_t)1 << 60))
-        return fail(r, MPRT_ERR_INVALID_ARG, "the trace is too large (%zu rays, %zu visits)", nr, nv);
+    void *b;
+    if (n <= *cap && *p) return 0;
+    if (n > SIZE_MAX / size / 2) return -1;
+    b = malloc(n * size);
+    if (!b) return -1;
+    free(*p);
+    *p = b;
+    *cap = n;
+    return 0;
+}
+
+#define RESERVE(r, field, capfield, n) reserve((void **)&(r)->field, &(r)->capfield, (n), sizeof *(r)->field)
+
+/* The rays: ids in order, known kinds, each tree's rays after its primary,
+ * each parent before its children and in their tree; children listed by
+ * parent, in id order. */
+static int prepare_rays(mprt_replay *r, const mprt_trace_ray *rays, size_t nr)
+{
+    size_t i;
+    int64_t t = -1, root = -1, leaves = 0, *cs;
+    if (RESERVE(r, ray_first, cap_ray, nr + 2) || RESERVE(r, child_start, cap_ray2, nr + 2) ||
+        RESERVE(r, tree_of, cap_ray3, nr + 2))
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", nr);
+    cs = r->child_start;
+    memset(cs, 0, (nr + 2) * sizeof *cs);
     for (i = 0; i < nr; i++) {
-        if (rays[i].id != (int64_t)i) return TRACE_FAIL(r, "ray ids are not 0..n-1 in order");
-        if (rays[i].kind > MPRT_RAY_SHADOW)
-            return TRACE_FAIL(r, "ray %zu: kind %d is not a ray kind", i, rays[i].kind);
-        if (rays[i].kind == MPRT_RAY_PRIMARY) {
+        const mprt_trace_ray *y = &rays[i];
+        if (y->id != (int64_t)i) return TRACE_FAIL(r, "ray ids are not 0..n-1 in order");
+        if (y->kind > MPRT_RAY_SHADOW) return TRACE_FAIL(r, "ray %zu: kind %d is not a ray kind", i, y->kind);
+        if (y->kind == MPRT_RAY_PRIMARY) {
             t++;
             root = (int64_t)i;
         } else if (i == 0) {
             return TRACE_FAIL(r, "the first ray is not a primary ray");
-        }
-    }
-    r->ntrees = t + 1;
-    if (r->cfg.pes > r->ntrees)
-        return fail(r, MPRT_ERR_INVALID_ARG, "pes: %d PEs but the trace has only %lld primary rays (one per pixel sample)",
-                    r->cfg.pes, (long long)r->ntrees);
-    r->ray_first = malloc((nr + 1) * sizeof *r->ray_first);
-    r->child_start = calloc(nr + 2, sizeof *r->child_start);
-    r->tree_first = malloc((size_t)(r->ntrees + 1) * sizeof *r->tree_first);
-    r->tree_pe = malloc((size_t)(r->ntrees + 1) * sizeof *r->tree_pe);
-    tree_of = malloc((nr + 1) * sizeof *tree_of);
-    if (!r->ray_first || !r->child_start || !r->tree_first || !r->tree_pe || !tree_of) {
-        free(tree_of);
-        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", nr);
-    }
-    /* parents within their tree, before their children; children counted */
-    t = -1;
-    for (i = 0; i < nr; i++) {
-        if (rays[i].kind == MPRT_RAY_PRIMARY) {
-            t++;
-            root = (int64_t)i;
+        } else if (y->parent < root || y->parent >= (int64_t)i) {
+            return TRACE_FAIL(r, "ray %zu is not stored after its parent within its primary's tree (traces made by "
+                                 "mprt are)", i);
         } else {
-            int64_t par = rays[i].parent;
-            if (par < root || par >= (int64_t)i) {
-                free(tree_of);
-                return TRACE_FAIL(r, "ray %zu is not stored after its parent within its primary's tree (traces made "
-                                     "by mprt are)", i);
-            }
-            r->child_start[par + 1]++;
-            nkids++;
+            cs[y->parent + 2]++;
         }
-        tree_of[i] = t;
+        r->tree_of[i] = t;
         r->ray_first[i] = -1;
     }
-    for (i = 0; i < nr; i++) r->child_start[i + 1] += r->child_start[i];
-    r->child = malloc((size_t)(nkids + 1) * sizeof *r->child);
-    fill = malloc((nr + 1) * sizeof *fill);
-    if (!r->child || !fill) {
-        free(tree_of);
-        free(fill);
+    r->ntrees = t + 1;
+    /* cs[p + 2] counts p's children; after the sums cs[p + 1] is where they go */
+    for (i = 2; i < nr + 2; i++) cs[i] += cs[i - 1];
+    if (RESERVE(r, child, cap_child, (size_t)cs[nr + 1] + 1))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", nr);
-    }
-    memcpy(fill, r->child_start, nr * sizeof *fill);
     for (i = 0; i < nr; i++)
-        if (rays[i].kind != MPRT_RAY_PRIMARY) r->child[fill[rays[i].parent]++] = (int64_t)i;
-    free(fill);
-    /* the most leaves of any tree */
-    t = -1;
+        if (rays[i].kind != MPRT_RAY_PRIMARY) r->child[cs[rays[i].parent + 1]++] = (int64_t)i;
+    /* now cs[p] .. cs[p + 1] are p's children; the most leaves of any tree */
+    r->max_leaves = 0;
     for (i = 0; i <= nr; i++) {
         if (i == nr || rays[i].kind == MPRT_RAY_PRIMARY) {
             if (leaves > r->max_leaves) r->max_leaves = leaves;
             leaves = 0;
         }
-        if (i < nr && r->child_start[i + 1] == r->child_start[i]) leaves++;
+        if (i < nr && cs[i + 1] == cs[i]) leaves++;
     }
-    /* visits: trees contiguous in order, each starting with its primary; rays contiguous */
-    for (j = 0; j < nv; j++) {
-        int64_t ray = v[j].ray;
-        if (ray < 0 || ray >= (int64_t)nr) {
-            free(tree_of);
-            return TRACE_FAIL(r, "a visit names a ray that does not exist");
-        }
-        t = tree_of[ray];
-        if (t != prev_t && t != prev_t + 1) {
-            free(tree_of);
-            return TRACE_FAIL(r, "the visits of each primary ray's tree are not contiguous, in the primaries' order "
-                                 "(traces made by mprt are)");
-        }
-        if (t != prev_t) {
-            if (rays[ray].kind != MPRT_RAY_PRIMARY) {
-                free(tree_of);
-                return TRACE_FAIL(r, "a tree's first visit is not its primary ray's");
-            }
-            r->tree_first[t] = (int64_t)j;
-            prev_t = t;
-        }
-        if (j == 0 || v[j - 1].ray != ray) {
-            if (r->ray_first[ray] >= 0) {
-                free(tree_of);
-                return TRACE_FAIL(r, "the visits of ray %lld are not contiguous", (long long)ray);
-            }
-            r->ray_first[ray] = (int64_t)j;
-        }
-        if (v[j].stage > MPRT_STAGE_SC) {
-            free(tree_of);
-            return TRACE_FAIL(r, "visit %zu: stage %d is not OS, IC or SC", j, v[j].stage);
-        }
-    }
-    free(tree_of);
-    if (prev_t != r->ntrees - 1) return TRACE_FAIL(r, "some primary rays have no visits");
-    for (i = 0; i < nr; i++)
-        if (r->ray_first[i] < 0) return TRACE_FAIL(r, "ray %zu has no visits", i);
-    /* an SC visit that ends its ray sends the rays it made */
-    for (j = 0; j < nv; j++) {
-        if (v[j].stage == MPRT_STAGE_SC && v[j].made > 0 && (j + 1 == nv || v[j + 1].ray != v[j].ray)) {
-            int64_t k = r->child_start[v[j].ray + 1] - r->child_start[v[j].ray];
-            if (k != v[j].made)
-                return TRACE_FAIL(r, "visit %zu made %d rays but %lld have it as parent", j, v[j].made, (long long)k);
-        }
-    }
-    for (i = 0; i < (size_t)nkids; i++) r->child[i] = r->ray_first[r->child[i]];
-    for (t = 0; t < r->ntrees; t++) r->tree_pe[t] = -1;
     return MPRT_OK;
 }
 
-static int check_costs(mprt_replay *r, const int64_t *process, const int64_t *receive, const int64_t *send, size_t nv)
+/* The visits, in one pass: each tree's visits contiguous and in order,
+ * starting with its primary's; each ray's contiguous; known stages; costs
+ * of at least one cycle; an SC visit that ends its ray made as many rays as
+ * have it as parent.  Fills the visit infos and the trees' costs. */
+static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt_trace_visit *v, size_t nv,
+                          const int64_t *process, const int64_t *receive, const int64_t *send)
 {
-    size_t j;
-    int64_t total = 0, g = r->cfg.gen_cycles;
+    size_t j, nt = (size_t)r->ntrees;
+    int64_t prev_t = -1, total = 0, *tc = NULL;
+    const int64_t *cs = r->child_start;
     if (nv && (!process || !receive || !send)) return fail(r, MPRT_ERR_INVALID_ARG, "costs: missing array");
+    if (RESERVE(r, vi, cap_vi, nv + 1) || RESERVE(r, tree_first, cap_tree, nt + 1) ||
+        RESERVE(r, tree_cost, cap_tree9, 9 * nt + 1) || RESERVE(r, tree_pe, cap_tree_pe, nt + 1))
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu visits", nv);
+    memset(r->tree_cost, 0, (9 * nt + 1) * sizeof *r->tree_cost);
     for (j = 0; j < nv; j++) {
-        int64_t p = process[j], a = receive[j], b = send[j], c, d;
-        if ((b > 0 && a > INT64_MAX - b) || (b < 0 && a < INT64_MIN - b))
+        const mprt_trace_visit *a = &v[j];
+        int64_t ray = a->ray, t, p = process[j], x = receive[j], y = send[j], c, next;
+        int st = a->stage;
+        if (ray < 0 || ray >= (int64_t)r->nr) return TRACE_FAIL(r, "a visit names a ray that does not exist");
+        t = r->tree_of[ray];
+        if (t != prev_t) {
+            if (t != prev_t + 1)
+                return TRACE_FAIL(r, "the visits of each primary ray's tree are not contiguous, in the primaries' "
+                                     "order (traces made by mprt are)");
+            if (rays[ray].kind != MPRT_RAY_PRIMARY) return TRACE_FAIL(r, "a tree's first visit is not its primary ray's");
+            r->tree_first[t] = (int64_t)j;
+            tc = r->tree_cost + 9 * t;
+            prev_t = t;
+        }
+        if (j == 0 || a[-1].ray != ray) {
+            if (r->ray_first[ray] >= 0)
+                return TRACE_FAIL(r, "the visits of ray %lld are not contiguous", (long long)ray);
+            r->ray_first[ray] = (int64_t)j;
+        }
+        if (st > MPRT_STAGE_SC) return TRACE_FAIL(r, "visit %zu: stage %d is not OS, IC or SC", j, st);
+        if ((y > 0 && x > INT64_MAX - y) || (y < 0 && x < INT64_MIN - y))
             return fail(r, MPRT_ERR_INVALID_ARG, "visit %zu: receive + send cycles overflow", j);
-        c = a + b;
+        c = x + y;
         if (p < 0 || c < 0 || (c > 0 && p > INT64_MAX - c) || p + c < 1)
             return fail(r, MPRT_ERR_INVALID_ARG,
                         "visit %zu: costs must be >= 0 and a visit must last at least 1 cycle (process %lld, "
                         "communication %lld)", j, (long long)p, (long long)c);
-        d = p + c;
-        if (d > INT64_MAX - total)
-            return fail(r, MPRT_ERR_INVALID_ARG, "costs: the visits' cycles add up to more than 2^63");
-        total += d;
+        if (p + c > INT64_MAX / 2 - total)
+            return fail(r, MPRT_ERR_INVALID_ARG, "costs: the visits' cycles add up to more than 2^62");
+        total += p + c;
+        if (j + 1 < nv && a[1].ray == ray) {
+            next = NEXT_VISIT | (int64_t)(a[1].stage & 3) << 2;
+        } else if (st == MPRT_STAGE_SC && a->made > 0) {
+            int64_t k = cs[ray + 1] - cs[ray];
+            if (k != a->made)
+                return TRACE_FAIL(r, "visit %zu made %d rays but %lld have it as parent", j, a->made, (long long)k);
+            next = NEXT_CHILDREN | (int64_t)a->made << 2 | cs[ray] << 10;
+        } else {
+            next = NEXT_RETIRE;
+        }
+        r->vi[j].dur = p + c;
+        r->vi[j].next = next;
+        tc[st] += p;
+        tc[3 + st] += c;
+        tc[6 + st]++;
     }
-    if (g > 0 && r->ntrees > (INT64_MAX - total) / g)
-        return fail(r, MPRT_ERR_INVALID_ARG, "costs: the visits' cycles add up to more than 2^63");
+    if (prev_t != r->ntrees - 1) return TRACE_FAIL(r, "some primary rays have no visits");
+    for (j = 0; j < r->nr; j++)
+        if (r->ray_first[j] < 0) return TRACE_FAIL(r, "ray %zu has no visits", j);
+    r->total = total;
+    /* the rays made, as their first visits */
+    for (j = 0; j < (size_t)cs[r->nr]; j++) r->child[j] = r->ray_first[r->child[j]];
     return MPRT_OK;
 }
 
@@ -829,39 +884,52 @@ static int build(mprt_replay *r)
     return MPRT_OK;
 }
 
-int mprt_replay_run(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
-                    size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send,
-                    int64_t *log, size_t log_cap)
+int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                     size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send)
 {
-    int rc, p;
+    int rc;
     if (!r) return MPRT_ERR_INVALID_ARG;
     free_run(r);
     r->errmsg[0] = '\0';
-    r->max_leaves = 0;
-    r->ntrees = 0;
+    r->loaded = 0;
+    r->ntrees = r->max_leaves = r->total = 0;
+    if ((nrays && !rays) || (nvisits && !visits)) return fail(r, MPRT_ERR_INVALID_ARG, "rays or visits: missing");
+    r->nv = nvisits;
+    r->nr = nrays;
+    rc = prepare_rays(r, rays, nrays);
+    if (rc == MPRT_OK) rc = prepare_visits(r, rays, visits, nvisits, process, receive, send);
+    free_ray_arrays(r);
+    if (rc != MPRT_OK) return rc;
+    r->loaded = 1;
+    return MPRT_OK;
+}
+
+int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
+{
+    int rc, p, k;
+    int64_t t, g;
+    if (!r) return MPRT_ERR_INVALID_ARG;
+    free_run(r);
+    r->errmsg[0] = '\0';
+    if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
+    g = r->cfg.gen_cycles;
+    if (r->cfg.pes > r->ntrees)
+        return fail(r, MPRT_ERR_INVALID_ARG, "pes: %d PEs but the trace has only %lld primary rays (one per pixel "
+                    "sample)", r->cfg.pes, (long long)r->ntrees);
+    if (g > 0 && r->ntrees > (INT64_MAX / 2 - r->total) / g)
+        return fail(r, MPRT_ERR_INVALID_ARG, "gen_cycles: with the visits' cycles, more than 2^62 cycles in all");
+    if (log && log_cap < 8 * (r->nv + (size_t)r->ntrees))
+        return fail(r, MPRT_ERR_INVALID_ARG, "log: room for %zu entries needed, %zu given",
+                    8 * (r->nv + (size_t)r->ntrees), log_cap);
     r->now = r->retired = r->t_end = r->shared_next = 0;
     r->nlog = 0;
     r->oom = r->deadlocked = 0;
-    r->log = NULL;
-    if ((nrays && !rays) || (nvisits && !visits)) return fail(r, MPRT_ERR_INVALID_ARG, "rays or visits: missing");
-    r->v = visits;
-    r->nv = nvisits;
-    r->nr = nrays;
-    r->process = process;
-    r->receive = receive;
-    r->send = send;
-    rc = prepare(r, rays, nrays, visits, nvisits);
-    if (rc == MPRT_OK) rc = check_costs(r, process, receive, send, nvisits);
-    if (rc == MPRT_OK && log) {
-        size_t need = 8 * (nvisits + (size_t)r->ntrees);
-        if (log_cap < need)
-            rc = fail(r, MPRT_ERR_INVALID_ARG, "log: room for %zu entries needed, %zu given", need, log_cap);
-    }
-    if (rc == MPRT_OK) rc = build(r);
+    rc = build(r);
     if (rc != MPRT_OK) {
         free_run(r);
         return rc;
     }
+    for (t = 0; t < r->ntrees; t++) r->tree_pe[t] = -1;
     r->log = log;
     r->ran = 1;
     for (p = 0; p < r->cfg.pes && !r->oom; p++) dis_admit(r, p);
@@ -875,10 +943,13 @@ int mprt_replay_run(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, co
         free_run(r);
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory during the replay");
     }
-    if (r->retired != (int64_t)nrays) {
+    for (t = 0; t < r->ntrees; t++)
+        if (r->tree_pe[t] >= 0)
+            for (k = 0; k < 9; k++) r->pes[r->tree_pe[t]].cost[k] += r->tree_cost[9 * t + k];
+    if (r->retired != (int64_t)r->nr) {
         r->deadlocked = 1;
         return fail(r, MPRT_ERR_STATE, "deadlock: the machine stopped with %lld of %zu rays still in it",
-                    (long long)((int64_t)nrays - r->retired), nrays);
+                    (long long)((int64_t)r->nr - r->retired), r->nr);
     }
     return MPRT_OK;
 }
@@ -895,10 +966,10 @@ static int need_run(const mprt_replay *r, const void *out, size_t cap, size_t n)
 
 int mprt_replay_get_info(const mprt_replay *r, mprt_replay_info *info)
 {
-    int rc = need_run(r, info, 1, 1);
-    if (rc != MPRT_OK) return rc;
+    if (!r || !info) return MPRT_ERR_INVALID_ARG;
+    if (!r->loaded) return MPRT_ERR_STATE;
     memset(info, 0, sizeof *info);
-    info->cycles = r->deadlocked ? -1 : r->t_end;
+    info->cycles = r->ran && !r->deadlocked ? r->t_end : -1;
     info->deadlocked = r->deadlocked;
     info->rays = (int64_t)r->nr;
     info->visits = (int64_t)r->nv;
@@ -908,7 +979,7 @@ int mprt_replay_get_info(const mprt_replay *r, mprt_replay_info *info)
     info->events = (int64_t)r->nlog;
     info->processors = r->nproc;
     info->nodes = r->nnode;
-    info->pes = r->cfg.pes;
+    info->pes = r->ran ? r->cfg.pes : 0;
     return MPRT_OK;
 }
 
@@ -965,9 +1036,9 @@ int mprt_replay_get_pes(const mprt_replay *r, mprt_replay_pe *out, size_t cap)
         o->max_live = e->max_live;
         o->dis_holding = e->holding;
         for (s = 0; s < 3; s++) {
-            o->processing[s] = e->cost_proc[s];
-            o->communication[s] = e->cost_comm[s];
-            o->visits[s] = e->nvis[s];
+            o->processing[s] = e->cost[s];
+            o->communication[s] = e->cost[3 + s];
+            o->visits[s] = e->cost[6 + s];
         }
     }
     return MPRT_OK;

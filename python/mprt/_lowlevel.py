@@ -366,13 +366,9 @@ class Binding:
         return int(nr[0]), int(nv[0]), True
 
     # -- replay ------------------------------------------------------------------------
-    def replay_create(self, config: dict):
-        """A compiled replay of a machine: ``config`` holds mprt_replay_config's fields by name
-        (the others keep mprt_replay_config_init's values); a bad field raises InvalidArgument
-        with the library's message naming it."""
-        ffi, lib = self.ffi, self.lib
-        c = ffi.new("mprt_replay_config *")
-        lib.mprt_replay_config_init(c)
+    def _replay_config(self, config: dict):
+        c = self.ffi.new("mprt_replay_config *")
+        self.lib.mprt_replay_config_init(c)
         for k, v in config.items():
             try:
                 setattr(c, k, v)
@@ -380,6 +376,14 @@ class Binding:
                 raise InvalidArgument(f"replay configuration has no field {k!r}") from None
             except (TypeError, OverflowError, IndexError) as e:
                 raise InvalidArgument(f"replay configuration field {k!r}: {e}") from None
+        return c
+
+    def replay_create(self, config: dict):
+        """A compiled replay of a machine: ``config`` holds mprt_replay_config's fields by name
+        (the others keep mprt_replay_config_init's values); a bad field raises InvalidArgument
+        with the library's message naming it."""
+        ffi, lib = self.ffi, self.lib
+        c = self._replay_config(config)
         out = ffi.new("mprt_replay **")
         rc = lib.mprt_replay_create(c, out)
         if out[0] == ffi.NULL:
@@ -388,20 +392,29 @@ class Binding:
         self._check(rc, lib.mprt_replay_errmsg, h)
         return h
 
-    def replay_run(self, h, rays: np.ndarray, visits: np.ndarray, process: np.ndarray, receive: np.ndarray,
-                   send: np.ndarray, log: np.ndarray | None = None) -> bool:
-        """Replay the records (RAY_DTYPE, VISIT_DTYPE) with int64 costs per visit; ``log``
-        (int64, 8 * (visits + primary rays) entries) receives the events.  False when the
-        machine deadlocked (its state stays readable by the getters)."""
-        lib = self.lib
+    def replay_set_config(self, h, config: dict) -> None:
+        """Another configuration for the replay (the loaded trace stays)."""
+        self._check(self.lib.mprt_replay_set_config(h, self._replay_config(config)), self.lib.mprt_replay_errmsg, h)
+
+    def replay_load(self, h, rays: np.ndarray, visits: np.ndarray, process: np.ndarray, receive: np.ndarray,
+                    send: np.ndarray) -> None:
+        """Load the records (RAY_DTYPE, VISIT_DTYPE) with int64 costs per visit (copied)."""
         costs = [np.ascontiguousarray(a, dtype=np.int64) for a in (process, receive, send)]
         for name, a in zip(("process", "receive", "send"), costs):
             if a.shape != (len(visits),):
                 raise InvalidArgument(f"costs.{name} has shape {a.shape}, the trace has {len(visits)} visits")
-        lg = self.ffi.NULL if log is None else self._out("int64_t", log)
-        rc = lib.mprt_replay_run(h, self._in("mprt_trace_ray", np.ascontiguousarray(rays)), len(rays),
-                                 self._in("mprt_trace_visit", np.ascontiguousarray(visits)), len(visits),
-                                 *(self._in("int64_t", a) for a in costs), lg, 0 if log is None else log.size)
+        self._check(self.lib.mprt_replay_load(h, self._in("mprt_trace_ray", np.ascontiguousarray(rays)), len(rays),
+                                              self._in("mprt_trace_visit", np.ascontiguousarray(visits)),
+                                              len(visits), *(self._in("int64_t", a) for a in costs)),
+                    self.lib.mprt_replay_errmsg, h)
+
+    def replay_run(self, h, log: np.ndarray | None = None) -> bool:
+        """Replay the loaded trace; ``log`` (int64, 8 * (visits + primary rays) entries)
+        receives the events.  False when the machine deadlocked (its state stays readable
+        by the getters)."""
+        lib = self.lib
+        rc = lib.mprt_replay_run(h, self.ffi.NULL if log is None else self._out("int64_t", log),
+                                 0 if log is None else log.size)
         if rc == Status.ERR_STATE and self.replay_get_info(h)["deadlocked"]:
             return False
         self._check(rc, lib.mprt_replay_errmsg, h)

@@ -48,14 +48,8 @@ def unsupported(config: SystemConfig) -> str | None:
             "ideal-memory machines only (use the SimPy engine, or --level 1)")
 
 
-def visit_costs(trace, config: SystemConfig, cost_model=None, costs=None):
+def _cost_arrays(trace, costs):
     """(process, receive, send, inject_process, inject_send) as the SimPy model takes them."""
-    if costs is None:
-        if cost_model is None:
-            from ..cost import CostModel
-
-            cost_model = CostModel.default()
-        costs = cost_model.visit_costs(trace, config.processors())
     arrays = tuple(np.asarray(getattr(costs, k)) for k in ("process", "receive", "send"))
     n = len(trace.visits)
     for k, a in zip(("process", "receive", "send"), arrays):
@@ -148,8 +142,8 @@ class _SystemView:
     _result = System._result
     _deadlock = System._deadlock
 
-    def __init__(self, trace, config, h, info, gen_process, gen_send, log):
-        self.trace, self.config, self.log = trace, config, log
+    def __init__(self, trace, config, h, info, gen_process, gen_send):
+        self.trace, self.config, self.log = trace, config, None
         self.timeline = None
         self.memories = {}
         self.gen_process, self.gen_send = gen_process, gen_send
@@ -190,56 +184,87 @@ def _log(view, log, events):
     return [(int(t), "end" if w else "start", names[i][0], names[i][1], int(j)) for t, w, i, j in ev.tolist()]
 
 
+class Compiled:
+    """A costed trace loaded into the C replay (16 bytes per visit), ready to
+    run any ideal-network configuration whose processors the costs are for.
+
+    ``costs``: per-visit ``process``, ``receive``, ``send`` arrays (and
+    ``inject_process``, ``inject_send`` for SC's making of primary rays), as
+    the cost model's ``visit_costs`` gives them."""
+
+    def __init__(self, trace, costs):
+        process, receive, send, self.gen_process, self.gen_send = _cost_arrays(trace, costs)
+        self.trace = trace
+        self.h = _LIB.replay_create({})
+        try:
+            _LIB.replay_load(self.h, np.asarray(trace.rays), np.asarray(trace.visits), process, receive, send)
+        except InvalidArgument as e:
+            msg = str(e)
+            raise (TraceError(msg) if msg.startswith("cannot replay this trace:") else ValueError(msg)) from None
+        self.info = _LIB.replay_get_info(self.h)
+
+    def _configure(self, config: SystemConfig) -> None:
+        why = unsupported(config)
+        if why:
+            raise ConfigError(why)
+        where = f"{config.source}: " if config.source else ""
+        try:
+            _LIB.replay_set_config(self.h, c_config(config, self.gen_process + self.gen_send))
+        except InvalidArgument as e:
+            raise ConfigError(f"{where}{e}") from None
+
+    def _run(self, config, log=None) -> bool:
+        self._configure(config)
+        try:
+            return _LIB.replay_run(self.h, log)
+        except InvalidArgument as e:
+            where = f"{config.source}: " if config.source else ""
+            raise ConfigError(f"{where}{e}") from None
+
+    def cycles(self, config: SystemConfig) -> int:
+        """The run's cycles (nothing else assembled); DeadlockError if it deadlocks."""
+        if not self._run(config):
+            raise _SystemView(self.trace, config, self.h, _LIB.replay_get_info(self.h), self.gen_process,
+                              self.gen_send)._deadlock()
+        return int(_LIB.replay_get_info(self.h)["cycles"])
+
+    def result(self, config: SystemConfig, record: bool = False):
+        """The SimPy model's SimResult for the configuration (``record``: with its event log),
+        or its DeadlockError."""
+        t0 = time.perf_counter()
+        log = np.zeros(8 * (int(self.info["visits"]) + int(self.info["trees"])), np.int64) if record else None
+        finished = self._run(config, log)
+        info = _LIB.replay_get_info(self.h)
+        view = _SystemView(self.trace, config, self.h, info, self.gen_process, self.gen_send)
+        if record:
+            view.log = _log(view, log, int(info["events"]))
+        if not finished:
+            raise view._deadlock()
+        res = view._result()
+        res.wall_seconds = time.perf_counter() - t0
+        return res
+
+
+def costs_for(trace, config: SystemConfig, cost_model=None):
+    """The cost model's visit costs for a configuration's processors (default model)."""
+    if cost_model is None:
+        from ..cost import CostModel
+
+        cost_model = CostModel.default()
+    return cost_model.visit_costs(trace, config.processors())
+
+
 def replay(trace, config: SystemConfig | str = "M", cost_model=None, costs=None, record: bool = False):
     """Replay a trace on an ideal-network configuration with the compiled
-    engine: the SimPy model's ``SimResult`` (``record``: with its event log)
-    or its ``DeadlockError``; ConfigError for a configuration it does not
-    support (see ``unsupported``)."""
+    engine: what ``mprt.machine.simulate`` returns (``record``: with its event
+    log), or raises (DeadlockError, ConfigError for a configuration the
+    compiled engine does not support, see ``unsupported``)."""
     if isinstance(config, str):
         config = builtin(config)
     why = unsupported(config)
     if why:
         raise ConfigError(why)
     t0 = time.perf_counter()
-    process, receive, send, gen_process, gen_send = visit_costs(trace, config, cost_model, costs)
-    try:
-        h = _LIB.replay_create(c_config(config, gen_process + gen_send))
-    except InvalidArgument as e:
-        raise ConfigError(f"{config.source + ': ' if config.source else ''}{e}") from None
-    rays, visits = np.asarray(trace.rays), np.asarray(trace.visits)
-    log = None
-    if record:
-        log = np.zeros(8 * (len(visits) + int(np.count_nonzero(rays["kind"] == 0))), dtype=np.int64)
-    try:
-        finished = _LIB.replay_run(h, rays, visits, process, receive, send, log)
-    except InvalidArgument as e:
-        msg = str(e)
-        if msg.startswith("pes:"):
-            raise ConfigError(f"{config.source + ': ' if config.source else ''}{msg}") from None
-        if msg.startswith("cannot replay this trace:"):
-            raise TraceError(msg) from None
-        raise
-    info = _LIB.replay_get_info(h)
-    view = _SystemView(trace, config, h, info, gen_process, gen_send, None)
-    if record:
-        view.log = _log(view, log, int(info["events"]))
-    if not finished:
-        raise view._deadlock()
-    res = view._result()
+    res = Compiled(trace, costs if costs is not None else costs_for(trace, config, cost_model)).result(config, record)
     res.wall_seconds = time.perf_counter() - t0
     return res
-
-
-def run_costed(h, trace, process, receive, send) -> int:
-    """Cycles of one replay on a handle made by ``handle`` (no result assembled): the
-    fast path for many designs over one costed trace; -1 on a deadlock."""
-    ok = _LIB.replay_run(h, trace.rays, trace.visits, process, receive, send)
-    return int(_LIB.replay_get_info(h)["cycles"]) if ok else -1
-
-
-def handle(config: SystemConfig, gen_cycles: int):
-    """A compiled replay of a configuration (for ``run_costed``)."""
-    why = unsupported(config)
-    if why:
-        raise ConfigError(why)
-    return _LIB.replay_create(c_config(config, gen_cycles))
