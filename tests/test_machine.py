@@ -231,3 +231,36 @@ def test_finite_fifos_deadlock_is_reported_with_state():
     res = simulate(tr, cfg.replace(window=7), costs=costs([1, 1, 1] * 8))
     # OS has 16 cycles of work and, with rays always waiting for it, never idles
     assert res.deadlock_bound["fifos_cannot_deadlock"] and res.cycles == 16
+
+
+def test_replicated_stage_shares_its_receive_fifo():
+    # Two primaries, each OS 1 (to IC), IC 10 (return), OS 1 (left); two IC processors.
+    # OS: A 0-1, B 1-2; IC0 takes A at 1 (1-11), IC1 takes B at 2 (2-12); OS: A 11-12;
+    # at 12 OS (rank 1) ends A before IC1 (rank 3) ends B, so B runs on OS 12-13.
+    # With one IC processor B waits for it: IC B 11-21, OS B 21-22.
+    tr = hand_trace([(-1, PRIMARY)] * 2,
+                    [v for r in range(2) for v in ((r, OS, TO_IC, 0), (r, IC, RETURN, 0), (r, OS, LEFT, 0))])
+    two = builtin("M").replace(stages=(make_stage(("OS",)), make_stage(("IC",), replicas=2), make_stage(("SC",))))
+    res = run(tr, two, costs([1, 10, 1] * 2))
+    assert [(t, what, name, k, j) for t, what, name, k, j in res.log if what == "start"] == [
+        (0, "start", "PE0.OS", 0, 0), (1, "start", "PE0.IC", 0, 1), (1, "start", "PE0.OS", 0, 3),
+        (2, "start", "PE0.IC", 1, 4), (11, "start", "PE0.OS", 0, 2), (12, "start", "PE0.OS", 0, 5)]
+    assert res.cycles == 13
+    assert [(p["stage"], p["replica"], p["busy"]) for p in res.processors if p["stage"] == "IC"] == \
+        [("IC", 0, 10), ("IC", 1, 10)]
+    assert res.nodes["IC"]["waiting"] == 2 * 13 - 20
+    assert run(tr, "M", costs([1, 10, 1] * 2)).cycles == 22
+
+
+def test_merged_stages_use_the_local_queue():
+    # OS and IC on one processor, SC on another: PARENT's OS->IC and IC->OS
+    # handoffs stay local.  0-10 OS, 10-30 IC (local), 30-60 SC; at 60 rays 1 and 2
+    # go to the OS+IC processor: ray 1 60-65, then (local queue first) ... ray 1's
+    # SC visit on SC 65-69, ray 2's OS 65-71, its IC 71-79 (local), OS 79-82.
+    cfg = builtin("M").replace(stages=(make_stage(("OS", "IC")), make_stage(("SC",))))
+    res = run(PARENT, cfg, PARENT_COSTS)
+    assert [(t, name, j) for t, what, name, j in log_of(res) if what == "start"] == [
+        (0, "OS+IC", 0), (10, "OS+IC", 1), (30, "SC", 2), (60, "OS+IC", 3), (65, "SC", 4), (65, "OS+IC", 5),
+        (71, "OS+IC", 6), (79, "OS+IC", 7)]
+    assert res.cycles == 82
+    assert res.fifos["PE0.OS+IC.receive"]["max"] == 1 and res.fifos["PE0.SC.receive"]["packets"] == 0

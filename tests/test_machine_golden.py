@@ -218,3 +218,33 @@ def test_plot_writes_png(traces, tmp_path):
     # the IC utilisation over time averages to its utilisation over the run
     widths = np.diff(times + [r.cycles])
     assert abs(float(np.dot(util, widths)) / r.cycles - r.nodes["IC"]["utilisation"]) < 1e-9
+
+
+def test_costing_in_slices_equals_costing_whole(traces, monkeypatch):
+    # the cost model is called on self-contained slices of whole trees (bounded
+    # memory), here one per page of 2**14 visits (2 for this trace); the run
+    # equals the one with the whole trace costed at once
+    import mprt.machine.replay as replay
+
+    t = traces["rings-g9"]
+    cfg = builtin("M")
+    whole = CostModel.default().visit_costs(t, cfg.processors())
+    monkeypatch.setattr(replay, "COST_CHUNK", 1000)
+    assert simulate(t, cfg).cycles == simulate(t, cfg, costs=whole).cycles == PINNED["rings-g9"][1]
+
+
+@pytest.mark.parametrize("name", ["gears-g4", "mount-g9", "tree-g9"])
+def test_merged_and_replicated_stages_keep_the_invariants(traces, runs, name):
+    t = traces[name]
+    st = t.stats()
+    for stages in ((make_stage(("OS", "IC")), make_stage(("SC",))),
+                   (make_stage(("OS",)), make_stage(("IC",), replicas=3), make_stage(("SC",))),
+                   (make_stage(("SC", "OS")), make_stage(("IC",)))):
+        r = simulate(t, builtin("M").replace(stages=stages, pes=2, dis="blocks"))
+        assert [r.stages[x]["rays_in"] for x in SUBTASKS] == [st["os_input"], st["ic_input"], st["sc_input"]]
+        for node in r.nodes.values():
+            assert node["processing"] + node["communication"] + node["waiting"] == \
+                r.cycles * node["replicas"] * 2
+        assert sum(r.stages[x][c] for x in SUBTASKS for c in ("processing", "communication", "waiting")) == \
+            r.cycles * sum(s.replicas for s in stages) * 2
+        assert r.cycles <= runs[name, "S"].cycles

@@ -105,7 +105,6 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     mprt__render_setup setup;
     mprt__recorder recorder;
     mprt__sink sink;
-    mprt_counters sum;
     sample_buffer out;
     mprt__tree_ray *stack;
     int rect[4], tiles_x, tiles_y;
@@ -128,8 +127,7 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     recorder.cap_rays = cap_rays;
     recorder.visits = visits;
     recorder.cap_visits = cap_visits;
-    memset(&sum, 0, sizeof sum);
-    sink.counters = &sum;
+    memset(&sink.counters, 0, sizeof sink.counters);
     sink.recorder = &recorder;
     sink.bad_prim = -1;
     out.rgb = samples;
@@ -140,7 +138,7 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     free(stack);
     *nrays = recorder.nrays;
     *nvisits = recorder.nvisits;
-    if (counters) *counters = sum;
+    if (counters) *counters = sink.counters;
     if (sink.bad_prim >= 0)
         return mprt__grid_fail(g, MPRT_ERR_STATE, "trace: " MPRT__UNKNOWN_KIND, (long long)sink.bad_prim,
                                g->scene->prims[sink.bad_prim].kind);
@@ -166,10 +164,9 @@ typedef struct {
     pthread_mutex_t lock;
 } tile_queue;
 
-/* One worker thread: its counters and errors. */
+/* One worker thread: its counters and errors (in its sink). */
 typedef struct {
     tile_queue *queue;
-    mprt_counters counters;
     mprt__sink sink;
     pthread_t thread;
 } worker;
@@ -226,8 +223,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
     for (i = 0; i < setup.desc.threads; i++) {
         worker *w = &workers[i];
         w->queue = &queue;
-        memset(&w->counters, 0, sizeof w->counters);
-        w->sink.counters = &w->counters;
+        memset(&w->sink.counters, 0, sizeof w->sink.counters);
         w->sink.recorder = NULL;
         w->sink.bad_prim = -1;
     }
@@ -253,7 +249,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
                             rgb);
     if (counters) {
         memset(counters, 0, sizeof *counters);
-        for (i = 0; i < started; i++) mprt__counters_add(counters, &workers[i].counters);
+        for (i = 0; i < started; i++) mprt__counters_add(counters, &workers[i].sink.counters);
     }
     free(queue.samples.rgb);
     return MPRT_OK;

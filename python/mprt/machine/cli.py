@@ -109,7 +109,8 @@ def _load_source(a):
     settings = {"source": src, "scene": m.get("scene"), "scene_sha256": m.get("scene_sha256"),
                 "grid": m.get("grid"), "resolution": [m.get("width"), m.get("height")], "rules": m.get("rules"),
                 "threshold": m.get("threshold"), "tiles": len(m.get("tiles", [])),
-                "tiles_total": m.get("tiles_total")}
+                "tiles_total": m.get("tiles_total"), "tile": m.get("tile"),
+                "threads": None if src.endswith(".npz") else a.threads}
     return trace, settings, how
 
 

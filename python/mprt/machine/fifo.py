@@ -12,7 +12,7 @@ class Fifo:
     send FIFO: its blocked processors).  Occupancy is integrated over time
     for its mean; ``timeline`` (optional) samples it for plots."""
 
-    __slots__ = ("name", "capacity", "items", "reserved", "waiters", "env", "area", "last", "max", "timeline",
+    __slots__ = ("name", "capacity", "items", "reserved", "waiters", "env", "area", "max", "timeline",
                  "puts")
 
     def __init__(self, env, name: str, capacity: int | None, timeline=None):
@@ -22,8 +22,7 @@ class Fifo:
         self.items = deque()
         self.reserved = 0
         self.waiters = deque()
-        self.area = 0           # integral of occupancy over time
-        self.last = 0           # time of the last change
+        self.area = 0           # integral of occupancy over time, less end x occupancy at the end
         self.max = 0
         self.timeline = timeline
         self.puts = 0
@@ -34,53 +33,50 @@ class Fifo:
     def room(self) -> bool:
         return self.capacity is None or len(self.items) + self.reserved < self.capacity
 
-    def _mark(self):
-        """Integrate the occupancy up to now (called before each change)."""
-        now = self.env._now
-        self.area += (len(self.items) + self.reserved) * (now - self.last)
-        self.last = now
-
-    def _after(self):
+    # Occupancy integrated over time by Little's law: a packet adds (leave -
+    # enter) to the area, so each change adds or subtracts the time once.
+    def put(self, item) -> None:
+        self.items.append(item)
+        self.area -= self.env._now
+        self.puts += 1
         n = len(self.items) + self.reserved
         if n > self.max:
             self.max = n
         if self.timeline is not None:
-            self.timeline.level(self.name, self.last, n)
-
-    def put(self, item) -> None:
-        self._mark()
-        self.items.append(item)
-        self.puts += 1
-        self._after()
+            self.timeline.level(self.name, self.env._now, n)
 
     def get(self):
-        self._mark()
+        self.area += self.env._now
         x = self.items.popleft()
         if self.timeline is not None:
-            self._after()
+            self.timeline.level(self.name, self.env._now, len(self.items) + self.reserved)
         return x
 
     def reserve(self) -> None:
-        self._mark()
+        """A slot for a packet still on the ring."""
         self.reserved += 1
-        self._after()
+        self.area -= self.env._now
+        n = len(self.items) + self.reserved
+        if n > self.max:
+            self.max = n
+        if self.timeline is not None:
+            self.timeline.level(self.name, self.env._now, n)
 
     def unreserve(self) -> None:
         """A reserved slot is not needed (the packet went to an idle processor)."""
-        self._mark()
         self.reserved -= 1
-        self._after()
+        self.area += self.env._now
+        if self.timeline is not None:
+            self.timeline.level(self.name, self.env._now, len(self.items) + self.reserved)
 
     def fill(self, item) -> None:
-        """A packet for a reserved slot has arrived."""
-        self._mark()
+        """The packet for a reserved slot has arrived (the slot stays occupied)."""
         self.reserved -= 1
         self.items.append(item)
         self.puts += 1
-        self._after()
 
     def mean(self, end) -> float:
-        area = self.area + (len(self.items) + self.reserved) * (end - self.last)
+        area = self.area + (len(self.items) + self.reserved) * end
         return area / end if end else 0.0
 
     def state(self) -> dict:

@@ -11,10 +11,30 @@ the send FIFO is never used.
 from __future__ import annotations
 
 
-class IdealNetwork:
+class Network:
+    """What the ideal network and the ring share: the waiting list of a receive FIFO."""
+
     def __init__(self, pe):
         self.pe = pe
         self.stages = pe.stages
+
+    def freed(self, dst) -> None:
+        """A slot of dst's receive FIFO freed: the first waiting sender (the
+        DIS, or a send FIFO's head) moves in, while there is room."""
+        rf = dst.receive
+        dis = self.pe.dis
+        while rf.waiters and rf.room():
+            w = rf.waiters.popleft()
+            if w is dis:
+                dis.release()
+            else:
+                self.advance(w)
+
+    def advance(self, src) -> None:
+        raise NotImplementedError
+
+
+class IdealNetwork(Network):
 
     def send(self, src, x: int, g: int, f: int) -> bool:
         """Packet x from stage src to stage g; False when src's send FIFO is full."""
@@ -34,18 +54,6 @@ class IdealNetwork:
                 dst.receive.waiters.append(src)
             return True
         return False
-
-    def freed(self, dst) -> None:
-        """A slot of dst's receive FIFO freed: the first waiting sender (a
-        send FIFO's head, or the DIS) moves in."""
-        rf = dst.receive
-        dis = self.pe.dis
-        while rf.waiters and rf.room():
-            w = rf.waiters.popleft()
-            if w is dis:
-                dis.release()
-            else:
-                self.advance(w)
 
     def advance(self, src) -> None:
         """Move src's send FIFO head packets on while their receive FIFOs have room."""

@@ -11,8 +11,10 @@ memory-mapped from a file replays in memory bounded by the rays in flight,
 whatever its size.
 
 A ray tree is a primary ray and all the rays made from it.  Traces made by
-mprt store each tree's rays contiguously, parents before children, and each
-ray's visits contiguously in ray order; the replay checks this.
+mprt store each tree's rays contiguously (parents before children) and its
+visits contiguously (each ray's visits together, the primary's first; the
+other rays in the order the tracer took them), trees in the primaries'
+order; the replay checks this.
 """
 from __future__ import annotations
 
@@ -26,8 +28,8 @@ from ..trace import IC, PRIMARY, SC
 PAGE_BITS = 14
 PAGE = 1 << PAGE_BITS
 PAGE_MASK = PAGE - 1
-SCAN = 1 << 22          # visits per chunk when scanning a (memory-mapped) trace
-COST_CHUNK = 1 << 20    # visits per cost-model call when costing lazily
+SCAN = 1 << 20          # visits (rays) per chunk when scanning a (memory-mapped) trace
+COST_CHUNK = 1 << 18    # visits per cost-model call when costing lazily
 
 RETIRE = -1             # dest: the ray ends here
 CHILDREN = -2           # dest: the ray ends here and the visit made rays (SC)
@@ -44,7 +46,7 @@ class Costs:
     def __init__(self, trace, source, processors=None):
         self.trace = trace
         self.model = None
-        self.tree_vstart = None
+        self.tree_vstart = self.tree_rstart = None
         if hasattr(source, "visit_costs"):
             self.model, self.processors = source, processors
             self._chunk = (0, 0, None)
@@ -59,20 +61,30 @@ class Costs:
                     raise ValueError(f"costs.{k} has shape {a.shape}, the trace has {n} visits")
         self.inject = tuple(int(getattr(vc, k, 0)) for k in ("inject_process", "inject_send", "inject_flits"))
 
-    def _costs(self, a, b):
-        return self.model.visit_costs(dataclasses.replace(self.trace, visits=self.trace.visits[a:b]),
-                                      self.processors)
+    def _costs(self, a, b, ra=None, rb=None):
+        """The cost model on visits [a, b); with the rays [ra, rb) of the same
+        whole trees, on a self-contained copy of them (ids from 0), so that
+        what the model computes per ray stays the size of the slice."""
+        t = self.trace
+        if ra is None:
+            return self.model.visit_costs(dataclasses.replace(t, visits=t.visits[a:b]), self.processors)
+        v = np.array(t.visits[a:b])
+        v["ray"] -= ra
+        r = np.array(t.rays[ra:rb])
+        r["id"] -= ra
+        r["parent"] = np.where(r["parent"] >= 0, r["parent"] - ra, -1)
+        return self.model.visit_costs(dataclasses.replace(t, rays=r, visits=v), self.processors)
 
     def slice(self, lo, hi):
         if self.model is None:
             return tuple(a[lo:hi] for a in self.arrays)
         a, b, arrs = self._chunk
         if not (a <= lo and hi <= b):
-            tv = self.tree_vstart
+            tv, tr = self.tree_vstart, self.tree_rstart
             ka = int(np.searchsorted(tv, lo, "right")) - 1
-            kb = int(np.searchsorted(tv, max(hi, lo + COST_CHUNK), "left"))
-            a, b = int(tv[ka]), int(tv[kb]) if kb < len(tv) else len(self.trace.visits)
-            vc = self._costs(a, b)
+            kb = min(int(np.searchsorted(tv, max(hi, lo + COST_CHUNK), "left")), len(tv) - 1)
+            a, b = int(tv[ka]), int(tv[kb])
+            vc = self._costs(a, b, int(tr[ka]), int(tr[kb]))
             arrs = tuple(np.asarray(getattr(vc, k)) for k in ("process", "receive", "send", "flits"))
             self._chunk = (a, b, arrs)
         return tuple(x[lo - a:hi - a] for x in arrs)
@@ -94,7 +106,7 @@ class Replay:
         rays, visits = trace.rays, trace.visits
         self.n_rays, self.n_visits = len(rays), len(visits)
         self._scan()
-        costs.tree_vstart = self.tree_vstart
+        costs.tree_vstart, costs.tree_rstart = self.tree_vstart, self.tree_rstart
         npages = (self.n_visits + PAGE - 1) >> PAGE_BITS
         self.dur = [None] * npages
         self.dest = [None] * npages
@@ -186,12 +198,10 @@ class Replay:
                 self._load(p)
         return v0
 
-    def visit_done(self, j: int) -> None:
-        p = j >> PAGE_BITS
-        self.left[p] -= 1
-        if not self.left[p]:
-            self.dur[p] = self.dest[p] = self.kids[p] = self.flits[p] = self.memk[p] = None
-            self._held -= 1
+    def drop(self, p: int) -> None:
+        """Every visit of page p has run (the caller counts them in ``left``)."""
+        self.dur[p] = self.dest[p] = self.kids[p] = self.flits[p] = self.memk[p] = None
+        self._held -= 1
 
     def _load(self, p):
         lo, hi = p << PAGE_BITS, min((p + 1) << PAGE_BITS, self.n_visits)

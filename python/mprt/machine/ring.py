@@ -32,6 +32,8 @@ from __future__ import annotations
 
 from simpy.events import Event
 
+from .network import Network
+
 HOP, CLAIM, BODY = 0, 1, 2
 PHASES = ("header waiting for link/buffer", "header waiting for the receive FIFO", "body waiting for the path")
 
@@ -44,11 +46,10 @@ class _Packet:
         self.node, self.hops, self.held, self.phase = src, 0, [], HOP
 
 
-class Ring:
+class Ring(Network):
     def __init__(self, system, pe, cfg):
+        super().__init__(pe)
         self.env = system.env
-        self.pe = pe
-        self.stages = pe.stages
         self.K = len(pe.stages)
         self.ft = cfg.flit_time
         self.C = cfg.buffer_classes
@@ -73,12 +74,7 @@ class Ring:
         return False
 
     def freed(self, dst) -> None:
-        rf = dst.receive
-        dis = self.pe.dis
-        while rf.waiters and rf.room():
-            w = rf.waiters.popleft()
-            if w is dis:
-                dis.release()
+        super().freed(dst)          # only a DIS waits in a receive FIFO's list here
         self.kick()
 
     # -- the arbiter ------------------------------------------------------------

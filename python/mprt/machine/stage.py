@@ -49,6 +49,11 @@ class Stage:
         self.visits = [0] * n
         self.pending = [None] * n             # packets a blocked processor still has to send
         self.generated = 0                    # primary rays made (SC)
+        replay = system.replay
+        self._dur, self._memk = replay.dur, replay.memk
+        self._schedule = env.schedule
+        self._watch = system.log is not None or system.timeline is not None
+        self.ideal = system.config.ring is None
         self.ev = []
         for k in range(n):
             ev = Event(env)
@@ -59,27 +64,28 @@ class Stage:
     # -- starting a visit -------------------------------------------------------
     def start(self, k: int, j: int) -> None:
         """Processor k begins visit j now; its end is scheduled."""
-        sysm = self.system
         if j >= 0:
-            d = sysm.replay.dur[j >> PAGE_BITS][j & PAGE_MASK]
+            d = self._dur[j >> PAGE_BITS][j & PAGE_MASK]
             if self.memory is not None:
-                key = sysm.replay.memk[j >> PAGE_BITS][j & PAGE_MASK]
+                key = self._memk[j >> PAGE_BITS][j & PAGE_MASK]
                 if key != -1:
                     s = self.memory.stall(key, self.env._now)
                     d += s
                     self.stall[k] += s
         else:                       # SC makes primary ray ~j
-            d = sysm.gen_cycles
+            d = self.system.gen_cycles
             self.generated += 1
         self.cur[k] = j
         self.state[k] = BUSY
         self.busy[k] += d
         self.visits[k] += 1
-        if sysm.log is not None:
-            sysm.log.append((self.env._now, "start", self.name, k, j))
-        if sysm.timeline is not None:
-            sysm.timeline.busy(self.name, k, self.env._now, d)
-        self.env.schedule(self.ev[k], self.rank[k], d)
+        if self._watch:
+            sysm = self.system
+            if sysm.log is not None:
+                sysm.log.append((self.env._now, "start", self.name, k, j))
+            if sysm.timeline is not None:
+                sysm.timeline.busy(self.name, k, self.env._now, d)
+        self._schedule(self.ev[k], self.rank[k], d)
 
     def accept(self, x: int) -> None:
         """A packet for this stage from the DIS or the network: to an idle
@@ -99,7 +105,7 @@ class Stage:
         state = self.state
         local, rf = self.local, self.receive
         replay = self.system.replay
-        dest_pages, kid_pages, flit_pages = replay.dest, replay.kids, replay.flits
+        dest_pages, kid_pages, flit_pages, left = replay.dest, replay.kids, replay.flits, replay.left
         ring = self.system.ring_flits
         pe = self.pe
         log = self.system.log
@@ -127,7 +133,9 @@ class Stage:
                         if not output(j + 1, g, f):
                             self._block(k, [(j + 1, g, f)])
                             ok = False
-                        replay.visit_done(j)
+                        left[p] -= 1
+                        if not left[p]:
+                            replay.drop(p)
                     else:                   # the ray ends, maybe with children (to OS)
                         if g == CHILDREN:
                             kids = kid_pages[p][o]
@@ -141,7 +149,9 @@ class Stage:
                                     self._block(k, [(kids[m], os_stage, kf[m]) for m in range(i, len(kids))])
                                     ok = False
                                     break
-                        replay.visit_done(j)
+                        left[p] -= 1
+                        if not left[p]:
+                            replay.drop(p)
                         pe.retire()
                     if not ok:
                         continue
@@ -150,7 +160,8 @@ class Stage:
                 self.start(k, local.popleft())
             elif rf.items:
                 self.start(k, rf.get())
-                self.net.freed(self)
+                if rf.waiters or not self.ideal:
+                    self.net.freed(self)
             else:
                 state[k] = IDLE
                 insort(self.idle, k)
@@ -164,6 +175,15 @@ class Stage:
             else:
                 self.local.append(x)
             return True
+        if self.ideal and not self.send.items:      # the ideal network's common case, inline
+            dst = self.pe.stages[g]
+            if dst.idle:
+                dst.start(dst.idle.pop(0), x)
+                return True
+            rf = dst.receive
+            if rf.capacity is None:
+                rf.put(x)
+                return True
         return self.net.send(self, x, g, f)
 
     def _block(self, k, packets):
