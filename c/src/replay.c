@@ -112,7 +112,8 @@ struct mprt_replay {
     int64_t *tree_first;         /* per tree: its first visit */
     int64_t *tree_cost;          /* per tree: process, communication cycles, visits by subtask */
     int32_t *tree_pe;            /* per tree: the PE that admitted it */
-    size_t cap_vi, cap_ray, cap_ray2, cap_ray3, cap_child, cap_tree, cap_tree9, cap_tree_pe;
+    int64_t *tree_admit;         /* per tree: when it was admitted */
+    size_t cap_vi, cap_ray, cap_ray2, cap_ray3, cap_child, cap_tree, cap_tree9, cap_tree_pe, cap_tree_admit;
     int64_t ntrees, max_leaves;
     int64_t total;               /* the visits' cycles in all */
     int loaded;
@@ -421,6 +422,7 @@ static void dis_admit(mprt_replay *r, int pe)
         x = gen ? ~t : r->tree_first[t];
         prefetch_tree(r, t);
         r->tree_pe[t] = pe;
+        r->tree_admit[t] = r->now;
         e->live++;
         if (e->live > e->max_live) e->max_live = e->live;
         e->admitted++;
@@ -637,10 +639,12 @@ static void free_trace(mprt_replay *r)
     free(r->tree_first);
     free(r->tree_cost);
     free(r->tree_pe);
+    free(r->tree_admit);
+    r->tree_admit = NULL;
     r->vi = NULL;
     r->ray_first = r->child_start = r->tree_of = r->child = r->tree_first = r->tree_cost = NULL;
     r->tree_pe = NULL;
-    r->cap_vi = r->cap_ray = r->cap_ray2 = r->cap_ray3 = r->cap_child = r->cap_tree = r->cap_tree9 = r->cap_tree_pe = 0;
+    r->cap_vi = r->cap_ray = r->cap_ray2 = r->cap_ray3 = r->cap_child = r->cap_tree = r->cap_tree9 = r->cap_tree_pe = r->cap_tree_admit = 0;
     r->loaded = 0;
 }
 
@@ -773,7 +777,8 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
     const int64_t *cs = r->child_start;
     if (nv && (!process || !receive || !send)) return fail(r, MPRT_ERR_INVALID_ARG, "costs: missing array");
     if (RESERVE(r, vi, cap_vi, nv + 1) || RESERVE(r, tree_first, cap_tree, nt + 1) ||
-        RESERVE(r, tree_cost, cap_tree9, 9 * nt + 1) || RESERVE(r, tree_pe, cap_tree_pe, nt + 1))
+        RESERVE(r, tree_cost, cap_tree9, 9 * nt + 1) || RESERVE(r, tree_pe, cap_tree_pe, nt + 1) ||
+        RESERVE(r, tree_admit, cap_tree_admit, nt + 1))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu visits", nv);
     memset(r->tree_cost, 0, (9 * nt + 1) * sizeof *r->tree_cost);
     for (j = 0; j < nv; j++) {
@@ -929,7 +934,10 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
         free_run(r);
         return rc;
     }
-    for (t = 0; t < r->ntrees; t++) r->tree_pe[t] = -1;
+    for (t = 0; t < r->ntrees; t++) {
+        r->tree_pe[t] = -1;
+        r->tree_admit[t] = -1;
+    }
     r->log = log;
     r->ran = 1;
     for (p = 0; p < r->cfg.pes && !r->oom; p++) dis_admit(r, p);
@@ -1044,11 +1052,12 @@ int mprt_replay_get_pes(const mprt_replay *r, mprt_replay_pe *out, size_t cap)
     return MPRT_OK;
 }
 
-int mprt_replay_get_tree_pes(const mprt_replay *r, int32_t *out, size_t cap)
+int mprt_replay_get_trees(const mprt_replay *r, int32_t *pe, int64_t *admitted, size_t cap)
 {
-    int rc = need_run(r, out, cap, r ? (size_t)r->ntrees : 0);
+    int rc = need_run(r, pe ? (const void *)pe : (const void *)admitted, cap, r ? (size_t)r->ntrees : 0);
     if (rc != MPRT_OK) return rc;
-    if (r->ntrees) memcpy(out, r->tree_pe, (size_t)r->ntrees * sizeof *out);
+    if (pe && r->ntrees) memcpy(pe, r->tree_pe, (size_t)r->ntrees * sizeof *pe);
+    if (admitted && r->ntrees) memcpy(admitted, r->tree_admit, (size_t)r->ntrees * sizeof *admitted);
     return MPRT_OK;
 }
 
