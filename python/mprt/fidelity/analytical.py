@@ -197,19 +197,20 @@ class Analytical:
         res.level = 0
         return res
 
-    def tile_times(self, config: SystemConfig, tree_tile: np.ndarray) -> np.ndarray:
-        """Level-0 time of each tile's trees on one PE of the configuration (trees of a tile
-        contiguous, as traced): the sizes sampled replay scales by."""
+    def tile_times(self, config: SystemConfig, tree_tile: np.ndarray):
+        """(tiles, times): the level-0 time of each tile's trees on one PE of the
+        configuration, chunked as the trees come (runs of one tile's trees): the sizes a
+        sampled replay scales by.  ``tree_tile``: each tree's tile; tiles sorted."""
         sw = self.stage_work(config)
         c = self.critical.astype(np.float64)
         tt = np.asarray(tree_tile)
         if len(tt) == 0:
-            return np.zeros(0)
+            return np.zeros(0, np.int64), np.zeros(0)
         chunk = self.chunk(config)
-        starts_tile = np.flatnonzero(np.concatenate([[True], tt[1:] != tt[:-1]]))
-        pos = np.arange(len(tt)) - np.repeat(starts_tile, np.diff(np.concatenate([starts_tile, [len(tt)]])))
+        run0 = np.flatnonzero(np.concatenate([[True], tt[1:] != tt[:-1]]))
+        pos = np.arange(len(tt)) - np.repeat(run0, np.diff(np.concatenate([run0, [len(tt)]])))
         cut = np.flatnonzero((pos % chunk) == 0)
         per_chunk = np.maximum(np.add.reduceat(sw, cut, axis=0).max(axis=1),
                                np.add.reduceat(c, cut) / config.window)
-        tile_of_chunk = np.searchsorted(starts_tile, cut, "right") - 1
-        return np.bincount(tile_of_chunk, weights=per_chunk, minlength=len(starts_tile))
+        tiles, idx = np.unique(tt[cut], return_inverse=True)
+        return tiles, np.bincount(idx, weights=per_chunk, minlength=len(tiles))

@@ -18,9 +18,9 @@ for N/n tiles under random sampling), the sample is replayed (its own time
 T_s), and the frame's time is T = T_s x Y / y_s, y_s being the sample's size:
 the ratio estimator, which keeps the replay's pipeline effects and lets the
 tiles' spread set the uncertainty.  The interval is T +- 1.96 x (T / Y) x
-sqrt(v), v the estimated variance of Y: for random sampling the usual one with
-the finite-population correction, for one tile per block the successive
-differences of neighbouring blocks (blocks taken in a serpentine order).
+sqrt(v), v the estimated variance of Y: for random sampling the usual one, for one tile per block the successive differences of
+neighbouring blocks (blocks taken in a serpentine order), both with the
+finite-population correction (a sample of every tile has no uncertainty).
 """
 from __future__ import annotations
 
@@ -147,7 +147,7 @@ class Scaled:
 
 
 def scale(sample_cycles: int, sizes: np.ndarray, weights: np.ndarray, strata_order, tiles_total: int,
-          fraction: float, sample_level0: float | None = None) -> Scaled:
+          fraction: float) -> Scaled:
     """The frame's time from the sample's replay: ``sizes`` per sampled tile (level-0 time),
     ``weights`` the tiles each stands for, ``strata_order`` the blocks' serpentine positions of
     the sampled tiles (None: random sampling)."""
@@ -162,11 +162,90 @@ def scale(sample_cycles: int, sizes: np.ndarray, weights: np.ndarray, strata_ord
     else:
         est = (w * y)[np.argsort(strata_order)]           # per block, in serpentine order
         d = np.diff(est)
-        var = (n / (2 * (n - 1))) * float((d * d).sum()) if n > 1 else 0.0
-    base = ys if sample_level0 is None else float(sample_level0)
-    ratio = sample_cycles / base if base > 0 else float(tiles_total) / max(n, 1)
+        var = (1 - n / tiles_total) * (n / (2 * (n - 1))) * float((d * d).sum()) if n > 1 else 0.0
+    ratio = sample_cycles / ys if ys > 0 else float(tiles_total) / max(n, 1)
     cycles = ratio * Y if ys > 0 else sample_cycles * ratio
     half = 1.96 * ratio * math.sqrt(var)
     return Scaled(cycles=int(round(cycles)), interval=(int(math.floor(cycles - half)), int(math.ceil(cycles + half))),
                   sample_cycles=int(sample_cycles), fraction=fraction, tiles=n, tiles_total=tiles_total,
                   scale=cycles / sample_cycles if sample_cycles else 0.0)
+
+
+@dataclass
+class SampledTrace:
+    """The trace of a sample of a frame's tiles, and what scaling it up needs."""
+
+    trace: Trace
+    sampling: Sampling
+    tile: int                   # tile edge, samples
+    tiles: np.ndarray           # the tiles in the sample, sorted
+    weights: np.ndarray         # tiles of the frame each stands for
+    strata_order: object        # block position of each (None: random sampling)
+    tiles_total: int
+    fraction: float             # samples in the sample / samples in the frame
+
+
+def _tiling(meta, tile):
+    w, h = int(meta["samples_w"]), int(meta["samples_h"])
+    return -(-w // tile), -(-h // tile), w * h
+
+
+def sample_trace(trace, sampling: Sampling | str, tile: int | None = None) -> SampledTrace:
+    """A sample of a whole frame's trace: the chosen tiles' trees (edge ``tile``, default
+    the trace's own), in the trace's order."""
+    sampling = Sampling.parse(sampling) if isinstance(sampling, str) else sampling
+    meta = trace.meta
+    tiles_done, total = meta.get("tiles"), meta.get("tiles_total")
+    if tiles_done is not None and total is not None and len(tiles_done) != total:
+        raise InvalidArgument(f"the trace holds {len(tiles_done)} of {total} tiles; sample a whole frame's trace")
+    tile = int(tile or meta.get("tile") or 16)
+    tx, ty, nsamples = _tiling(meta, tile)
+    sel, weights, order = choose(sampling, tx, ty)
+    tt = tree_tiles(trace, tile)
+    keep = np.isin(tt, sel)
+    sub = subset(trace, keep)
+    sub.meta["sampled"] = {"sample": str(sampling), "tile": tile, "tiles": sel.tolist()}
+    return SampledTrace(sub, sampling, tile, sel, weights, order, tx * ty, int(keep.sum()) / nsamples)
+
+
+def trace_sample(grid, sampling: Sampling | str, width: int = 0, height: int = 0, tile: int = 16,
+                 **options) -> SampledTrace:
+    """Trace only the chosen tiles of a frame (``options`` as ``Grid.trace``'s)."""
+    from ..grid import render_desc
+    from ..tracing import trace as trace_grid
+
+    sampling = Sampling.parse(sampling) if isinstance(sampling, str) else sampling
+    desc = grid.resolve(render_desc(width, height, options.get("rules", "paper"), options.get("threshold"),
+                                    options.get("max_depth", 0), options.get("threads", 1), tile,
+                                    options.get("ambient"), options.get("mailbox", False)))
+    sw, sh, tx, ty = grid.tiling(desc)
+    sel, weights, order = choose(sampling, tx, ty)
+    _, tr = trace_grid(grid, width, height, tile=tile, tiles=sel.tolist(), **options)
+    tr.meta["sampled"] = {"sample": str(sampling), "tile": tile, "tiles": sel.tolist()}
+    return SampledTrace(tr, sampling, tile, sel, weights, order, tx * ty, len(tr.rays[tr.rays["kind"] == PRIMARY])
+                        / (sw * sh))
+
+
+def estimate(st: SampledTrace, evaluation, analytical, config) -> Scaled:
+    """The frame's time from a sampled replay (``evaluation``: its Evaluation at some level)
+    with ``analytical`` (the sample's level-0 form) sizing its tiles for ``config``."""
+    tiles, sizes = analytical.tile_times(config, tree_tiles(st.trace, st.tile))
+    if not np.array_equal(tiles, st.tiles):
+        raise InvalidArgument("the sampled trace does not hold the tiles it was chosen with")
+    return scale(evaluation.cycles, sizes, st.weights, st.strata_order, st.tiles_total, st.fraction)
+
+
+def scaled_result(result, scaled: Scaled):
+    """A copy of the sample's SimResult standing for the frame: cycles the estimate, every
+    cycle figure of the stages scaled by the same factor (shares unchanged); counts stay
+    the sample's."""
+    import copy
+
+    r = copy.deepcopy(result)
+    f = scaled.scale
+    r.cycles = scaled.cycles
+    for d in list(r.stages.values()) + list(r.nodes.values()):
+        for k in ("processing", "communication", "waiting", "memory_stall", "busy", "blocked", "idle"):
+            if k in d:
+                d[k] = int(round(d[k] * f))
+    return r
