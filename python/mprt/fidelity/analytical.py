@@ -33,7 +33,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..machine.config import SUBTASKS, SystemConfig
-from ..trace import PRIMARY, SHADOW
+from ..trace import PRIMARY
 from .views import REPLAY_NODE_DTYPE, REPLAY_PE_DTYPE, REPLAY_PROC_DTYPE, SystemView
 
 
@@ -87,12 +87,17 @@ class Analytical:
         self.gen_send = int(getattr(costs, "inject_send", 0))
         # critical path per tree: a ray's own visits, then its longest child chain
         own = np.bincount(vray, weights=dur, minlength=nr).astype(np.int64)
-        # rays by generation, children after parents: depth counts reflections and
-        # refractions; a shadow ray has its parent's depth (and makes no rays)
-        level = 2 * np.asarray(rays["depth"]).astype(np.int64) + (np.asarray(kind) == SHADOW)
+        # rays by generation (a primary's children are generation 1, ...), children after parents
         kids = np.flatnonzero(parent >= 0)
-        if np.any(level[kids] <= level[parent[kids]]):
-            raise ValueError("ray depths do not follow their parents' (a child is one deeper, a shadow ray as deep)")
+        level = np.zeros(nr, np.int64)
+        for _ in range(nr + 1):
+            nxt = level.copy()
+            nxt[kids] = level[parent[kids]] + 1
+            if np.array_equal(nxt, level):
+                break
+            level = nxt
+        else:
+            raise ValueError("ray parents form a cycle")
         chain = own.copy()
         best = np.zeros(nr, np.int64)
         order = kids[np.argsort(-level[kids], kind="stable")]
