@@ -264,3 +264,24 @@ def test_merged_stages_use_the_local_queue():
         (71, "OS+IC", 6), (79, "OS+IC", 7)]
     assert res.cycles == 82
     assert res.fifos["PE0.OS+IC.receive"]["max"] == 1 and res.fifos["PE0.SC.receive"]["packets"] == 0
+
+
+def test_cache_is_lru_per_set():
+    from mprt.machine import Cache, CacheConfig
+
+    c = Cache(CacheConfig(size=128, line=32, ways=2))      # 2 sets of 2 ways
+    # lines 0, 2, 4 map to set 0; 1 to set 1.  0 m, 2 m, 0 h, 4 m (evicts 2), 1 m, 2 m (evicts 0), 4 h, 0 m
+    got = [c.access(x) for x in (0, 2, 0, 4, 1, 2, 4, 0)]
+    assert got == [False, False, True, False, False, False, True, False]
+    assert (c.accesses, c.hits) == (8, 2)
+
+
+def test_global_memory_port_is_shared_with_contention():
+    from mprt.machine import GlobalMemory, GlobalMemoryConfig
+
+    # a 32-byte line at 8 bytes/cycle occupies the port 4 cycles, then 20 cycles of latency
+    shared = GlobalMemory("icgm", GlobalMemoryConfig(latency=20, bandwidth=8, contention=True), pes=2)
+    assert shared.read(0, 32, 0) == 24 and shared.read(0, 32, 1) == 28     # PE1 waits 4 cycles for the port
+    own = GlobalMemory("icgm", GlobalMemoryConfig(latency=20, bandwidth=8, contention=False), pes=2)
+    assert own.read(0, 32, 0) == 24 and own.read(0, 32, 1) == 24
+    assert (shared.queued, own.queued) == (4, 0)

@@ -61,6 +61,11 @@ def test_more_pes_than_pixels_exit_2(capsys):
     assert "pes: 17 PEs but only 16 pixels" in capsys.readouterr().err
 
 
+def test_tracing_options_with_a_trace_file_exit_2(capsys):
+    assert main(["simulate", TRACE, "--grid", "8", "--threshold", "0.1"]) == 2
+    assert "--grid, --threshold set how a scene is traced" in capsys.readouterr().err
+
+
 def test_unknown_model_exit_2(capsys):
     with pytest.raises(SystemExit) as e:
         main(["simulate", TRACE, "--model", "Q"])

@@ -9,8 +9,8 @@ evaluates the machine as that level models it; ``auto`` measures the levels on
 a sample of the frame and takes the cheapest within ``--tolerance`` (default
 1%).  ``--engine`` picks the replay (default: the compiled one wherever it is
 exact; naming ``compiled`` for a machine it cannot replay is an error, exit 2).
-``--sample`` replays only a sample of the tiles (of the trace, or traced: only
-those) and scales up with a 95% interval.  ``--json`` gains ``level``,
+``--sample`` replays only a sample of the tiles (a trace file's own tiles, or a
+scene's ``--tile`` tiles, only those traced) and scales up with a 95% interval.  ``--json`` gains ``level``,
 ``engine``, ``sampled`` (fraction of the frame's samples replayed) and
 ``cycles_interval``.
 
@@ -20,6 +20,7 @@ Wire into the main parser with ``add_parser(subparsers)`` in place of
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 import time
 
@@ -77,7 +78,7 @@ def _load(a):
         return machine_cli._load_source(a)
     if a.source.endswith(".npz"):
         trace, _, how = machine_cli._load_source(a)
-        st = sample_trace(trace, a.sample, a.tile if a.tile != 16 else None)
+        st = sample_trace(trace, a.sample)          # in the trace's own tiles
     else:
         from ..scene import Scene
 
@@ -85,10 +86,10 @@ def _load(a):
         grid = scene.grid(a.grid)
         w, h = a.res or (0, 0)
         t0 = time.perf_counter()
-        st = trace_sample(grid, a.sample, w, h, a.tile, rules=a.rules, threshold=a.threshold, threads=a.threads,
-                          progress=sys.stderr.isatty())
+        st = trace_sample(grid, a.sample, w, h, a.tile or 16, rules=a.rules or "paper", threshold=a.threshold,
+                          threads=a.threads or os.cpu_count() or 1, progress=sys.stderr.isatty())
         how = (f"traced  {scene.name}, grid {'x'.join(map(str, grid.n))}, {st.trace.meta['width']}x"
-               f"{st.trace.meta['height']} {a.rules}, {len(st.tiles)} of {st.tiles_total} tiles in "
+               f"{st.trace.meta['height']} {st.trace.meta['rules']}, {len(st.tiles)} of {st.tiles_total} tiles in "
                f"{time.perf_counter() - t0:.2f} s")
     a.sampled_trace = st
     how += f"\nsample  {a.sample}: {len(st.tiles)} of {st.tiles_total} tiles ({100 * st.fraction:.2f}% of samples)"

@@ -57,11 +57,10 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     g = s.add_argument_group("tracing (when SOURCE is a scene)")
     g.add_argument("--grid", type=_grid, default=None, help="N or NX,NY,NZ (default: Scene.default_grid)")
     g.add_argument("--res", type=_res, default=None, help="WxH (default: the scene's view resolution)")
-    g.add_argument("--rules", choices=("paper", "spd"), default="paper", help="shading rules (default: paper)")
+    g.add_argument("--rules", choices=("paper", "spd"), default=None, help="shading rules (default: paper)")
     g.add_argument("--threshold", type=float, default=None, help="contribution cutoff (default: 1/512)")
-    g.add_argument("--threads", type=_positive, default=os.cpu_count() or 1,
-                   help="tracing threads (default: the machine's cores)")
-    g.add_argument("--tile", type=_positive, default=16, help="tile edge in samples (default: 16)")
+    g.add_argument("--threads", type=_positive, default=None, help="tracing threads (default: the machine's cores)")
+    g.add_argument("--tile", type=_positive, default=None, help="tile edge in samples (default: 16)")
     m = s.add_argument_group("machine")
     m.add_argument("--model", choices=tuple(BUILTIN), default=None, help="built-in configuration (default: M)")
     m.add_argument("--config", metavar="FILE.toml", default=None, help="machine configuration file")
@@ -101,10 +100,11 @@ def _load_source(a):
         grid = scene.grid(a.grid)
         w, h = a.res or (0, 0)
         t0 = time.perf_counter()
-        _, trace = trace_grid(grid, w, h, rules=a.rules, threshold=a.threshold, threads=a.threads, tile=a.tile,
+        _, trace = trace_grid(grid, w, h, rules=a.rules or "paper", threshold=a.threshold,
+                              threads=a.threads or os.cpu_count() or 1, tile=a.tile or 16,
                               progress=sys.stderr.isatty())
         how = (f"traced  {scene.name}, grid {'x'.join(map(str, grid.n))}, {trace.meta['width']}x"
-               f"{trace.meta['height']} {a.rules} in {time.perf_counter() - t0:.2f} s")
+               f"{trace.meta['height']} {trace.meta['rules']} in {time.perf_counter() - t0:.2f} s")
     settings = source_settings(a, trace)
     return trace, settings, how
 
@@ -117,7 +117,7 @@ def source_settings(a, trace) -> dict:
             "grid": m.get("grid"), "resolution": [m.get("width"), m.get("height")], "rules": m.get("rules"),
             "threshold": m.get("threshold"), "tiles": len(m.get("tiles", [])),
             "tiles_total": m.get("tiles_total"), "tile": m.get("tile"),
-            "threads": None if src.endswith(".npz") else a.threads}
+            "threads": None if src.endswith(".npz") else a.threads or os.cpu_count() or 1}
 
 
 def run(a, load=None, replay=None) -> int:
@@ -128,6 +128,13 @@ def run(a, load=None, replay=None) -> int:
     from ..errors import MprtError
     from .system import System
 
+    if a.source.endswith(".npz"):
+        given = [f"--{k}" for k in ("grid", "res", "rules", "threshold", "threads", "tile")
+                 if getattr(a, k) is not None]
+        if given:
+            print(f"mprt simulate: {', '.join(given)} set how a scene is traced; {a.source} was traced with "
+                  "its own settings (see 'mprt stats')", file=sys.stderr)
+            return 2
     try:
         for path, what in ((a.json, "--json"), (a.plot, "--plot")):
             if path:

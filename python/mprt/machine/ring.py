@@ -69,7 +69,9 @@ class Ring(Network):
         sf = src.send
         if sf.capacity is None or len(sf.items) < sf.capacity:
             sf.put((x, g, f))
-            self.kick()
+            n = src.index
+            if self.injected[n] is None and self.buf[n][0] is None:    # else it waits its turn
+                self.kick()
             return True
         return False
 
@@ -79,15 +81,17 @@ class Ring(Network):
 
     # -- the arbiter ------------------------------------------------------------
     def kick(self) -> None:
+        """Grant what can proceed: injections node by node, then the waiting
+        packets in the order they began to wait.  A grant only takes resources,
+        so one pass grants all it can, unless a packet completed during it
+        (a one-flit packet), which frees some: then another pass."""
         if self._kicking:
             self._again = True
             return
         self._kicking = True
         try:
-            again = True
-            while again:
+            while True:
                 self._again = False
-                again = False
                 for n in range(self.K):
                     sf = self.stages[n].send
                     if self.injected[n] is None and sf.items and self.buf[n][0] is None:
@@ -98,12 +102,11 @@ class Ring(Network):
                         self.injected[n] = pkt
                         self.waiting.append(pkt)
                         self.packets += 1
-                        again = True
-                for pkt in list(self.waiting):
-                    if self._step(pkt):
-                        self.waiting.remove(pkt)
-                        again = True
-                again = again or self._again
+                waiting, self.waiting = self.waiting, []
+                keep = [pkt for pkt in waiting if not self._step(pkt)]
+                self.waiting = keep + self.waiting
+                if not self._again:
+                    break
         finally:
             self._kicking = False
 
