@@ -183,6 +183,7 @@ class SampledTrace:
     strata_order: object        # block position of each (None: random sampling)
     tiles_total: int
     fraction: float             # samples in the sample / samples in the frame
+    visits: np.ndarray | None = None    # sample_trace: which of the source's visits the sample holds
 
 
 def _tiling(meta, tile):
@@ -192,7 +193,9 @@ def _tiling(meta, tile):
 
 def sample_trace(trace, sampling: Sampling | str, tile: int | None = None) -> SampledTrace:
     """A sample of a whole frame's trace: the chosen tiles' trees (edge ``tile``, default
-    the trace's own), in the trace's order."""
+    the trace's own), in the trace's order.  A visit's costs depend on its ray's own
+    visits and children only, so the source's visit costs sliced by ``.visits`` are the
+    sample's."""
     sampling = Sampling.parse(sampling) if isinstance(sampling, str) else sampling
     meta = trace.meta
     tiles_done, total = meta.get("tiles"), meta.get("tiles_total")
@@ -205,7 +208,10 @@ def sample_trace(trace, sampling: Sampling | str, tile: int | None = None) -> Sa
     keep = np.isin(tt, sel)
     sub = subset(trace, keep)
     sub.meta["sampled"] = {"sample": str(sampling), "tile": tile, "tiles": sel.tolist()}
-    return SampledTrace(sub, sampling, tile, sel, weights, order, tx * ty, int(keep.sum()) / nsamples)
+    kind = np.asarray(trace.rays["kind"])
+    keep_ray = keep[np.cumsum(kind == PRIMARY) - 1]
+    return SampledTrace(sub, sampling, tile, sel, weights, order, tx * ty, int(keep.sum()) / nsamples,
+                        keep_ray[np.asarray(trace.visits["ray"])])
 
 
 def trace_sample(grid, sampling: Sampling | str, width: int = 0, height: int = 0, tile: int = 16,
