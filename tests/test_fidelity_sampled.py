@@ -147,3 +147,12 @@ def test_measure_on_a_scene_traces_only_the_sample():
     table = measure("tetra", ["M"], levels=(0, 1), sample="stratified:4:0", width=32, height=32, grid=4, tile=8)
     assert table.sampled == pytest.approx(4 / 16)
     assert table.rows[1].error_worst == 0.0
+
+
+def test_a_samples_costs_are_the_frames_sliced(frame):
+    # a visit's costs depend on its own ray and children only: the sample's are the frame's
+    st = sample_trace(frame, "random:7:3")
+    procs = builtin("3mppe").processors()
+    whole, own = CM.visit_costs(frame, procs), CM.visit_costs(st.trace, procs)
+    for k in ("process", "receive", "send", "flits"):
+        assert np.array_equal(getattr(whole, k)[st.visits], getattr(own, k))
