@@ -147,11 +147,7 @@ def run(a) -> int:
 
 def main(argv=None) -> int:
     """Run ``simulate`` alone (until it is wired into the ``mprt`` command)."""
-    p = argparse.ArgumentParser(prog="mprt")
-    sub = p.add_subparsers(dest="cmd", required=True)
-    add_parser(sub)
-    args = p.parse_args(argv)
-    return args.func(args)
+    return machine_cli.main(argv, add_parser)
 
 
 if __name__ == "__main__":

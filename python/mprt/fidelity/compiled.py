@@ -74,7 +74,7 @@ def _log(view, log, events):
 
 
 class Compiled:
-    """A costed trace loaded into the C replay (16 bytes per visit), ready to
+    """A costed trace loaded into the C replay (8 or 16 bytes per visit), ready to
     run any ideal-network configuration whose processors the costs are for.
 
     ``costs``: per-visit ``process``, ``receive``, ``send`` arrays (and

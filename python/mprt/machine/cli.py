@@ -180,11 +180,12 @@ def run(a, load=None, replay=None) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    """Run ``simulate`` alone (until it is wired into the ``mprt`` command)."""
+def main(argv=None, add=None) -> int:
+    """Run ``simulate`` alone (until it is wired into the ``mprt`` command); ``add``: the
+    add_parser to use (default this module's)."""
     p = argparse.ArgumentParser(prog="mprt")
     sub = p.add_subparsers(dest="cmd", required=True)
-    add_parser(sub)
+    (add or add_parser)(sub)
     args = p.parse_args(argv)
     return args.func(args)
 
