@@ -73,13 +73,23 @@ def test_unknown_model_exit_2(capsys):
 
 
 def test_outputs_checked_before_any_work(tmp_path, capsys):
-    assert main(["simulate", "tetra:1", "--res", "8x8", "--json", str(tmp_path / "no" / "r.json")]) == 1
+    """Bad output or input locations are usage errors (exit 2), found before any tracing."""
+    assert main(["simulate", "tetra:1", "--res", "8x8", "--json", str(tmp_path / "no" / "r.json")]) == 2
     out, err = capsys.readouterr()
     assert out == "" and "--json" in err and "does not exist" in err
-    assert main(["simulate", TRACE, "--plot", str(tmp_path)]) == 1
+    (tmp_path / "d.png").mkdir()
+    assert main(["simulate", TRACE, "--plot", str(tmp_path / "d.png")]) == 2
     assert "is a directory" in capsys.readouterr().err
-    assert main(["simulate", str(tmp_path / "missing.npz")]) == 1
-    assert "missing.npz' does not exist" in capsys.readouterr().err
+    assert main(["simulate", TRACE, "--plot", str(tmp_path / "p.jpg")]) == 2
+    assert "ending in .png" in capsys.readouterr().err
+    assert main(["simulate", str(tmp_path / "missing.npz")]) == 2
+    assert "missing.npz: no such file" in capsys.readouterr().err
+
+
+def test_threshold_with_spd_rules_refused(capsys):
+    """--threshold under spd rules would be ignored: refused (exit 2) instead."""
+    assert main(["simulate", "tetra:1", "--res", "8x8", "--rules", "spd", "--threshold", "0.1"]) == 2
+    assert "paper rules only" in capsys.readouterr().err
 
 
 def test_deadlock_exit_1(tmp_path, capsys):

@@ -100,6 +100,11 @@ def _int(text: str, what: str, lo: int, hi: int) -> int:
     return v
 
 
+def int_range_arg(what: str, lo: int, hi: int):
+    """An argparse type: a whole number in lo..hi, the range named in the message."""
+    return lambda text: _int(text, what, lo, hi)
+
+
 def threads_arg(text: str) -> int:
     """--threads: 1..THREADS_MAX."""
     return _int(text, "threads", 1, THREADS_MAX)

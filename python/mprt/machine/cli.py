@@ -14,38 +14,9 @@ import os
 import sys
 import time
 
+from .. import options as opt
 from .config import BUILTIN, resolve
 from .errors import ConfigError, DeadlockError
-
-
-def _positive(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, not {text!r}") from None
-    if v < 1:
-        raise argparse.ArgumentTypeError(f"expected a whole number >= 1, not {v}")
-    return v
-
-
-def _grid(text: str):
-    try:
-        vals = [int(p) for p in text.split(",")]
-    except ValueError:
-        vals = []
-    if len(vals) not in (1, 3) or min(vals) < 1:
-        raise argparse.ArgumentTypeError(f"grid must be N or NX,NY,NZ (each >= 1), not {text!r}")
-    return vals[0] if len(vals) == 1 else tuple(vals)
-
-
-def _res(text: str):
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"resolution must be WxH, not {text!r}") from None
-    if w < 1 or h < 1:
-        raise argparse.ArgumentTypeError(f"resolution must be at least 1x1, not {text!r}")
-    return w, h
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -55,16 +26,23 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                     "first with the tracing options.")
     s.add_argument("source", metavar="TRACE.npz|SCENE", help="a trace file, or a scene to trace first")
     g = s.add_argument_group("tracing (when SOURCE is a scene)")
-    g.add_argument("--grid", type=_grid, default=None, help="N or NX,NY,NZ (default: Scene.default_grid)")
-    g.add_argument("--res", type=_res, default=None, help="WxH (default: the scene's view resolution)")
+    g.add_argument("--grid", type=opt.grid_arg, default=None, metavar="N|NX,NY,NZ",
+                   help=f"voxels per axis, each 1..{opt.GRID_MAX} (default: Scene.default_grid)")
+    g.add_argument("--res", type=opt.resolution_arg, default=None, metavar="WxH",
+                   help=f"image size, each 1..{opt.RES_MAX} (default: the scene's view resolution)")
     g.add_argument("--rules", choices=("paper", "spd"), default=None, help="shading rules (default: paper)")
-    g.add_argument("--threshold", type=float, default=None, help="contribution cutoff (default: 1/512)")
-    g.add_argument("--threads", type=_positive, default=None, help="tracing threads (default: the machine's cores)")
-    g.add_argument("--tile", type=_positive, default=None, help="tile edge in samples (default: 16)")
+    g.add_argument("--threshold", type=opt.threshold_arg, default=None,
+                   help=f"contribution cutoff in [0, 1), paper rules only "
+                        f"(default: {opt.fraction_text(opt.default_threshold())})")
+    g.add_argument("--threads", type=opt.threads_arg, default=None,
+                   help=f"tracing threads, 1..{opt.THREADS_MAX} (default: {opt.default_threads()}, the machine's cores)")
+    g.add_argument("--tile", type=opt.tile_arg, default=None,
+                   help=f"tile edge in samples, 1..{opt.TILE_MAX} (default: {opt.default_tile()})")
     m = s.add_argument_group("machine")
     m.add_argument("--model", choices=tuple(BUILTIN), default=None, help="built-in configuration (default: M)")
     m.add_argument("--config", metavar="FILE.toml", default=None, help="machine configuration file")
-    m.add_argument("--pes", type=_positive, default=None, help="number of PEs (overrides the configuration)")
+    m.add_argument("--pes", type=opt.int_range_arg("PEs", 1, 1 << 20), default=None,
+                   help="number of PEs, 1..2^20 and at most the pixels (overrides the configuration)")
     o = s.add_argument_group("output")
     o.add_argument("--json", metavar="OUT.json", default=None, help="write the figures and settings as JSON")
     o.add_argument("--plot", metavar="OUT.png", default=None,
@@ -73,30 +51,17 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return s
 
 
-def _check_output(path: str, what: str) -> None:
-    d = os.path.dirname(os.path.abspath(path))
-    if os.path.isdir(path):
-        raise OSError(f"{what} {path!r} is a directory")
-    if not os.path.isdir(d):
-        raise OSError(f"{what} {path!r}: directory {d!r} does not exist")
-    if not os.access(d, os.W_OK) or (os.path.exists(path) and not os.access(path, os.W_OK)):
-        raise OSError(f"{what} {path!r} is not writable")
-
-
 def _load_source(a):
     """(trace, settings) from a trace file or a scene traced now."""
-    from ..scene import Scene
     from ..trace import load_trace
     from ..tracing import trace as trace_grid
 
     src = a.source
     if src.endswith(".npz"):
-        if not os.path.isfile(src):
-            raise OSError(f"trace file {src!r} does not exist")
         trace = load_trace(src)
         how = f"trace   {src}"
     else:
-        scene = Scene.load(src)
+        scene, _ = opt.load_scene(src)
         grid = scene.grid(a.grid)
         w, h = a.res or (0, 0)
         t0 = time.perf_counter()
@@ -136,9 +101,11 @@ def run(a, load=None, replay=None) -> int:
                   "its own settings (see 'mprt stats')", file=sys.stderr)
             return 2
     try:
-        for path, what in ((a.json, "--json"), (a.plot, "--plot")):
-            if path:
-                _check_output(path, what)
+        opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"))
+        if a.source.endswith(".npz"):
+            opt.check_input("TRACE", a.source)
+        if a.threshold is not None and (a.rules or "paper") != "paper":
+            opt.check_render_options(argparse.Namespace(threshold=a.threshold, rules=a.rules))
         cfg = resolve(a.model, a.config, a.pes)
         if a.res and not a.source.endswith(".npz") and cfg.pes > a.res[0] * a.res[1]:
             raise ConfigError(f"{cfg.source + ': ' if cfg.source else ''}pes: {cfg.pes} PEs but only "
@@ -152,6 +119,9 @@ def run(a, load=None, replay=None) -> int:
             res, extra = replay(trace, cfg, a)
     except ConfigError as e:
         print(f"mprt simulate: invalid configuration: {e}", file=sys.stderr)
+        return 2
+    except opt.UsageError as e:
+        print(f"mprt simulate: error: {e}", file=sys.stderr)
         return 2
     except DeadlockError as e:
         print(f"mprt simulate: {e}", file=sys.stderr)
