@@ -350,6 +350,147 @@ int mprt_grid_trace_tile(mprt_grid *grid, const mprt_render_desc *desc, int tile
 /* Write rgb (width*height*3 floats in [0,1], clamped) as an 8-bit PNG. */
 int mprt_image_write_png(const char *path, int width, int height, const float *rgb);
 
+/* ---- Replay ----------------------------------------------------------------
+ * A compiled replay of a trace on a machine of the fidelity ladder's level 1:
+ * PEs of 1 to 3 stages (each a processor, or several replicas of one,
+ * running one or more of the subtasks OS, IC, SC), send and receive FIFOs
+ * of any capacity, an ideal network (no latency, no bandwidth limit) and
+ * an ideal memory (every access hits), DIS admitting primary rays under a
+ * window.  It applies the same event rules as the SimPy machine model
+ * (python/mprt/machine, README.md there) and returns the same cycle counts
+ * to the cycle; python/mprt/fidelity binds it.
+ *
+ * Usage:
+ *
+ *     mprt_replay_config c;  mprt_replay *r;  mprt_replay_info info;
+ *     mprt_replay_config_init(&c);            // model M: 3 stages, 1 PE
+ *     mprt_replay_create(&c, &r);
+ *     if (mprt_replay_load(r, rays, nrays, visits, nvisits, process, receive, send) != MPRT_OK ||
+ *         mprt_replay_run(r, NULL, 0) != MPRT_OK)
+ *         fprintf(stderr, "%s\n", mprt_replay_errmsg(r));   // bad input, or a deadlock
+ *     mprt_replay_get_info(r, &info);          // info.cycles
+ *     mprt_replay_destroy(r);
+ *
+ * Costs come from the caller (the cost model), one entry per visit:
+ * process, receive and send cycles; a visit lasts their sum (at least 1). */
+
+/* How DIS deals primary rays (trees) to PEs: static blocks of consecutive
+ * trees, interleaved (tree t to PE t mod pes), or one shared sequence each
+ * PE draws from when its window has room. */
+typedef enum { MPRT_DIS_BLOCKS = 0, MPRT_DIS_INTERLEAVED = 1, MPRT_DIS_DYNAMIC = 2 } mprt_dis;
+
+/* States of a processor (mprt_replay_proc.state). */
+typedef enum {
+    MPRT_PROC_IDLE = 0,     /* nothing to do: its receive FIFO and local queue are empty */
+    MPRT_PROC_BUSY = 1,     /* running a visit */
+    MPRT_PROC_BLOCKED = 2,  /* holding packets its full send FIFO cannot take */
+    MPRT_PROC_RESUMING = 3  /* its packets placed, resuming at this cycle */
+} mprt_proc_state;
+
+typedef struct {
+    int nstages;                        /* stages per PE, in ring order, 1..3 */
+    int stage_of[3];                    /* the stage running OS, IC and SC */
+    int replicas[3];                    /* processors of each stage (first nstages used), >= 1 */
+    int64_t receive_fifo[3];            /* capacity in packets; 0 = unbounded */
+    int64_t send_fifo[3];               /* capacity in packets; 0 = unbounded */
+    int pes;                            /* processing elements, >= 1 */
+    int dis;                            /* mprt_dis */
+    int64_t window;                     /* live rays a PE's DIS admits up to, >= 1 */
+    int64_t gen_cycles;                 /* cycles SC spends making a primary ray and sending
+                                         * it to OS; 0: DIS hands primaries to OS directly */
+} mprt_replay_config;
+
+typedef struct mprt_replay mprt_replay;
+
+/* Model M's configuration: 3 stages OS, IC, SC, one processor each,
+ * unbounded FIFOs, 1 PE, dynamic DIS, window 256, gen_cycles 0. OUT: cfg. */
+void mprt_replay_config_init(mprt_replay_config *cfg);
+/* Check a configuration and make a replay of it (an invalid field fails
+ * with a message naming it, readable from *out; destroy it). OUT: out. */
+int mprt_replay_create(const mprt_replay_config *cfg, mprt_replay **out);
+/* Destroy a replay; NULL is allowed. */
+void mprt_replay_destroy(mprt_replay *r);
+/* Message of the last failed call on this replay ("" if none). */
+const char *mprt_replay_errmsg(const mprt_replay *r);
+
+/* Change the configuration (the loaded trace stays). */
+int mprt_replay_set_config(mprt_replay *r, const mprt_replay_config *cfg);
+
+/* Load a trace (rays and visits as mprt_grid_trace_tile records them, tiles
+ * joined: ray ids 0..nrays-1, each primary ray's tree contiguous, parents
+ * before children) with its per-visit costs (nvisits entries each): checked
+ * and copied in the replay's own compact form (16 bytes per visit), so the
+ * caller's arrays may go, and one load serves runs of any configuration.  A
+ * malformed trace or cost fails with MPRT_ERR_INVALID_ARG naming it. */
+int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                     size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send);
+
+/* Replay the loaded trace on the configuration.  log (may be NULL)
+ * receives 4 int64 per event: cycle, 0 start / 1 end, processor, visit (~t:
+ * making primary ray t); log_cap (int64 entries) must hold 8 * (visits +
+ * primary rays).  A machine that stops with rays still in it (full FIFOs
+ * waiting on each other) fails with MPRT_ERR_STATE and info.deadlocked set,
+ * its final state readable by the getters below. */
+int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap);
+
+typedef struct {
+    int64_t cycles;         /* when the last ray retired; -1 after a deadlock or before a run */
+    int64_t deadlocked;     /* 1: the machine stopped with rays still in it */
+    int64_t rays, visits, trees;   /* of the trace; trees = primary rays */
+    int64_t retired;        /* rays retired */
+    int64_t max_leaves;     /* the most leaves (rays making none) of any tree */
+    int64_t events;         /* log entries written (4 int64 each) */
+    int64_t processors;     /* entries of mprt_replay_get_procs: pes x sum of replicas */
+    int64_t nodes;          /* entries of mprt_replay_get_nodes: pes x nstages */
+    int64_t pes;            /* entries of mprt_replay_get_pes */
+} mprt_replay_info;
+
+/* One processor, after the run (order: PE, stage, replica). */
+typedef struct {
+    int64_t busy;           /* cycles running visits (making primary rays included) */
+    int64_t blocked;        /* cycles blocked on a full send FIFO */
+    int64_t visits;         /* visits run (making primary rays included) */
+    int64_t state;          /* mprt_proc_state at the end */
+    int64_t visit;          /* busy or blocked: its visit (~t: making primary ray t); else -1 */
+    int64_t pending;        /* blocked: packets it still holds */
+} mprt_replay_proc;
+
+/* One stage of one PE (order: PE, stage): its FIFOs (area: occupancy
+ * integrated over the run, in packet-cycles), local queue and the primary
+ * rays it made. */
+typedef struct {
+    int64_t receive_occupancy, receive_max, receive_puts, receive_area;
+    int64_t send_occupancy, send_max, send_puts, send_area;
+    int64_t local_queue;
+    int64_t generated;
+} mprt_replay_node;
+
+/* One PE: its DIS and rays, and its visits' costs by subtask (OS, IC, SC). */
+typedef struct {
+    int64_t admitted;       /* primary rays its DIS admitted */
+    int64_t retired;        /* rays retired */
+    int64_t end;            /* when its last ray retired */
+    int64_t live, max_live; /* rays in the PE at the end, and at most */
+    int64_t dis_holding;    /* 1: its DIS holds a primary waiting for a FIFO slot */
+    int64_t processing[3];  /* process cycles of the visits run */
+    int64_t communication[3];      /* receive + send cycles of the visits run */
+    int64_t visits[3];      /* visits run */
+} mprt_replay_pe;
+
+/* Figures of the last run (also after a deadlock; info also after a load,
+ * with nothing run yet).  cap: entries. OUT: out. */
+int mprt_replay_get_info(const mprt_replay *r, mprt_replay_info *info);
+int mprt_replay_get_procs(const mprt_replay *r, mprt_replay_proc *out, size_t cap);
+int mprt_replay_get_nodes(const mprt_replay *r, mprt_replay_node *out, size_t cap);
+int mprt_replay_get_pes(const mprt_replay *r, mprt_replay_pe *out, size_t cap);
+/* The PE each primary ray (tree) was admitted to, -1 if none. OUT: out. */
+int mprt_replay_get_tree_pes(const mprt_replay *r, int32_t *out, size_t cap);
+/* Who waits for a slot in stage's receive FIFO of PE pe (which 0: sending
+ * stages, -1 for the DIS), or in its send FIFO (which 1: replicas), in
+ * order.  OUT: out (cap entries), n (the number waiting). */
+int mprt_replay_get_waiters(const mprt_replay *r, int pe, int stage, int which, int64_t *out, size_t cap,
+                            size_t *n);
+
 #ifdef __cplusplus
 }
 #endif
