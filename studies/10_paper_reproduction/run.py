@@ -460,8 +460,8 @@ class Study:
         fid = verify_sample(grid, self.res, cm, self.threads, counts["tiles_total"])
         self.fidelity.append({"scene": name, "subdivision": n, **fid})
         t3 = time.perf_counter()
-        self.timing.append({"scene": name, "subdivision": n, "visits": counts["visits"], "trace_s": round(t_trace, 1),
-                            "replay_s": round(t2 - t1, 1), "verify_s": round(t3 - t2, 1)})
+        self.timing.append({"scene": name, "subdivision": n, "visits": counts["visits"], "trace_s": f"{t_trace:.1f}",
+                            "replay_s": f"{t2 - t1:.1f}", "verify_s": f"{t3 - t2:.1f}"})
         log(f"  {name} {n}: S {runs['S'].cycles:,}, M {runs['M'].cycles:,} cycles (replay {t2 - t1:.0f} s, "
             f"sample check {t3 - t2:.0f} s: {fid['S_equal'] and fid['M_equal']})")
 
@@ -551,7 +551,7 @@ def main(argv=None) -> int:
         figure6(study.rows, subdivisions, os.path.join(out, "figure6.png"))
         write_csv(os.path.join(out, "timing.csv"), study.timing + [
             {"scene": "all", "visits": sum(t["visits"] for t in study.timing),
-             "wall_s": round(time.perf_counter() - t_start, 1)}])
+             "wall_s": f"{time.perf_counter() - t_start:.1f}"}])
     log(f"\nwrote {os.path.relpath(out)}/ in {time.perf_counter() - t_start:.0f} s")
     return 0 if all(study.checks.values()) else 1
 
