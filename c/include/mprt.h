@@ -360,7 +360,7 @@ int mprt_image_write_png(const char *path, int width, int height, const float *r
  * (python/mprt/machine, README.md there) and returns the same cycle counts
  * to the cycle; python/mprt/fidelity binds it.
  *
- * Usage:
+ * In C:
  *
  *     mprt_replay_config c;  mprt_replay *r;  mprt_replay_info info;
  *     mprt_replay_config_init(&c);            // model M: 3 stages, 1 PE
@@ -483,8 +483,9 @@ int mprt_replay_get_info(const mprt_replay *r, mprt_replay_info *info);
 int mprt_replay_get_procs(const mprt_replay *r, mprt_replay_proc *out, size_t cap);
 int mprt_replay_get_nodes(const mprt_replay *r, mprt_replay_node *out, size_t cap);
 int mprt_replay_get_pes(const mprt_replay *r, mprt_replay_pe *out, size_t cap);
-/* The PE each primary ray (tree) was admitted to, -1 if none. OUT: out. */
-int mprt_replay_get_tree_pes(const mprt_replay *r, int32_t *out, size_t cap);
+/* Per primary ray (tree): the PE that admitted it and when (-1: never);
+ * either pointer may be NULL.  cap: entries of each. OUT: pe, admitted. */
+int mprt_replay_get_trees(const mprt_replay *r, int32_t *pe, int64_t *admitted, size_t cap);
 /* Who waits for a slot in stage's receive FIFO of PE pe (which 0: sending
  * stages, -1 for the DIS), or in its send FIFO (which 1: replicas), in
  * order.  OUT: out (cap entries), n (the number waiting). */

@@ -33,6 +33,12 @@
 #include <stdlib.h>
 #include <string.h>
 
+#if defined(__GNUC__)
+#define INLINE static inline __attribute__((always_inline))
+#else
+#define INLINE static inline
+#endif
+
 #define RETIRE (-1)
 #define CHILDREN (-2)
 /* what follows a visit (vinfo.next bits 0-1) */
@@ -83,15 +89,16 @@ typedef struct {
     int64_t cost[9];             /* by subtask: process, communication cycles, visits */
 } pe_t;
 
-typedef struct {
-    int64_t t, prio;
-    int32_t i;
-} event;
-
-/* What the replay reads of a visit: its cycles and what follows it. */
+/* What the replay reads of a visit: its cycles and what follows it.  Packed
+ * in 8 bytes when the trace allows (cycles below 2^24, fewer than 2^29 rays
+ * made): bits 0-9 the next field's, 10-33 the cycles, 34-63 the next field's
+ * child index (its bits 10-); else 16 bytes. */
 typedef struct {
     int64_t dur, next;
 } vinfo;
+
+#define PACK_DUR_BITS 24
+#define PACK_KID_LIMIT ((int64_t)1 << 29)
 
 struct mprt_replay {
     mprt_replay_config cfg;
@@ -100,11 +107,14 @@ struct mprt_replay {
     proc *procs;
     node *nodes;
     pe_t *pes;
-    event *heap;
+    int64_t *heap_t, *heap_p;    /* pending events: time, priority (rank, or processors + rank) */
+    int32_t *heap_i;             /* ... and processor */
     int nheap;
     /* the trace (buffers kept from run to run; cap_*: their capacities) */
     size_t nv, nr;
-    vinfo *vi;                   /* per visit */
+    vinfo *vi;                   /* per visit (wide) */
+    uint64_t *vp;                /* per visit (packed) */
+    int wide;
     int64_t *ray_first;          /* per ray: its first visit */
     int64_t *child_start;        /* per ray + 1: its children are child[child_start[r] .. child_start[r+1]) */
     int64_t *tree_of;            /* per ray: its tree */
@@ -112,7 +122,8 @@ struct mprt_replay {
     int64_t *tree_first;         /* per tree: its first visit */
     int64_t *tree_cost;          /* per tree: process, communication cycles, visits by subtask */
     int32_t *tree_pe;            /* per tree: the PE that admitted it */
-    size_t cap_vi, cap_ray, cap_ray2, cap_ray3, cap_child, cap_tree, cap_tree9, cap_tree_pe;
+    int64_t *tree_admit;         /* per tree: when it was admitted */
+    size_t cap_vi, cap_ray, cap_ray2, cap_ray3, cap_child, cap_tree, cap_tree9, cap_tree_pe, cap_tree_admit, cap_vp;
     int64_t ntrees, max_leaves;
     int64_t total;               /* the visits' cycles in all */
     int loaded;
@@ -155,7 +166,7 @@ static int q_grow(queue *q)
     return 0;
 }
 
-static void q_push(mprt_replay *r, queue *q, int64_t x)
+INLINE void q_push(mprt_replay *r, queue *q, int64_t x)
 {
     if (q->len == q->cap && q_grow(q)) {
         r->oom = 1;
@@ -165,7 +176,7 @@ static void q_push(mprt_replay *r, queue *q, int64_t x)
     q->len++;
 }
 
-static int64_t q_pop(queue *q)
+INLINE int64_t q_pop(queue *q)
 {
     int64_t x = q->buf[q->head];
     q->head = (q->head + 1) & (q->cap - 1);
@@ -179,15 +190,15 @@ static void q_free(queue *q)
     memset(q, 0, sizeof *q);
 }
 
-static int f_room(const fifo *f) { return f->cap == 0 || (int64_t)f->q.len < f->cap; }
+INLINE int f_room(const fifo *f) { return f->cap == 0 || (int64_t)f->q.len < f->cap; }
 
-static void f_mark(fifo *f, int64_t now)
+INLINE void f_mark(fifo *f, int64_t now)
 {
     f->area += (int64_t)f->q.len * (now - f->last);
     f->last = now;
 }
 
-static void f_put(mprt_replay *r, fifo *f, int64_t x)
+INLINE void f_put(mprt_replay *r, fifo *f, int64_t x)
 {
     f_mark(f, r->now);
     q_push(r, &f->q, x);
@@ -195,7 +206,7 @@ static void f_put(mprt_replay *r, fifo *f, int64_t x)
     if ((int64_t)f->q.len > f->max) f->max = (int64_t)f->q.len;
 }
 
-static int64_t f_get(mprt_replay *r, fifo *f)
+INLINE int64_t f_get(mprt_replay *r, fifo *f)
 {
     f_mark(f, r->now);
     return q_pop(&f->q);
@@ -203,38 +214,68 @@ static int64_t f_get(mprt_replay *r, fifo *f)
 
 /* ---- events ---------------------------------------------------------------- */
 
-static int ev_less(const event *a, const event *b) { return a->t < b->t || (a->t == b->t && a->prio < b->prio); }
+/* The event heap: parallel arrays (time, priority, processor), written and
+ * read field by field. */
+INLINE int ev_before(int64_t t1, int64_t p1, int64_t t2, int64_t p2) { return t1 < t2 || (t1 == t2 && p1 < p2); }
 
-static void heap_push(mprt_replay *r, int64_t t, int64_t prio, int i)
+INLINE void heap_push(mprt_replay *r, int64_t t, int64_t prio, int i)
 {
-    event e;
     int c = r->nheap++;
-    e.t = t;
-    e.prio = prio;
-    e.i = i;
+    int64_t *ht = r->heap_t, *hp = r->heap_p;
+    int32_t *hi = r->heap_i;
     while (c > 0) {
         int p = (c - 1) / 2;
-        if (!ev_less(&e, &r->heap[p])) break;
-        r->heap[c] = r->heap[p];
+        if (!ev_before(t, prio, ht[p], hp[p])) break;
+        ht[c] = ht[p];
+        hp[c] = hp[p];
+        hi[c] = hi[p];
         c = p;
     }
-    r->heap[c] = e;
+    ht[c] = t;
+    hp[c] = prio;
+    hi[c] = i;
 }
 
-static event heap_pop(mprt_replay *r)
+/* Take the first event: its processor (its time in *t). */
+INLINE int heap_pop(mprt_replay *r, int64_t *t)
 {
-    event top = r->heap[0], last = r->heap[--r->nheap];
-    int c = 0, n = r->nheap;
+    int64_t *ht = r->heap_t, *hp = r->heap_p;
+    int32_t *hi = r->heap_i;
+    int n = --r->nheap, c = 0, top = hi[0];
+    int64_t lt = ht[n], lp = hp[n];
+    int32_t li = hi[n];
+    *t = ht[0];
     for (;;) {
         int a = 2 * c + 1, m;
         if (a >= n) break;
-        m = (a + 1 < n && ev_less(&r->heap[a + 1], &r->heap[a])) ? a + 1 : a;
-        if (!ev_less(&r->heap[m], &last)) break;
-        r->heap[c] = r->heap[m];
+        m = (a + 1 < n && ev_before(ht[a + 1], hp[a + 1], ht[a], hp[a])) ? a + 1 : a;
+        if (!ev_before(ht[m], hp[m], lt, lp)) break;
+        ht[c] = ht[m];
+        hp[c] = hp[m];
+        hi[c] = hi[m];
         c = m;
     }
-    if (n > 0) r->heap[c] = last;
+    if (n > 0) {
+        ht[c] = lt;
+        hp[c] = lp;
+        hi[c] = li;
+    }
     return top;
+}
+
+INLINE int64_t v_dur(const mprt_replay *r, int64_t j)
+{
+    return r->wide ? r->vi[j].dur : (int64_t)((r->vp[j] >> 10) & (((uint64_t)1 << PACK_DUR_BITS) - 1));
+}
+
+INLINE int64_t v_next(const mprt_replay *r, int64_t j)
+{
+    return r->wide ? r->vi[j].next : (int64_t)((r->vp[j] >> 34) << 10 | (r->vp[j] & 1023));
+}
+
+INLINE const void *v_addr(const mprt_replay *r, int64_t j)
+{
+    return r->wide ? (const void *)&r->vi[j] : (const void *)&r->vp[j];
 }
 
 /* ---- the machine ------------------------------------------------------------- */
@@ -261,7 +302,7 @@ static int ctz64(uint64_t x)
 }
 
 /* The lowest idle processor of a stage (there is one), now taken. */
-static int take_idle(node *nd)
+INLINE int take_idle(node *nd)
 {
     int w = 0, k;
     while (!nd->idle[w]) w++;
@@ -271,9 +312,9 @@ static int take_idle(node *nd)
     return nd->first + k;
 }
 
-static node *node_of(mprt_replay *r, int pe, int stage) { return &r->nodes[pe * r->cfg.nstages + stage]; }
+INLINE node *node_of(mprt_replay *r, int pe, int stage) { return &r->nodes[pe * r->cfg.nstages + stage]; }
 
-static void logev(mprt_replay *r, int what, int i, int64_t j)
+INLINE void logev(mprt_replay *r, int what, int i, int64_t j)
 {
     if (r->log) {
         int64_t *e = r->log + 4 * r->nlog++;
@@ -285,13 +326,13 @@ static void logev(mprt_replay *r, int what, int i, int64_t j)
 }
 
 /* Processor i begins visit j (j < 0: making primary ray ~j) now. */
-static void start(mprt_replay *r, int i, int64_t j)
+INLINE void start(mprt_replay *r, int i, int64_t j)
 {
     proc *p = &r->procs[i];
     int64_t d;
     if (j >= 0) {
-        d = r->vi[j].dur;
-        PREFETCH(&r->vi[j + 4]);
+        d = v_dur(r, j);
+        PREFETCH(v_addr(r, j + 4));
     } else {
         d = r->cfg.gen_cycles;
         r->nodes[p->node].generated++;
@@ -304,7 +345,7 @@ static void start(mprt_replay *r, int i, int64_t j)
     heap_push(r, r->now + d, i + 1, i);
 }
 
-static void accept(mprt_replay *r, node *nd, int64_t x)
+INLINE void accept(mprt_replay *r, node *nd, int64_t x)
 {
     if (nd->nidle)
         start(r, take_idle(nd), x);
@@ -312,7 +353,7 @@ static void accept(mprt_replay *r, node *nd, int64_t x)
         f_put(r, &nd->rf, x);
 }
 
-static int net_send(mprt_replay *r, node *src, int64_t x, int g)
+INLINE int net_send(mprt_replay *r, node *src, int64_t x, int g)
 {
     node *dst = node_of(r, src->pe, g);
     if (src->sf.q.len == 0) {
@@ -333,7 +374,7 @@ static int net_send(mprt_replay *r, node *src, int64_t x, int g)
     return 0;
 }
 
-static int output(mprt_replay *r, node *src, int64_t x, int g)
+INLINE int output(mprt_replay *r, node *src, int64_t x, int g)
 {
     if (g == src->stage) {
         if (src->nidle)
@@ -403,8 +444,10 @@ static int64_t next_tree(mprt_replay *r, pe_t *e)
 /* Fetch a tree's visits ahead of their use (its rays jump about in them). */
 static void prefetch_tree(const mprt_replay *r, int64_t t)
 {
-    const char *a = (const char *)&r->vi[r->tree_first[t]];
-    const char *b = t + 1 < r->ntrees ? (const char *)&r->vi[r->tree_first[t + 1]] : (const char *)&r->vi[r->nv];
+    const char *a, *b;
+    if (t >= r->ntrees) return;
+    a = (const char *)v_addr(r, r->tree_first[t]);
+    b = (const char *)v_addr(r, t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv);
     if (b - a > 4096) b = a + 4096;
     for (; a < b; a += 64) PREFETCH(a);
 }
@@ -419,8 +462,11 @@ static void dis_admit(mprt_replay *r, int pe)
         int64_t t = next_tree(r, e), x;
         if (t < 0) return;
         x = gen ? ~t : r->tree_first[t];
-        prefetch_tree(r, t);
+        /* this tree's visits were fetched with the previous one's admission; the next's now */
+        if (e->admitted == 0) prefetch_tree(r, t);
+        prefetch_tree(r, r->cfg.dis == MPRT_DIS_DYNAMIC ? r->shared_next : e->next);
         r->tree_pe[t] = pe;
+        r->tree_admit[t] = r->now;
         e->live++;
         if (e->live > e->max_live) e->max_live = e->live;
         e->admitted++;
@@ -474,9 +520,9 @@ static void block(mprt_replay *r, proc *p, node *nd)
 }
 
 /* Where visit j's ray goes after it: a stage, RETIRE or CHILDREN. */
-static int dest(const mprt_replay *r, int64_t j)
+INLINE int dest(const mprt_replay *r, int64_t j)
 {
-    int64_t a = r->vi[j].next;
+    int64_t a = v_next(r, j);
     switch (a & 3) {
     case NEXT_VISIT: return r->cfg.stage_of[(a >> 2) & 3];
     case NEXT_RETIRE: return RETIRE;
@@ -515,7 +561,7 @@ static void handle(mprt_replay *r, int i)
             } else {
                 if (g == CHILDREN) {
                     pe_t *e = &r->pes[p->pe];
-                    int64_t nx = r->vi[j].next, a = nx >> 10, b = a + ((nx >> 2) & 255), c;
+                    int64_t nx = v_next(r, j), a = nx >> 10, b = a + ((nx >> 2) & 255), c;
                     e->live += b - a;
                     if (e->live > e->max_live) e->max_live = e->live;
                     for (c = a; c < b; c++) {
@@ -618,11 +664,14 @@ static void free_run(mprt_replay *r)
     free(r->nodes);
     free(r->procs);
     free(r->pes);
-    free(r->heap);
+    free(r->heap_t);
+    free(r->heap_p);
+    free(r->heap_i);
     r->nodes = NULL;
     r->procs = NULL;
     r->pes = NULL;
-    r->heap = NULL;
+    r->heap_t = r->heap_p = NULL;
+    r->heap_i = NULL;
     r->nnode = r->nproc = r->nheap = 0;
     r->ran = 0;
 }
@@ -630,6 +679,8 @@ static void free_run(mprt_replay *r)
 static void free_trace(mprt_replay *r)
 {
     free(r->vi);
+    free(r->vp);
+    r->vp = NULL;
     free(r->ray_first);
     free(r->child_start);
     free(r->tree_of);
@@ -637,10 +688,12 @@ static void free_trace(mprt_replay *r)
     free(r->tree_first);
     free(r->tree_cost);
     free(r->tree_pe);
+    free(r->tree_admit);
+    r->tree_admit = NULL;
     r->vi = NULL;
     r->ray_first = r->child_start = r->tree_of = r->child = r->tree_first = r->tree_cost = NULL;
     r->tree_pe = NULL;
-    r->cap_vi = r->cap_ray = r->cap_ray2 = r->cap_ray3 = r->cap_child = r->cap_tree = r->cap_tree9 = r->cap_tree_pe = 0;
+    r->cap_vi = r->cap_ray = r->cap_ray2 = r->cap_ray3 = r->cap_child = r->cap_tree = r->cap_tree9 = r->cap_tree_pe = r->cap_tree_admit = r->cap_vp = 0;
     r->loaded = 0;
 }
 
@@ -761,6 +814,23 @@ static int prepare_rays(mprt_replay *r, const mprt_trace_ray *rays, size_t nr)
     return MPRT_OK;
 }
 
+/* Pack the visit infos in 8 bytes each when they fit (half the memory the
+ * replay walks). */
+static void pack(mprt_replay *r, int64_t maxdur)
+{
+    size_t j;
+    r->wide = 1;
+    if (maxdur >= ((int64_t)1 << PACK_DUR_BITS) || r->child_start[r->nr] >= PACK_KID_LIMIT ||
+        RESERVE(r, vp, cap_vp, r->nv + 1))
+        return;
+    for (j = 0; j < r->nv; j++) {
+        uint64_t nx = (uint64_t)r->vi[j].next;
+        r->vp[j] = (nx >> 10) << 34 | (uint64_t)r->vi[j].dur << 10 | (nx & 1023);
+    }
+    r->vp[r->nv] = 0;
+    r->wide = 0;
+}
+
 /* The visits, in one pass: each tree's visits contiguous and in order,
  * starting with its primary's; each ray's contiguous; known stages; costs
  * of at least one cycle; an SC visit that ends its ray made as many rays as
@@ -769,11 +839,12 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
                           const int64_t *process, const int64_t *receive, const int64_t *send)
 {
     size_t j, nt = (size_t)r->ntrees;
-    int64_t prev_t = -1, total = 0, *tc = NULL;
+    int64_t prev_t = -1, total = 0, maxdur = 0, *tc = NULL;
     const int64_t *cs = r->child_start;
     if (nv && (!process || !receive || !send)) return fail(r, MPRT_ERR_INVALID_ARG, "costs: missing array");
     if (RESERVE(r, vi, cap_vi, nv + 1) || RESERVE(r, tree_first, cap_tree, nt + 1) ||
-        RESERVE(r, tree_cost, cap_tree9, 9 * nt + 1) || RESERVE(r, tree_pe, cap_tree_pe, nt + 1))
+        RESERVE(r, tree_cost, cap_tree9, 9 * nt + 1) || RESERVE(r, tree_pe, cap_tree_pe, nt + 1) ||
+        RESERVE(r, tree_admit, cap_tree_admit, nt + 1))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu visits", nv);
     memset(r->tree_cost, 0, (9 * nt + 1) * sizeof *r->tree_cost);
     for (j = 0; j < nv; j++) {
@@ -819,6 +890,7 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
         }
         r->vi[j].dur = p + c;
         r->vi[j].next = next;
+        if (p + c > maxdur) maxdur = p + c;
         tc[st] += p;
         tc[3 + st] += c;
         tc[6 + st]++;
@@ -827,6 +899,7 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
     for (j = 0; j < r->nr; j++)
         if (r->ray_first[j] < 0) return TRACE_FAIL(r, "ray %zu has no visits", j);
     r->total = total;
+    pack(r, maxdur);
     /* the rays made, as their first visits */
     for (j = 0; j < (size_t)cs[r->nr]; j++) r->child[j] = r->ray_first[r->child[j]];
     return MPRT_OK;
@@ -845,8 +918,11 @@ static int build(mprt_replay *r)
     r->procs = calloc((size_t)r->nproc, sizeof *r->procs);
     r->nodes = calloc((size_t)r->nnode, sizeof *r->nodes);
     r->pes = calloc((size_t)c->pes, sizeof *r->pes);
-    r->heap = malloc((size_t)r->nproc * sizeof *r->heap);
-    if (!r->procs || !r->nodes || !r->pes || !r->heap) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
+    r->heap_t = malloc((size_t)r->nproc * sizeof *r->heap_t);
+    r->heap_p = malloc((size_t)r->nproc * sizeof *r->heap_p);
+    r->heap_i = malloc((size_t)r->nproc * sizeof *r->heap_i);
+    if (!r->procs || !r->nodes || !r->pes || !r->heap_t || !r->heap_p || !r->heap_i)
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
     for (p = 0; p < c->pes; p++) {
         pe_t *e = &r->pes[p];
         if (c->dis == MPRT_DIS_BLOCKS) {
@@ -929,14 +1005,16 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
         free_run(r);
         return rc;
     }
-    for (t = 0; t < r->ntrees; t++) r->tree_pe[t] = -1;
+    for (t = 0; t < r->ntrees; t++) {
+        r->tree_pe[t] = -1;
+        r->tree_admit[t] = -1;
+    }
     r->log = log;
     r->ran = 1;
     for (p = 0; p < r->cfg.pes && !r->oom; p++) dis_admit(r, p);
     while (r->nheap && !r->oom) {
-        event e = heap_pop(r);
-        r->now = e.t;
-        handle(r, e.i);
+        int i = heap_pop(r, &r->now);
+        handle(r, i);
     }
     r->log = NULL;
     if (r->oom) {
@@ -1044,11 +1122,12 @@ int mprt_replay_get_pes(const mprt_replay *r, mprt_replay_pe *out, size_t cap)
     return MPRT_OK;
 }
 
-int mprt_replay_get_tree_pes(const mprt_replay *r, int32_t *out, size_t cap)
+int mprt_replay_get_trees(const mprt_replay *r, int32_t *pe, int64_t *admitted, size_t cap)
 {
-    int rc = need_run(r, out, cap, r ? (size_t)r->ntrees : 0);
+    int rc = need_run(r, pe ? (const void *)pe : (const void *)admitted, cap, r ? (size_t)r->ntrees : 0);
     if (rc != MPRT_OK) return rc;
-    if (r->ntrees) memcpy(out, r->tree_pe, (size_t)r->ntrees * sizeof *out);
+    if (pe && r->ntrees) memcpy(pe, r->tree_pe, (size_t)r->ntrees * sizeof *pe);
+    if (admitted && r->ntrees) memcpy(admitted, r->tree_admit, (size_t)r->ntrees * sizeof *admitted);
     return MPRT_OK;
 }
 

@@ -449,11 +449,11 @@ class Binding:
         self._got(self.lib.mprt_replay_get_pes(h, self._out("mprt_replay_pe", out), n), "pes")
         return out
 
-    def replay_get_tree_pes(self, h, n: int) -> np.ndarray:
-        """The PE each primary ray was admitted to (int32[n], -1: none)."""
-        out = np.zeros(n, dtype=np.int32)
-        self._got(self.lib.mprt_replay_get_tree_pes(h, self._out("int32_t", out), n), "tree_pes")
-        return out
+    def replay_get_trees(self, h, n: int):
+        """Per primary ray (tree): (PE that admitted it int32[n], when int64[n]); -1: never."""
+        pe, when = np.zeros(n, dtype=np.int32), np.zeros(n, dtype=np.int64)
+        self._got(self.lib.mprt_replay_get_trees(h, self._out("int32_t", pe), self._out("int64_t", when), n), "trees")
+        return pe, when
 
     def replay_get_waiters(self, h, pe: int, stage: int, which: int) -> list:
         """Who waits for a slot in a stage's receive FIFO (which 0: sending stages, -1 the DIS)

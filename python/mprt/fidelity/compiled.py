@@ -25,11 +25,8 @@ from .._lowlevel import binding
 from ..errors import InvalidArgument
 from ..machine.config import DIS_POLICIES, SUBTASKS, SystemConfig, builtin
 from ..machine.errors import ConfigError
-from ..machine.fifo import Fifo
-from ..machine.pe import PE
-from ..machine.stage import Stage
-from ..machine.system import System
 from ..trace import TraceError
+from .views import SystemView
 
 _LIB = binding("double")
 _DIS = {name: i for i, name in enumerate(DIS_POLICIES)}     # blocks, interleaved, dynamic: mprt_dis order
@@ -69,114 +66,6 @@ def c_config(config: SystemConfig, gen_cycles: int) -> dict:
             "pes": config.pes, "dis": _DIS[config.dis], "window": config.window, "gen_cycles": gen_cycles}
 
 
-# ---- views of the C replay's counters, shaped as the SimPy model's parts ------------------
-
-class _FifoView:
-    """A FIFO at the end of the run, as ``Fifo``'s own reports read it."""
-
-    mean = Fifo.mean
-    state = Fifo.state
-
-    def __init__(self, name, capacity, occupancy, maximum, puts, area, end, waiters):
-        self.name, self.capacity = name, capacity
-        self.items = range(occupancy)
-        self.reserved = 0
-        self.max, self.puts, self.area, self.last = maximum, puts, area, end
-        self.waiters = waiters
-
-
-class _Named:
-    def __init__(self, name):
-        self.name = name
-
-
-class _StageView:
-    state_of = Stage.state_of
-
-    def __init__(self, name, cfg, procs, node, receive, send):
-        self.name, self.cfg, self.n = name, cfg, len(procs)
-        self.busy = procs["busy"].tolist()
-        self.blocked = procs["blocked"].tolist()
-        self.visits = procs["visits"].tolist()
-        self.state = procs["state"].tolist()
-        self.cur = procs["visit"].tolist()
-        self.pending = [range(p) for p in procs["pending"].tolist()]
-        self.stall = [0] * self.n
-        self.generated = int(node["generated"])
-        self.local = range(int(node["local_queue"]))
-        self.receive, self.send = receive, send
-
-
-class _IdealNet:
-    def state(self):
-        return {"network": "ideal"}
-
-    def link_utilisation(self, end):
-        return []
-
-
-class _PEView:
-    state = PE.state
-
-    def __init__(self, index, stages, pe):
-        self.index, self.stages = index, stages
-        self.live, self.max_live = int(pe["live"]), int(pe["max_live"])
-        self.retired, self.t_end = int(pe["retired"]), int(pe["end"])
-        self.dis = _Named(f"PE{index}.DIS")
-        self.dis.admitted = int(pe["admitted"])
-        self.dis.pending = 0 if pe["dis_holding"] else None
-        self.net = _IdealNet()
-
-
-class _ReplayView:
-    """Per-PE sums standing for the SimPy replay's per-tree sums (one 'tree' per PE)."""
-
-    def __init__(self, pes, info):
-        self.tree_process = np.stack([p["processing"] for p in pes]).astype(np.int64)
-        self.tree_comm = np.stack([p["communication"] for p in pes]).astype(np.int64)
-        self.tree_visits = np.stack([p["visits"] for p in pes]).astype(np.int64)
-        self.n_visits, self.n_rays, self.max_leaves = int(info["visits"]), int(info["rays"]), int(info["max_leaves"])
-
-
-class _SystemView:
-    _result = System._result
-    _deadlock = System._deadlock
-
-    def __init__(self, trace, config, h, info, gen_process, gen_send):
-        self.trace, self.config, self.log = trace, config, None
-        self.timeline = None
-        self.memories = {}
-        self.gen_process, self.gen_send = gen_process, gen_send
-        self.t_end = max(int(info["cycles"]), 0)
-        self.retired = int(info["retired"])
-        pes = _LIB.replay_get_pes(h, int(info["pes"]))
-        procs = _LIB.replay_get_procs(h, int(info["processors"]))
-        nodes = _LIB.replay_get_nodes(h, int(info["nodes"]))
-        self.replay = _ReplayView(pes, info)
-        self.tree_pe = np.arange(config.pes, dtype=np.int32)
-        self.names = []
-        self.pes = []
-        first, n = 0, 0
-        for p in range(config.pes):
-            stages = []
-            for s, sc in enumerate(config.stages):
-                name = f"PE{p}.{sc.name}"
-                nd = nodes[n]
-                rwait = [_Named(f"PE{p}.DIS") if w < 0 else _Named(f"PE{p}.{config.stages[w].name}")
-                         for w in _LIB.replay_get_waiters(h, p, s, 0)]
-                swait = _LIB.replay_get_waiters(h, p, s, 1)
-                recv = _FifoView(name + ".receive", sc.receive_fifo, int(nd["receive_occupancy"]),
-                                 int(nd["receive_max"]), int(nd["receive_puts"]), int(nd["receive_area"]),
-                                 self.t_end, rwait)
-                send = _FifoView(name + ".send", sc.send_fifo, int(nd["send_occupancy"]), int(nd["send_max"]),
-                                 int(nd["send_puts"]), int(nd["send_area"]), self.t_end, swait)
-                stages.append(_StageView(name, sc, procs[first:first + sc.replicas], nd, recv, send))
-                self.names += [(name, k) for k in range(sc.replicas)]
-                first += sc.replicas
-                n += 1
-            self.pes.append(_PEView(p, stages, pes[p]))
-
-
 def _log(view, log, events):
     """The C replay's events as the SimPy model's log: (cycle, 'start'|'end', stage name, replica, visit)."""
     ev = log[:4 * events].reshape(-1, 4)
@@ -185,7 +74,7 @@ def _log(view, log, events):
 
 
 class Compiled:
-    """A costed trace loaded into the C replay (16 bytes per visit), ready to
+    """A costed trace loaded into the C replay (8 or 16 bytes per visit), ready to
     run any ideal-network configuration whose processors the costs are for.
 
     ``costs``: per-visit ``process``, ``receive``, ``send`` arrays (and
@@ -221,12 +110,24 @@ class Compiled:
             where = f"{config.source}: " if config.source else ""
             raise ConfigError(f"{where}{e}") from None
 
+    def _view(self, config: SystemConfig) -> SystemView:
+        info = _LIB.replay_get_info(self.h)
+        return SystemView(self.trace, config, max(int(info["cycles"]), 0), info["retired"],
+                          _LIB.replay_get_pes(self.h, int(info["pes"])),
+                          _LIB.replay_get_procs(self.h, int(info["processors"])),
+                          _LIB.replay_get_nodes(self.h, int(info["nodes"])), self.gen_process, self.gen_send,
+                          int(info["visits"]), int(info["rays"]), int(info["max_leaves"]),
+                          lambda p, s, which: _LIB.replay_get_waiters(self.h, p, s, which))
+
     def cycles(self, config: SystemConfig) -> int:
         """The run's cycles (nothing else assembled); DeadlockError if it deadlocks."""
         if not self._run(config):
-            raise _SystemView(self.trace, config, self.h, _LIB.replay_get_info(self.h), self.gen_process,
-                              self.gen_send)._deadlock()
+            raise self._view(config).deadlock()
         return int(_LIB.replay_get_info(self.h)["cycles"])
+
+    def admissions(self) -> np.ndarray:
+        """When each tree was admitted in the last run (int64 per tree, -1: never)."""
+        return _LIB.replay_get_trees(self.h, int(self.info["trees"]))[1]
 
     def result(self, config: SystemConfig, record: bool = False):
         """The SimPy model's SimResult for the configuration (``record``: with its event log),
@@ -234,13 +135,12 @@ class Compiled:
         t0 = time.perf_counter()
         log = np.zeros(8 * (int(self.info["visits"]) + int(self.info["trees"])), np.int64) if record else None
         finished = self._run(config, log)
-        info = _LIB.replay_get_info(self.h)
-        view = _SystemView(self.trace, config, self.h, info, self.gen_process, self.gen_send)
+        view = self._view(config)
         if record:
-            view.log = _log(view, log, int(info["events"]))
+            view.log = _log(view, log, int(_LIB.replay_get_info(self.h)["events"]))
         if not finished:
-            raise view._deadlock()
-        res = view._result()
+            raise view.deadlock()
+        res = view.result()
         res.wall_seconds = time.perf_counter() - t0
         return res
 
@@ -268,3 +168,4 @@ def replay(trace, config: SystemConfig | str = "M", cost_model=None, costs=None,
     res = Compiled(trace, costs if costs is not None else costs_for(trace, config, cost_model)).result(config, record)
     res.wall_seconds = time.perf_counter() - t0
     return res
+

@@ -105,16 +105,25 @@ def _load_source(a):
                               progress=sys.stderr.isatty())
         how = (f"traced  {scene.name}, grid {'x'.join(map(str, grid.n))}, {trace.meta['width']}x"
                f"{trace.meta['height']} {trace.meta['rules']} in {time.perf_counter() - t0:.2f} s")
-    m = trace.meta
-    settings = {"source": src, "scene": m.get("scene"), "scene_sha256": m.get("scene_sha256"),
-                "grid": m.get("grid"), "resolution": [m.get("width"), m.get("height")], "rules": m.get("rules"),
-                "threshold": m.get("threshold"), "tiles": len(m.get("tiles", [])),
-                "tiles_total": m.get("tiles_total"), "tile": m.get("tile"),
-                "threads": None if src.endswith(".npz") else a.threads or os.cpu_count() or 1}
+    settings = source_settings(a, trace)
     return trace, settings, how
 
 
-def run(a) -> int:
+def source_settings(a, trace) -> dict:
+    """The JSON ``settings`` describing where a trace came from."""
+    m = trace.meta
+    src = a.source
+    return {"source": src, "scene": m.get("scene"), "scene_sha256": m.get("scene_sha256"),
+            "grid": m.get("grid"), "resolution": [m.get("width"), m.get("height")], "rules": m.get("rules"),
+            "threshold": m.get("threshold"), "tiles": len(m.get("tiles", [])),
+            "tiles_total": m.get("tiles_total"), "tile": m.get("tile"),
+            "threads": None if src.endswith(".npz") else a.threads or os.cpu_count() or 1}
+
+
+def run(a, load=None, replay=None) -> int:
+    """``load(a)`` -> (trace, settings, how) and ``replay(trace, cfg, a)`` -> (SimResult, JSON
+    fields to add) replace the defaults (tracing/reading SOURCE; the SimPy replay), so the
+    fidelity ladder's options can reuse this command (mprt.fidelity.cli)."""
     from .._lowlevel import EXT_VERSION
     from ..errors import MprtError
     from .system import System
@@ -135,10 +144,12 @@ def run(a) -> int:
             raise ConfigError(f"{cfg.source + ': ' if cfg.source else ''}pes: {cfg.pes} PEs but only "
                               f"{a.res[0] * a.res[1]} pixels")
         t0 = time.perf_counter()
-        trace, settings, how = _load_source(a)
+        trace, settings, how = (load or _load_source)(a)
         print(how)
-        system = System(trace, cfg, timeline=bool(a.plot))
-        res = system.run(progress=sys.stderr.isatty())
+        if replay is None:
+            res, extra = System(trace, cfg, timeline=bool(a.plot)).run(progress=sys.stderr.isatty()), {}
+        else:
+            res, extra = replay(trace, cfg, a)
     except ConfigError as e:
         print(f"mprt simulate: invalid configuration: {e}", file=sys.stderr)
         return 2
@@ -154,6 +165,7 @@ def run(a) -> int:
           f"{wall:.2f} s in all")
     if a.json:
         out = res.to_dict()
+        out.update(extra)
         out["wall_seconds"] = wall
         out["replay_seconds"] = res.wall_seconds
         out["settings"] = {**settings, "model": cfg.name, "config_file": cfg.source, "pes": cfg.pes,
@@ -168,11 +180,12 @@ def run(a) -> int:
     return 0
 
 
-def main(argv=None) -> int:
-    """Run ``simulate`` alone (until it is wired into the ``mprt`` command)."""
+def main(argv=None, add=None) -> int:
+    """Run ``simulate`` alone (until it is wired into the ``mprt`` command); ``add``: the
+    add_parser to use (default this module's)."""
     p = argparse.ArgumentParser(prog="mprt")
     sub = p.add_subparsers(dest="cmd", required=True)
-    add_parser(sub)
+    (add or add_parser)(sub)
     args = p.parse_args(argv)
     return args.func(args)
 
