@@ -1,0 +1,274 @@
+"""Evaluating a design on a trace: ``evaluate(trace, design, level)``.
+
+Level 0 is analytical (numpy): each visit costs its receive, process and send
+cycles on the processor that runs its subtask (from the cost model's
+``visit_costs``); a packet between two subtasks on the same processor costs
+nothing, since the ray never leaves the processor.  Pixels go to PEs
+interleaved.  Per PE, a processor's load is the sum of its visits' costs,
+divided among its copies.  Model S (one processor) takes the sum.  A pipeline
+takes its largest processor load plus a fill and drain estimate: at the start
+the bottleneck waits for the first rays' work upstream of it, at the end the
+last rays' work downstream of it remains, together about one pixel's work off
+the bottleneck processor (the mean over the PE's pixels).
+
+Levels 1 and up replay the trace on the machine model (``mprt.machine``)
+where it is in the package; the fidelity ladder (issue 8) may replace level 0
+with its own, behind this same function.
+"""
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .hwcost import UnitCosts, cost_breakdown
+from .space import STAGE_NAMES, Design, processor_name, processors
+
+
+def _cost_source():
+    """The cost model: ``mprt.cost``'s default where present, else the stand-in."""
+    try:
+        from ..cost import CostModel, ProcessorConfig  # noqa: F401
+    except ImportError:
+        from . import _standin_cost
+        return "standin", _standin_cost.visit_costs
+    cm = CostModel.default()
+
+    def visit_costs(trace, procs):
+        cfg = {s: _processor_config(ProcessorConfig, u) for s, u in procs.items()}
+        return cm.visit_costs(trace, cfg)
+    return "mprt.cost", visit_costs
+
+
+def _processor_config(ProcessorConfig, units: dict):
+    units = {k: int(v) for k, v in units.items() if v}
+    if units == {"general": 1}:
+        return ProcessorConfig.sequential()
+    return ProcessorConfig(units=units, issue_width=sum(units.values()))
+
+
+@dataclass
+class Result:
+    """What one evaluation found: total cycles and per-processor figures."""
+    cycles: float
+    level: int
+    cost: float
+    loads: dict = field(default_factory=dict)         # processor -> cycles of work per copy (worst PE)
+    utilisation: dict = field(default_factory=dict)   # processor -> busy share of the run (mean over PEs and copies)
+    bottleneck: str = ""
+    fill_drain: float = 0.0
+    costs: str = ""                                   # which cost model priced the visits
+
+    def to_dict(self) -> dict:
+        return {"cycles": self.cycles, "level": self.level, "cost": self.cost, "loads": self.loads,
+                "utilisation": self.utilisation, "bottleneck": self.bottleneck, "fill_drain": self.fill_drain,
+                "costs": self.costs}
+
+    @classmethod
+    def from_dict(cls, d) -> "Result":
+        return cls(**d)
+
+
+def trace_key(trace) -> str:
+    """A hash naming a trace by what made it (scene content, grid, image,
+    rules, tiles): traces are deterministic, so equal keys mean equal traces."""
+    meta = {k: v for k, v in trace.meta.items() if k not in ("path",)}
+    text = json.dumps(meta, sort_keys=True, default=str) + f"|{len(trace.rays)}|{len(trace.visits)}"
+    return hashlib.sha256(text.encode()).hexdigest()[:32]
+
+
+class Level0:
+    """The analytical level on one trace; reuses visit costs per processor configuration."""
+
+    def __init__(self, trace, unit_costs: UnitCosts | None = None, visit_costs=None):
+        from ..trace import HIT, IC, LATE_HIT, OS, RETURN, SC, TO_IC, TO_SC
+
+        self.trace = trace
+        self.unit_costs = unit_costs or UnitCosts()
+        if visit_costs is None:
+            self.cost_name, self._visit_costs = _cost_source()
+        else:
+            self.cost_name, self._visit_costs = "given", visit_costs
+        v = trace.visits
+        rays = trace.rays
+        stage = np.asarray(v["stage"]).astype(np.int64)
+        out = np.asarray(v["outcome"]).astype(np.int64)
+        ray = np.asarray(v["ray"], dtype=np.int64)
+        ids = np.asarray(rays["id"], dtype=np.int64)
+        row = ray - ids[0] if len(ids) and np.array_equal(ids, np.arange(ids[0], ids[0] + len(ids))) \
+            else np.searchsorted(ids, ray)
+        pixel = np.asarray(rays["pixel"], dtype=np.int64)[row]
+        upix, self._pix = np.unique(pixel, return_inverse=True)
+        self.pixels = upix
+        self.npix = len(upix)
+        # where each visit's incoming packet comes from (the ray's previous visit, or SC, which makes rays)
+        first = np.ones(len(v), dtype=bool)
+        first[1:] = ray[1:] != ray[:-1]
+        src = np.full(len(v), SC, dtype=np.int64)
+        src[~first] = stage[np.flatnonzero(~first) - 1]
+        # where its outgoing packet goes (-1: none)
+        dst = np.full(len(v), -1, dtype=np.int64)
+        dst[(stage == OS) & (out == TO_IC)] = IC
+        dst[(stage == OS) & np.isin(out, (TO_SC, LATE_HIT))] = SC
+        dst[(stage == IC) & (out == HIT)] = SC
+        dst[(stage == IC) & (out == RETURN)] = OS
+        dst[stage == SC] = OS                                  # children, if any (send is 0 otherwise)
+        self._stage, self._src, self._dst = stage, src, dst
+        self._agg: dict = {}
+        self.visits = len(v)
+
+    def _aggregate(self, s: int, units: dict):
+        """Per pixel: process, receive by source stage, send by destination stage (cycles) of stage s's visits."""
+        key = (s, json.dumps(units, sort_keys=True))
+        if key not in self._agg:
+            vc = self._cost_all(units)
+            m = self._stage == s
+            pix = self._pix[m]
+            n = self.npix
+            proc = np.bincount(pix, weights=vc.process[m], minlength=n)
+            recv = np.stack([np.bincount(pix, weights=np.where(self._src[m] == t, vc.receive[m], 0), minlength=n)
+                             for t in range(3)])
+            send = np.stack([np.bincount(pix, weights=np.where(self._dst[m] == t, vc.send[m], 0), minlength=n)
+                             for t in range(3)])
+            self._agg[key] = (proc, recv, send)
+        return self._agg[key]
+
+    def _cost_all(self, units):
+        key = ("all", json.dumps(units, sort_keys=True))
+        if key not in self._agg:
+            vc = self._visit_costs(self.trace, {st: units for st in STAGE_NAMES})
+            self._agg[key] = vc
+        return self._agg[key]
+
+    def processor_work(self, design: Design) -> dict:
+        """Per processor (name), cycles of work per pixel (all copies together)."""
+        work = {}
+        for g in processors(design.mapping):
+            units = design.processor_units(g)
+            codes = [STAGE_NAMES.index(s) for s in g]
+            tot = np.zeros(self.npix)
+            for c in codes:
+                proc, recv, send = self._aggregate(c, units)
+                tot += proc
+                for t in range(3):
+                    if t not in codes:
+                        tot += recv[t] + send[t]
+            work[processor_name(g)] = tot
+        return work
+
+    def run(self, design: Design) -> Result:
+        work = self.processor_work(design)
+        groups = processors(design.mapping)
+        copies = {processor_name(g): design.processor_copies(g) for g in groups}
+        pe = self.pixels % design.pes
+        per_pe = {p: np.bincount(pe, weights=w, minlength=design.pes) for p, w in work.items()}
+        npix_pe = np.maximum(np.bincount(pe, minlength=design.pes), 1)
+        load = {p: per_pe[p] / copies[p] for p in work}                  # cycles per copy, per PE
+        if len(work) == 1:
+            times = next(iter(load.values()))
+            fill = np.zeros(design.pes)
+            bott = np.array([0] * design.pes)
+        else:
+            names = list(work)
+            L = np.stack([load[p] for p in names])                      # processors x PEs
+            bott = np.argmax(L, axis=0)
+            total = sum(per_pe.values())
+            off = total - np.stack([per_pe[p] for p in names])[bott, np.arange(design.pes)]
+            fill = off / npix_pe
+            times = L[bott, np.arange(design.pes)] + fill
+        T = float(times.max())
+        worst = int(np.argmax(times))
+        names = list(work)
+        util = {p: float(np.mean(per_pe[p] / copies[p])) / T if T else 0.0 for p in names}
+        return Result(
+            cycles=float(round(T)), level=0,
+            cost=float(sum(cost_breakdown(design, self.unit_costs).values())),
+            loads={p: float(load[p][worst]) for p in names}, utilisation=util,
+            bottleneck=names[int(bott[worst])], fill_drain=float(fill[worst]), costs=self.cost_name)
+
+
+_LEVEL0: dict = {}
+
+
+def level0(trace, unit_costs: UnitCosts | None = None) -> Level0:
+    """The (cached) level-0 evaluator of a trace."""
+    key = (id(trace), unit_costs)
+    ev = _LEVEL0.get(key)
+    if ev is None or ev.trace is not trace:
+        if len(_LEVEL0) > 8:
+            _LEVEL0.clear()
+        ev = _LEVEL0[key] = Level0(trace, unit_costs)
+    return ev
+
+
+def evaluate(trace, design: Design, level: int = 0, unit_costs: UnitCosts | None = None) -> Result:
+    """Cycles and per-processor figures of ``design`` replaying ``trace`` at a fidelity level."""
+    if level == 0:
+        return level0(trace, unit_costs).run(design)
+    from . import machine_adapter
+    return machine_adapter.simulate(trace, design, level, unit_costs or UnitCosts())
+
+
+def grid_dims(scene, subdivision, shape: str = "cube") -> tuple:
+    """Voxels per axis of a subdivision: (nx, ny, nz) as given; one n as n
+    per axis ('cube', the paper's n^3) or n along the scene box's longest axis
+    and the others in proportion ('proportional'), at least 1 each."""
+    sub = tuple(int(v) for v in subdivision)
+    if len(sub) == 3:
+        return sub
+    n = sub[0]
+    if shape == "cube":
+        return (n, n, n)
+    info = scene.info()
+    ext = np.maximum(np.subtract(info["hi"], info["lo"]), 0.0)
+    longest = float(ext.max()) or 1.0
+    return tuple(int(max(round(n * e / longest), 1)) for e in ext)
+
+
+class SceneEvaluator:
+    """Evaluates points (subdivision + design) on one scene at one resolution:
+    one trace per grid, kept (with its level-0 evaluator) while the traces
+    held stay under ``max_visits`` visits in all."""
+
+    def __init__(self, scene, width: int, height: int, level: int = 0, shape: str = "cube",
+                 unit_costs: UnitCosts | None = None, max_visits: int = 30_000_000, rules: str = "paper",
+                 threads: int = 1):
+        self.scene, self.width, self.height = scene, int(width), int(height)
+        self.level, self.shape, self.rules, self.threads = level, shape, rules, threads
+        self.unit_costs = unit_costs or UnitCosts()
+        self.max_visits = max_visits
+        self._held: dict = {}             # dims -> Level0 (which holds the trace)
+        self.trace_seconds = 0.0
+        self.traces_made = 0
+
+    def level0(self, dims) -> Level0:
+        import time
+
+        dims = tuple(dims)
+        if dims in self._held:
+            self._held[dims] = self._held.pop(dims)      # most recent last
+            return self._held[dims]
+        t0 = time.perf_counter()
+        _, tr = self.scene.grid(dims).trace(self.width, self.height, rules=self.rules, threads=self.threads)
+        self.trace_seconds += time.perf_counter() - t0
+        self.traces_made += 1
+        while self._held and sum(e.visits for e in self._held.values()) + len(tr.visits) > self.max_visits:
+            self._held.pop(next(iter(self._held)))
+        ev = self._held[dims] = Level0(tr, self.unit_costs)
+        return ev
+
+    def trace(self, dims):
+        return self.level0(dims).trace
+
+    def __call__(self, points) -> list[Result]:
+        # grouped by grid so each trace is made once per batch
+        dims = [grid_dims(self.scene, p.subdivision, self.shape) for p in points]
+        res = [None] * len(points)
+        for i in sorted(range(len(points)), key=lambda i: dims[i]):
+            if self.level == 0:
+                res[i] = self.level0(dims[i]).run(points[i].design)
+            else:
+                res[i] = evaluate(self.trace(dims[i]), points[i].design, self.level, self.unit_costs)
+        return res
