@@ -43,10 +43,6 @@ POLISHES = ("lattice", "sbplx", "neldermead", "bobyqa", "cobyla", "none")
 INFEASIBLE = 1e3                # objective floor of a design over the budget (log-cycles are < 60)
 
 
-class _Stop(Exception):
-    pass
-
-
 @dataclass
 class Evaluation:
     index: tuple
@@ -87,6 +83,7 @@ class Problem:
         self.order: list[tuple] = []            # canonical keys in evaluation order
         self.calls = 0
         self.cap = None
+        self.opt = None
         self.progress = progress
         self.free = [i for i, v in enumerate(space.variables) if v.size > 1]
 
@@ -118,7 +115,9 @@ class Problem:
         k = self.space.canonical(idx)
         if k not in self.memo:
             if self.cap is not None and len(self.memo) >= self.cap:
-                raise _Stop()
+                if self.opt is not None:          # NLopt: ask it to stop (exceptions in callbacks misbehave)
+                    self.opt.force_stop()
+                return INFEASIBLE * 10
             self.evaluate_many([k])
         return self.f(self.memo[k])
 
@@ -129,7 +128,11 @@ class Problem:
     def best(self, budget=None) -> Evaluation | None:
         if not self.memo:
             return None
-        return min(self.memo.values(), key=lambda e: (self.f(e, budget), e.serial))
+        return min(self.memo.values(), key=lambda e: self.rank(e, budget))
+
+    def rank(self, e: Evaluation, budget=None) -> tuple:
+        """Order of preference: objective, then cost (a tie in time goes to the cheaper design)."""
+        return (self.f(e, budget), e.cost, e.serial)
 
     def x_to_index(self, x) -> tuple:
         idx = [0] * len(self.space.variables)
@@ -181,6 +184,7 @@ def _nlopt_run(problem: Problem, algorithm: str, x0, max_evals: int, seed: int, 
         return problem(problem.x_to_index(x))
 
     opt.set_min_objective(f)
+    problem.opt = opt
     opt.set_maxeval(max(50 * max_evals, 1000))      # calls; most land in memoised cells
     if step is not None:
         opt.set_initial_step([step] * n)
@@ -189,12 +193,11 @@ def _nlopt_run(problem: Problem, algorithm: str, x0, max_evals: int, seed: int, 
     nlopt.srand(seed)
     try:
         opt.optimize(list(x0))
-    except (_Stop, nlopt.ForcedStop):
-        pass
-    except nlopt.RoundoffLimited:
+    except (nlopt.ForcedStop, nlopt.RoundoffLimited):
         pass
     finally:
         problem.cap = None
+        problem.opt = None
 
 
 def _random_run(problem: Problem, max_evals: int, seed: int):
@@ -207,32 +210,87 @@ def _random_run(problem: Problem, max_evals: int, seed: int):
         problem(tuple(int(rng.integers(s)) for s in sizes))
 
 
-def compass(problem: Problem, idx, max_evals: int) -> tuple:
-    """Polish on the integer lattice: try +-1 on every index, move to the best
-    improvement, repeat until none improves (or the evaluation budget ends)."""
+def _neighbours(problem: Problem, cur, pairs: bool) -> list[tuple]:
+    """Lattice neighbours: +-1 on a numeric index, any other value of a named
+    one (mapping, feed: their order means nothing); with ``pairs``, also +1 on
+    one numeric index and -1 on another (a trade under a budget)."""
     sizes = [v.size for v in problem.space.variables]
+    named = [isinstance(problem.space.variables[i].values[0], str) for i in range(len(sizes))]
+    out = []
+
+    def add(nb):
+        out.append(problem.space.canonical(nb))
+
+    for i in problem.free:
+        steps = [j for j in range(sizes[i]) if j != cur[i]] if named[i] else \
+            [cur[i] + d for d in (-1, 1) if 0 <= cur[i] + d < sizes[i]]
+        for j in steps:
+            nb = list(cur)
+            nb[i] = j
+            add(nb)
+    if pairs:
+        num = [i for i in problem.free if not named[i]]
+        for i in num:
+            for j in num:
+                if i != j and cur[i] + 1 < sizes[i] and cur[j] >= 1:
+                    nb = list(cur)
+                    nb[i] += 1
+                    nb[j] -= 1
+                    add(nb)
+    return list(dict.fromkeys(out))
+
+
+def compass(problem: Problem, idx, max_evals: int) -> tuple:
+    """Polish on the integer lattice: move to the best neighbour while one
+    improves; when none does, widen the neighbourhood to pair trades once
+    (a budget makes single steps up infeasible and single steps down
+    slower).  Stops at a local optimum or after ``max_evals`` new designs."""
     cur = problem.space.canonical(idx)
     start = len(problem.memo)
+    pairs = False
     while True:
-        nbrs = []
-        for i in problem.free:
-            for d in (-1, 1):
-                j = cur[i] + d
-                if 0 <= j < sizes[i]:
-                    nb = list(cur)
-                    nb[i] = j
-                    nbrs.append(problem.space.canonical(nb))
+        nbrs = _neighbours(problem, cur, pairs)
         room = max_evals - (len(problem.memo) - start)
-        fresh = [k for k in dict.fromkeys(nbrs) if k not in problem.memo][:max(room, 0)]
+        fresh = [k for k in nbrs if k not in problem.memo][:max(room, 0)]
         problem.evaluate_many(fresh)
         cand = [problem.memo[k] for k in nbrs if k in problem.memo]
-        here = problem.f(problem.memo[cur])
-        better = min(cand, key=lambda e: (problem.f(e), e.serial), default=None)
-        if better is None or problem.f(better) >= here:
-            return cur
+        here = problem.rank(problem.memo[cur])[:2]
+        better = min(cand, key=problem.rank, default=None)
+        if better is None or problem.rank(better)[:2] >= here:
+            if pairs or len(problem.memo) - start >= max_evals:
+                return cur
+            pairs = True
+            continue
         cur = better.index
+        pairs = False
         if len(problem.memo) - start >= max_evals:
             return cur
+
+
+def _polish_starts(problem: Problem) -> list[tuple]:
+    """Where the polish starts: the stage mappings are separate landscapes, so
+    from the best design found of each mapping; where every design found of a
+    mapping is over the budget, from that mapping's cheapest design (every
+    numeric index at its smallest value) instead, which the polish then grows."""
+    space = problem.space
+    pos = space.names.index("mapping")
+    starts = {}
+    for e in sorted(problem.memo.values(), key=problem.rank):
+        m = e.index[pos]
+        if m not in starts and problem.f(e) < INFEASIBLE:
+            starts[m] = e.index
+    if space.variables[pos].size > 1:
+        for m in range(space.variables[pos].size):
+            if m not in starts:
+                idx = [0] * len(space.variables)
+                idx[pos] = m
+                k = space.canonical(idx)
+                problem.evaluate_many([k])
+                if k in problem.memo and problem.f(problem.memo[k]) < INFEASIBLE:
+                    starts[m] = k
+    if not starts:
+        starts[-1] = problem.best().index
+    return list(starts.values())
 
 
 def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice", max_evals: int = 300,
@@ -257,7 +315,8 @@ def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice
     if polish_evals is None:
         polish_evals = max(max_evals // 2, 4 * len(problem.free))
     if polish == "lattice":
-        compass(problem, best.index, polish_evals)
+        for idx in _polish_starts(problem):
+            compass(problem, idx, polish_evals - (len(problem.memo) - n1))
     elif polish != "none":
         name = {"sbplx": "LN_SBPLX", "neldermead": "LN_NELDERMEAD", "bobyqa": "LN_BOBYQA", "cobyla": "LN_COBYLA"}
         _nlopt_run(problem, name[polish], problem.index_to_x(best.index), polish_evals, seed, step=1.0)

@@ -374,7 +374,8 @@ def _table(d, where: str, known: set) -> dict:
         raise SpaceError(f"{where}: must be a table")
     extra = set(d) - known
     if extra:
-        raise SpaceError(f"{where}.{sorted(extra)[0]}: unknown field (known: {', '.join(sorted(known))})")
+        sep = "" if where.endswith(" ") else "."
+        raise SpaceError(f"{where}{sep}{sorted(extra)[0]}: unknown field (known: {', '.join(sorted(known))})")
     return d
 
 
@@ -385,7 +386,7 @@ def parse_space(text: str, source: str = "<space>") -> Space:
     except tomllib.TOMLDecodeError as e:
         raise SpaceError(f"{source}: {e}") from None
     base = tomllib.loads(DEFAULT_SPACE_TOML) if source != "<default space>" else {}
-    _table(doc, source, _TOP)
+    _table(doc, f"{source}: ", _TOP)
 
     def get(path, default_doc=base):
         cur, dflt = doc, default_doc
