@@ -7,7 +7,7 @@ import pytest
 import mprt
 from mprt.explore import (Design, SpaceError, UnitCosts, default_space, hardware_cost, load_space, model_m,
                           model_s, paper_3mppe, parse_space)
-from mprt.explore.evaluate import Level0, _cost_source
+from mprt.explore.evaluate import Level0
 from mprt.explore.search import Problem, exhaustive, search
 
 DATA = Path(__file__).parent / "data"
@@ -108,11 +108,14 @@ def test_cost_of_paper_machine_by_hand():
 # --- level 0 ----------------------------------------------------------------------------------------------------
 
 def test_level0_model_s_is_the_sum_of_processing(level0s):
+    """Model S: one processor, no packets: its time is every visit's processing
+    plus SC's generation of each primary ray, priced by the cost model."""
+    from mprt.cost import CostModel, ProcessorConfig
     ev = level0s["balls"]
-    _, visit_costs = _cost_source()
-    seq = {"general": 1}
-    vc = visit_costs(ev.trace, {"OS": seq, "IC": seq, "SC": seq})
-    assert ev.run(model_s()).cycles == int(np.sum(vc.process))
+    seq = ProcessorConfig.sequential()
+    vc = CostModel.default().visit_costs(ev.trace, {"OS": seq, "IC": seq, "SC": seq})
+    primaries = int(np.sum(ev.trace.rays["kind"] == 0))
+    assert ev.run(model_s()).cycles == int(np.sum(vc.process)) + primaries * vc.inject_process
 
 
 def test_level0_pipeline_bounds(level0s):

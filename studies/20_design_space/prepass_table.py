@@ -10,7 +10,7 @@ at the issue-7 target of 100,000 visits/s), and the regret of each fixed
 rule: pbrt's 3 N^(1/3), our density 8, and the paper's best of 20/50/100
 per axis.
 
-    .venv/bin/python studies/20_design_space/prepass_table.py [RES] [FRACTION]
+    .venv/bin/python studies/20_design_space/prepass_table.py [RES] [FRACTION ...]
 Writes studies/out/prepass_RES.csv and prints a Markdown table.
 """
 import csv
@@ -23,7 +23,7 @@ import numpy as np
 import mprt
 from mprt.explore import paper_3mppe
 from mprt.explore.evaluate import Level0, grid_dims
-from mprt.explore.prepass import fixed_rule, prepass
+from mprt.explore.prepass import default_range, fixed_rule, prepass
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE.parents[1] / "studies" / "out"
@@ -54,14 +54,12 @@ def scenes():
     yield "stadium (NFF)", mprt.Scene.from_text(stadium_nff(), "stadium")
 
 
-def main(res=512, fraction=8):
+def main(res=512, *fractions):
+    fractions = fractions or (8, 16, 32)
     OUT.mkdir(parents=True, exist_ok=True)
     design = paper_3mppe()
     rows = []
     for name, scene in scenes():
-        t0 = time.perf_counter()
-        pre = prepass(scene, res, res, fraction=fraction, threads=2)
-        pre_s = time.perf_counter() - t0
         truth, cost = {}, {}
 
         def full(dims):
@@ -75,11 +73,16 @@ def main(res=512, fraction=8):
                 del tr
             return truth[dims]
 
-        ladder = sorted({grid_dims(scene, (int(round(n)),), "proportional") for n in np.geomspace(4, 160, 12)})
+        lo, hi = default_range(scene)
+        ladder = sorted({grid_dims(scene, (int(round(n)),), "proportional") for n in np.geomspace(lo, hi, 10)})
         for d in ladder:
             full(d)
-        choice = tuple(pre["subdivision"])
-        full(choice)
+        pres = {}
+        for fr in fractions:
+            t0 = time.perf_counter()
+            pre = prepass(scene, res, res, fraction=fr, threads=2)
+            pres[fr] = (pre, time.perf_counter() - t0)
+            full(tuple(pre["subdivision"]))
         rules = {"pbrt": fixed_rule(scene, "pbrt"), "density8": fixed_rule(scene, "density8")}
         for r in rules.values():
             full(r)
@@ -91,14 +94,16 @@ def main(res=512, fraction=8):
             n = max(max(best) + k * max(1, max(best) // 20), 1)
             full(grid_dims(scene, (n,), "proportional"))
         best = min(truth, key=truth.get)
-        tr_s, rp_s, visits = cost[choice]
+        tr_s, rp_s, visits = cost[best]
         frame = tr_s + rp_s
         frame_simpy = tr_s + visits / SIMPY_VISITS_PER_S
-        row = {"scene": name, "choice": "x".join(map(str, choice)), "best": "x".join(map(str, best)),
-               "regret": truth[choice] / truth[best] - 1, "prepass_s": pre_s,
-               "candidates": len(pre["candidates"]),
-               "frame_s_level0": frame, "share_level0": pre_s / frame,
-               "share_simpy_est": pre_s / frame_simpy}
+        row = {"scene": name, "best": "x".join(map(str, best)), "frame_s_level0": frame,
+               "frame_s_simpy_est": frame_simpy}
+        for fr, (pre, pre_s) in pres.items():
+            choice = tuple(pre["subdivision"])
+            row.update({f"choice_{fr}": "x".join(map(str, choice)), f"regret_{fr}": truth[choice] / truth[best] - 1,
+                        f"prepass_s_{fr}": pre_s, f"candidates_{fr}": len(pre["candidates"]),
+                        f"share_level0_{fr}": pre_s / frame, f"share_simpy_est_{fr}": pre_s / frame_simpy})
         for k, d in rules.items():
             row[f"{k}"] = "x".join(map(str, d))
             row[f"{k}_regret"] = truth[tuple(d)] / truth[best] - 1
@@ -109,13 +114,17 @@ def main(res=512, fraction=8):
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    print(f"| scene | prepass choice | best | regret | prepass s | share of frame (level 0) | share (SimPy est.) "
-          f"| pbrt 3N^1/3 | density 8 | paper 20/50/100 |")
-    print("|---|---|---|---|---|---|---|---|---|---|")
+    print(f"{res}x{res}, level 0, paper 3MPPE.  Per fraction F: choice, regret, prepass seconds, share of "
+          f"(trace + level-0 replay) and of (trace + SimPy replay at 1e5 visits/s, estimated)")
+    head = "| scene | best | " + " | ".join(f"1/{fr}: choice, regret, s, share L0, share SimPy" for fr in fractions)
+    print(head + " | pbrt 3N^1/3 | density 8 | paper 20/50/100 |")
+    print("|---" * (2 + len(fractions) + 3) + "|")
     for r in rows:
-        print(f"| {r['scene']} | {r['choice']} | {r['best']} | {r['regret']:.1%} | {r['prepass_s']:.2f} "
-              f"| {r['share_level0']:.1%} | {r['share_simpy_est']:.1%} | {r['pbrt']} ({r['pbrt_regret']:+.0%}) "
-              f"| {r['density8']} ({r['density8_regret']:+.0%}) | {r['paper-best']} ({r['paper-best_regret']:+.0%}) |")
+        cells = [f"{r[f'choice_{fr}']}, {r[f'regret_{fr}']:.1%}, {r[f'prepass_s_{fr}']:.2f} s, "
+                 f"{r[f'share_level0_{fr}']:.1%}, {r[f'share_simpy_est_{fr}']:.2%}" for fr in fractions]
+        print(f"| {r['scene']} | {r['best']} | " + " | ".join(cells)
+              + f" | {r['pbrt']} ({r['pbrt_regret']:+.0%}) | {r['density8']} ({r['density8_regret']:+.0%}) "
+              f"| {r['paper-best']} ({r['paper-best_regret']:+.0%}) |")
     print(f"wrote {path}")
 
 

@@ -120,8 +120,9 @@ def add_parsers(sub) -> None:
     _common(p, "512x512")
     p.add_argument("--candidates", type=_candidates, default=None,
                    help="subdivisions to try, e.g. 20,50,100 or 20,50,100/8x8x2 (default: searched)")
-    p.add_argument("--range", type=_range, default=(4, 160), dest="n_range",
-                   help="voxels along the longest axis to search, LO:HI (default 4:160)")
+    p.add_argument("--range", type=_range, default=None, dest="n_range",
+                   help="voxels along the longest axis to search, LO:HI (default: 1 to 24 times the cube root "
+                        "of the primitive count)")
     p.add_argument("--shape", choices=("proportional", "cube"), default="proportional",
                    help="one n as n along the longest axis, others in proportion (default), or n per axis")
     p.add_argument("--fraction", type=_positive(int), default=8, help="trace at 1/FRACTION of --res (default 8)")

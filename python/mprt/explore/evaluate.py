@@ -28,17 +28,13 @@ from .space import STAGE_NAMES, Design, processor_name, processors
 
 
 def _cost_source():
-    """The cost model: ``mprt.cost``'s default where present, else the stand-in."""
-    try:
-        from ..cost import CostModel, ProcessorConfig  # noqa: F401
-    except ImportError:
-        from . import _standin_cost
-        return "standin", _standin_cost.visit_costs
+    """The cost model's ``visit_costs`` with processors given as units dicts."""
+    from ..cost import CostModel, ProcessorConfig
+
     cm = CostModel.default()
 
     def visit_costs(trace, procs):
-        cfg = {s: _processor_config(ProcessorConfig, u) for s, u in procs.items()}
-        return cm.visit_costs(trace, cfg)
+        return cm.visit_costs(trace, {s: _processor_config(ProcessorConfig, u) for s, u in procs.items()})
     return "mprt.cost", visit_costs
 
 
@@ -46,7 +42,7 @@ def _processor_config(ProcessorConfig, units: dict):
     units = {k: int(v) for k, v in units.items() if v}
     if units == {"general": 1}:
         return ProcessorConfig.sequential()
-    return ProcessorConfig(units=units, issue_width=sum(units.values()))
+    return ProcessorConfig(units=units)
 
 
 @dataclass
@@ -100,9 +96,9 @@ class Level0:
         row = ray - ids[0] if len(ids) and np.array_equal(ids, np.arange(ids[0], ids[0] + len(ids))) \
             else np.searchsorted(ids, ray)
         pixel = np.asarray(rays["pixel"], dtype=np.int64)[row]
-        upix, self._pix = np.unique(pixel, return_inverse=True)
-        self.pixels = upix
-        self.npix = len(upix)
+        self._pix = pixel                      # pixels index the per-pixel sums directly
+        self.npix = int(pixel.max()) + 1 if len(pixel) else 1
+        self.pixels = np.arange(self.npix)
         # where each visit's incoming packet comes from (the ray's previous visit, or SC, which makes rays)
         first = np.ones(len(v), dtype=bool)
         first[1:] = ray[1:] != ray[:-1]
@@ -116,41 +112,49 @@ class Level0:
         dst[(stage == IC) & (out == RETURN)] = OS
         dst[stage == SC] = OS                                  # children, if any (send is 0 otherwise)
         self._stage, self._src, self._dst = stage, src, dst
+        kind = np.asarray(rays["kind"])
+        rpix = np.asarray(rays["pixel"], dtype=np.int64)[kind == 0]
+        self._primaries = np.bincount(rpix, minlength=self.npix).astype(np.float64)
         self._agg: dict = {}
         self.visits = len(v)
 
-    def _aggregate(self, s: int, units: dict):
-        """Per pixel: process, receive by source stage, send by destination stage (cycles) of stage s's visits."""
+    def _aggregate(self, s: int, units: dict, design_units: dict):
+        """Per pixel: process, receive by source stage, send by destination
+        stage (cycles) of stage s's visits on a processor with ``units``; one
+        call of the cost model fills every stage it prices (``design_units``:
+        the units of each stage in the design at hand)."""
         key = (s, json.dumps(units, sort_keys=True))
         if key not in self._agg:
-            vc = self._cost_all(units)
-            m = self._stage == s
-            pix = self._pix[m]
+            vc = self._visit_costs(self.trace, design_units)
             n = self.npix
-            proc = np.bincount(pix, weights=vc.process[m], minlength=n)
-            recv = np.stack([np.bincount(pix, weights=np.where(self._src[m] == t, vc.receive[m], 0), minlength=n)
-                             for t in range(3)])
-            send = np.stack([np.bincount(pix, weights=np.where(self._dst[m] == t, vc.send[m], 0), minlength=n)
-                             for t in range(3)])
-            self._agg[key] = (proc, recv, send)
-        return self._agg[key]
-
-    def _cost_all(self, units):
-        key = ("all", json.dumps(units, sort_keys=True))
-        if key not in self._agg:
-            vc = self._visit_costs(self.trace, {st: units for st in STAGE_NAMES})
-            self._agg[key] = vc
+            for c, name in enumerate(STAGE_NAMES):
+                k = (c, json.dumps(design_units[name], sort_keys=True))
+                if k in self._agg:
+                    continue
+                m = self._stage == c
+                pix = self._pix[m]
+                proc = np.bincount(pix, weights=vc.process[m], minlength=n)
+                # by (source or destination stage, pixel); no packet (-1) falls in a fourth row
+                recv = np.bincount(self._src[m] * n + pix, weights=vc.receive[m], minlength=3 * n)
+                recv = recv[:3 * n].reshape(3, n)
+                send = np.bincount((self._dst[m] % 4) * n + pix, weights=vc.send[m], minlength=4 * n)
+                send = send[:3 * n].reshape(3, n).copy()
+                if name == "SC":          # SC makes the primary rays and sends them to OS
+                    proc = proc + self._primaries * vc.inject_process
+                    send[0] += self._primaries * vc.inject_send
+                self._agg[k] = (proc, recv, send)
         return self._agg[key]
 
     def processor_work(self, design: Design) -> dict:
         """Per processor (name), cycles of work per pixel (all copies together)."""
         work = {}
+        stage_units = {s: design.processor_units(g) for g in processors(design.mapping) for s in g}
         for g in processors(design.mapping):
             units = design.processor_units(g)
             codes = [STAGE_NAMES.index(s) for s in g]
             tot = np.zeros(self.npix)
             for c in codes:
-                proc, recv, send = self._aggregate(c, units)
+                proc, recv, send = self._aggregate(c, units, stage_units)
                 tot += proc
                 for t in range(3):
                     if t not in codes:
@@ -164,7 +168,7 @@ class Level0:
         copies = {processor_name(g): design.processor_copies(g) for g in groups}
         pe = self.pixels % design.pes
         per_pe = {p: np.bincount(pe, weights=w, minlength=design.pes) for p, w in work.items()}
-        npix_pe = np.maximum(np.bincount(pe, minlength=design.pes), 1)
+        npix_pe = np.maximum(np.bincount(pe, weights=self._primaries > 0, minlength=design.pes), 1)
         load = {p: per_pe[p] / copies[p] for p in work}                  # cycles per copy, per PE
         if len(work) == 1:
             times = next(iter(load.values()))

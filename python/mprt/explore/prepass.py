@@ -57,13 +57,20 @@ class _Cands:
         return self.seen[dims]
 
 
-def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=(4, 160), fraction: int = 8,
+def default_range(scene, density=(1.0, 24.0), limit: int = 512) -> tuple[int, int]:
+    """The n searched by default: density x N^(1/3) along the longest axis for
+    density 1 to 24 (pbrt's rule is 3, ours 8), within 2..``limit``."""
+    c = max(scene.info()["prims"], 1) ** (1.0 / 3.0)
+    return (int(min(max(round(density[0] * c), 2), limit)), int(min(max(round(density[1] * c), 2), limit)))
+
+
+def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 8,
             design: Design | None = None, shape: str = "proportional", rungs: int = 6, level: int = 0,
             unit_costs: UnitCosts | None = None, threads: int = 1) -> dict:
     """Predict the full-resolution cycles of candidate subdivisions from traces
     at width/fraction x height/fraction, and return the best.  ``candidates``:
     explicit subdivisions (n or (nx, ny, nz)), all evaluated; otherwise n is
-    searched over ``n_range``."""
+    searched over ``n_range`` (default: ``default_range(scene)``)."""
     t0 = time.perf_counter()
     w, h = low_resolution(width, height, fraction)
     scale = (width * height) / (w * h)
@@ -72,7 +79,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         for c in candidates:
             f(c)
     else:
-        lo, hi = int(n_range[0]), int(n_range[1])
+        lo, hi = (int(v) for v in (n_range or default_range(scene)))
         if not 1 <= lo <= hi:
             raise ValueError(f"prepass: subdivision range {lo}..{hi} is empty")
         ladder = sorted({int(round(x)) for x in np.geomspace(lo, hi, min(rungs, hi - lo + 1))})
