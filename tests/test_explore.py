@@ -205,3 +205,22 @@ def test_pareto_front_is_nondominated(level0s):
     assert found == sorted(found) and all(b[1] < a[1] for a, b in zip(found, found[1:]))
     # every point found lies on the true front or is dominated by none of the found ones; most are on it
     assert sum(pt in true_front for pt in found) >= 0.8 * len(found)
+
+
+def test_linear_pricing_equals_visit_costs(level0s):
+    """Level 0 prices new processors from per-pixel kernel runs; every figure
+    must equal pricing each visit with the cost model."""
+    designs = [paper_3mppe(), model_m(), model_s()]
+    for units in ({"int": 3, "fp": 1}, {"int": 1, "fp": 4}, {"general": 2}):
+        for mapping in ("OS|IC|SC", "OS+SC|IC", "OS|IC+SC"):
+            d = paper_3mppe().to_dict()
+            d.update(mapping=mapping, pes=3, units={"OS": units, "IC": {"int": 2, "fp": 2}, "SC": units})
+            designs.append(Design.from_dict(d))
+    for name, ev in level0s.items():
+        fast = Level0(ev.trace)
+        assert fast._linear is not None
+        for d in designs:
+            slow = Level0(ev.trace, linear=False).run(d)
+            got = fast.run(d)
+            assert got.to_dict() == slow.to_dict(), (name, d.describe())
+        assert fast._linear is not None          # the check on the first design passed

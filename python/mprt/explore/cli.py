@@ -109,6 +109,9 @@ def add_parsers(sub) -> None:
     e.add_argument("--polish", choices=POLISHES, default="lattice")
     e.add_argument("--max-evals", type=_positive(int), default=300, help="distinct designs in the global phase")
     e.add_argument("--seed", type=int, default=1)
+    e.add_argument("--fraction", type=_positive(int), default=None,
+                   help="search on traces at 1/FRACTION of --res, then polish the best at --res "
+                        "(default: about 64 pixels across; 1: search at --res)")
     e.add_argument("--scheduler", metavar="ADDRESS", help="run the search on this Dask scheduler")
     e.add_argument("--plot", metavar="OUT.png", help="history, cost against cycles, utilisation")
     e.set_defaults(func=run_explore)
@@ -163,7 +166,8 @@ def run_explore(a) -> int:
     scene = Scene.load(a.scene)
     w, h = a.res
     kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget, level=a.level,
-              algorithm=a.algorithm, polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads)
+              algorithm=a.algorithm, polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads,
+              fraction=a.fraction)
     if a.scheduler:
         from .distributed import run_remote
         rep = run_remote(a.scheduler, explore_spec, a.scene, kw)

@@ -35,6 +35,7 @@ def _cost_source():
 
     def visit_costs(trace, procs):
         return cm.visit_costs(trace, {s: _processor_config(ProcessorConfig, u) for s, u in procs.items()})
+    visit_costs.model = cm
     return "mprt.cost", visit_costs
 
 
@@ -43,6 +44,59 @@ def _processor_config(ProcessorConfig, units: dict):
     if units == {"general": 1}:
         return ProcessorConfig.sequential()
     return ProcessorConfig(units=units)
+
+
+class _LinearPricing:
+    """Per-pixel sums of each stage's kernel runs and packet sizes, so a new
+    processor is priced by a product over pixels instead of a pass over the
+    visits: a visit's cycles are its kernel runs times the kernels' cycles
+    (the cost model's definition).  It reads the cost model's per-visit
+    counts; Level0 checks it against ``visit_costs`` on the first design and
+    drops it on any difference."""
+
+    def __init__(self, trace, cm, pix, npix, stage, src, dst, primaries, chunk=1 << 20):
+        from ..cost.model import STAGE_KERNELS, _TraceContext
+
+        self.cm, self.kernels = cm, STAGE_KERNELS
+        ctx = _TraceContext(trace)
+        self.runs = {s: np.zeros((len(STAGE_KERNELS[s]) + 1, npix)) for s in STAGE_NAMES}   # + visits
+        self.rin = np.zeros((3, 2, 3, npix))       # stage, (packets, flits), source stage
+        self.out = np.zeros((3, 2, 4, npix))       # stage, (packets, flits), destination stage (3: none)
+        visits = trace.visits
+        for a in range(0, len(visits), chunk):
+            v = np.asarray(visits[a:a + chunk])
+            counts, packets = ctx.visit_counts(v, a)
+            p, st = pix[a:a + len(v)], stage[a:a + len(v)]
+            sr, ds = src[a:a + len(v)], dst[a:a + len(v)] % 4
+            for c, name in enumerate(STAGE_NAMES):
+                m = st == c
+                pm = p[m]
+                for i, k in enumerate(STAGE_KERNELS[name]):
+                    if k in counts[name]:
+                        self.runs[name][i] += np.bincount(pm, weights=counts[name][k], minlength=npix)
+                self.runs[name][-1] += np.bincount(pm, minlength=npix)
+                for j, w in enumerate((np.ones(int(m.sum())), packets["in"][m])):
+                    self.rin[c, j] += np.bincount(sr[m] * npix + pm, weights=w, minlength=3 * npix).reshape(3, npix)
+                for j, w in enumerate((packets["out_packets"][m], packets["out"][m])):
+                    self.out[c, j] += np.bincount(ds[m] * npix + pm, weights=w, minlength=4 * npix).reshape(4, npix)
+        self.primaries = primaries
+
+    def aggregate(self, c: int, proc) -> tuple:
+        from ..cost.model import _FLITS
+
+        name = STAGE_NAMES[c]
+        cm = self.cm
+        cyc = np.array([cm.kernel_cycles(k, proc) if k != "sc_primary" else 0 for k in self.kernels[name]]
+                       + [cm.visit_overhead[name]], dtype=np.float64)
+        process = cyc @ self.runs[name]
+        sp, sf, rp, rf = (cm.kernel_cycles(k, proc) for k in ("send_packet", "send_flit", "receive_packet",
+                                                              "receive_flit"))
+        recv = rp * self.rin[c, 0] + rf * self.rin[c, 1]
+        send = (sp * self.out[c, 0] + sf * self.out[c, 1])[:3].copy()
+        if name == "SC":
+            process = process + self.primaries * cm.kernel_cycles("sc_primary", proc)
+            send[0] += self.primaries * (sp + int(_FLITS[2, 0, 0]) * sf)
+        return process, recv, send
 
 
 @dataclass
@@ -78,7 +132,7 @@ def trace_key(trace) -> str:
 class Level0:
     """The analytical level on one trace; reuses visit costs per processor configuration."""
 
-    def __init__(self, trace, unit_costs: UnitCosts | None = None, visit_costs=None):
+    def __init__(self, trace, unit_costs: UnitCosts | None = None, visit_costs=None, linear: bool = True):
         from ..trace import HIT, IC, LATE_HIT, OS, RETURN, SC, TO_IC, TO_SC
 
         self.trace = trace
@@ -117,32 +171,49 @@ class Level0:
         self._primaries = np.bincount(rpix, minlength=self.npix).astype(np.float64)
         self._agg: dict = {}
         self.visits = len(v)
+        self._checked = False
+        self._linear = None
+        if linear and getattr(self._visit_costs, "model", None) is not None:
+            try:
+                self._linear = _LinearPricing(trace, self._visit_costs.model, self._pix, self.npix, stage, src,
+                                              dst, self._primaries)
+            except (ImportError, AttributeError, KeyError, TypeError):
+                self._linear = None
 
     def _aggregate(self, s: int, units: dict, design_units: dict):
         """Per pixel: process, receive by source stage, send by destination
-        stage (cycles) of stage s's visits on a processor with ``units``; one
-        call of the cost model fills every stage it prices (``design_units``:
-        the units of each stage in the design at hand)."""
+        stage (cycles) of stage s's visits on a processor with ``units``.
+        The first call prices the design's processors with the cost model's
+        ``visit_costs``; later ones by linear pricing where it agreed exactly."""
         key = (s, json.dumps(units, sort_keys=True))
-        if key not in self._agg:
-            vc = self._visit_costs(self.trace, design_units)
-            n = self.npix
-            for c, name in enumerate(STAGE_NAMES):
-                k = (c, json.dumps(design_units[name], sort_keys=True))
-                if k in self._agg:
-                    continue
-                m = self._stage == c
-                pix = self._pix[m]
-                proc = np.bincount(pix, weights=vc.process[m], minlength=n)
-                # by (source or destination stage, pixel); no packet (-1) falls in a fourth row
-                recv = np.bincount(self._src[m] * n + pix, weights=vc.receive[m], minlength=3 * n)
-                recv = recv[:3 * n].reshape(3, n)
-                send = np.bincount((self._dst[m] % 4) * n + pix, weights=vc.send[m], minlength=4 * n)
-                send = send[:3 * n].reshape(3, n).copy()
-                if name == "SC":          # SC makes the primary rays and sends them to OS
-                    proc = proc + self._primaries * vc.inject_process
-                    send[0] += self._primaries * vc.inject_send
-                self._agg[k] = (proc, recv, send)
+        if key in self._agg:
+            return self._agg[key]
+        if self._linear is not None and self._checked:
+            from ..cost import ProcessorConfig
+            self._agg[key] = self._linear.aggregate(s, _processor_config(ProcessorConfig, units))
+            return self._agg[key]
+        vc = self._visit_costs(self.trace, design_units)
+        n = self.npix
+        for c, name in enumerate(STAGE_NAMES):
+            k = (c, json.dumps(design_units[name], sort_keys=True))
+            m = self._stage == c
+            pix = self._pix[m]
+            proc = np.bincount(pix, weights=vc.process[m], minlength=n)
+            # by (source or destination stage, pixel); no packet (-1) falls in a fourth row
+            recv = np.bincount(self._src[m] * n + pix, weights=vc.receive[m], minlength=3 * n)
+            recv = recv[:3 * n].reshape(3, n)
+            send = np.bincount((self._dst[m] % 4) * n + pix, weights=vc.send[m], minlength=4 * n)
+            send = send[:3 * n].reshape(3, n).copy()
+            if name == "SC":          # SC makes the primary rays and sends them to OS
+                proc = proc + self._primaries * vc.inject_process
+                send[0] += self._primaries * vc.inject_send
+            self._agg[k] = (proc, recv, send)
+            if self._linear is not None and not self._checked:
+                from ..cost import ProcessorConfig
+                lin = self._linear.aggregate(c, _processor_config(ProcessorConfig, design_units[name]))
+                if not all(np.array_equal(x, y) for x, y in zip(lin, self._agg[k])):
+                    self._linear = None          # the cost model counts differently: price every design in full
+        self._checked = True
         return self._agg[key]
 
     def processor_work(self, design: Design) -> dict:

@@ -7,19 +7,31 @@ import numpy as np
 
 from .evaluate import SceneEvaluator, grid_dims
 from .hwcost import UnitCosts, cost_breakdown
-from .search import Problem, cost_range, pareto, search
+from .prepass import low_resolution
+from .search import Problem, compass, cost_range, pareto, search
 from .space import REFERENCE_DESIGNS, Point, Space, default_space
 
 
 def explore(scene, width: int = 64, height: int = 64, space: Space | None = None, objective: str = "time",
             budget: float | None = None, level: int = 0, algorithm: str = "direct-l", polish: str = "lattice",
-            max_evals: int = 300, seed: int = 1, budgets: int = 6, progress=None, threads: int = 1) -> dict:
-    """Search ``space`` for ``scene`` traced at width x height; returns the
-    report as a dict (the JSON of ``mprt explore``)."""
+            max_evals: int = 300, seed: int = 1, budgets: int = 6, progress=None, threads: int = 1,
+            fraction: int | None = None, refine: int = 2, refine_evals: int = 60) -> dict:
+    """Search ``space`` for ``scene`` at width x height; returns the report
+    as a dict (the JSON of ``mprt explore``).
+
+    The subdivision changes the trace, so the search runs on traces at
+    1/``fraction`` of the resolution (default: about 64 pixels across; 1
+    searches at full resolution), as the prepass does.  Then the ``refine``
+    best subdivisions are traced at full resolution and their designs
+    polished there (lattice steps, ``refine_evals`` designs each) at the
+    fidelity ``level``; the best of those is the answer."""
     t0 = time.perf_counter()
     space = space or default_space()
     unit_costs = UnitCosts.from_table(space.cost)
-    ev = SceneEvaluator(scene, width, height, level=level, shape=space.shape, unit_costs=unit_costs, threads=threads)
+    if fraction is None:
+        fraction = max(1, min(width, height) // 64)
+    low = (width, height) if fraction == 1 else low_resolution(width, height, fraction)
+    ev = SceneEvaluator(scene, *low, level=level, shape=space.shape, unit_costs=unit_costs, threads=threads)
     problem = Problem(space, ev, objective, budget if objective != "pareto" else None, progress=progress)
     front = []
     if objective == "pareto":
@@ -31,6 +43,25 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
     else:
         res = search(problem, algorithm, polish, max_evals, seed)
         best = res.best
+    history = [dict(r, phase="search", resolution=list(low)) for r in problem.history()]
+    evaluations = res.evaluations
+    if fraction > 1:
+        full = SceneEvaluator(scene, width, height, level=level, shape=space.shape, unit_costs=unit_costs,
+                              threads=threads)
+        if objective == "pareto":
+            fp = Problem(space, full, "time")
+            fp.evaluate_many([e.index for e in front])
+            front = [fp.memo[space.canonical(e.index)] for e in front]
+            best = min(front, key=lambda e: (e.cycles * e.cost, e.serial))
+            history += [dict(r, phase="full", resolution=[width, height]) for r in fp.history()]
+            evaluations += len(fp.memo)
+        else:
+            best, rows, n = _refine(problem, space, full, objective, budget, refine, refine_evals)
+            history += [dict(r, phase="full", resolution=[width, height]) for r in rows]
+            evaluations += n
+        ev = full
+    for i, r in enumerate(history, 1):
+        r["evaluation"] = i
     dims = list(grid_dims(scene, best.point.subdivision, space.shape))
     refs = {}
     for name, make in REFERENCE_DESIGNS.items():
@@ -47,14 +78,15 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
                  "speedup_over_S": refs["S"]["cycles"] / best.cycles if best.cycles else None,
                  "described": best.point.design.describe()},
         "references": refs,
-        "evaluations": res.evaluations,
+        "evaluations": evaluations,
+        "search_resolution": list(low),
         "nlopt_calls": problem.calls,
         "algorithm": {"global": algorithm, "polish": polish, "max_evals": max_evals, "seed": seed},
         "level": level,
         "costs": b.costs,
         "traces": {"made": ev.traces_made, "seconds": ev.trace_seconds},
         "seconds": time.perf_counter() - t0,
-        "history": problem.history(),
+        "history": history,
         "space": {"source": space.source, "variables": {v.name: list(v.values) for v in space.variables},
                   "unit_costs": unit_costs.to_dict()},
     }
@@ -63,6 +95,29 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
                             "design": e.point.design.to_dict(), "cycles": e.cycles, "cost": e.cost} for e in front]
         report["budgets"] = [float(x) for x in sweep]
     return report
+
+
+def _refine(problem, space, full, objective, budget, refine, refine_evals):
+    """The ``refine`` best subdivisions of the low-resolution search, each
+    with its best design there, re-evaluated and polished at full resolution."""
+    subs = []
+    for e in sorted(problem.memo.values(), key=problem.rank):
+        if e.point.subdivision not in [s for s, _ in subs]:
+            subs.append((e.point.subdivision, e.point.design))
+        if len(subs) == refine:
+            break
+    found, rows, n = [], [], 0
+    for sub, design in subs:
+        sp = space.with_subdivision(sub)
+        fp = Problem(sp, full, objective, budget)
+        start = sp.canonical(sp.index_of(Point(sub, design)))
+        fp.evaluate_many([start])
+        compass(fp, start, refine_evals)
+        found.append((fp, fp.best()))
+        rows += fp.history()
+        n += len(fp.memo)
+    fp, best = min(found, key=lambda t: t[0].rank(t[1])[:2])
+    return best, rows, n
 
 
 def plot(report: dict, path) -> None:
@@ -74,17 +129,22 @@ def plot(report: dict, path) -> None:
 
     fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
     h = report["history"]
-    n = [r["evaluation"] for r in h]
-    cyc = np.array([r["cycles"] for r in h])
+    n = np.array([r["evaluation"] for r in h])
+    W, H = report["width"], report["height"]
+    # search-phase cycles scaled to the full resolution (the prepass's prediction)
+    scale = np.array([W * H / (r["resolution"][0] * r["resolution"][1]) for r in h])
+    cyc = np.array([r["cycles"] for r in h]) * scale
     feas = np.array([r["feasible"] for r in h])
+    full = np.array([r["phase"] == "full" for r in h])
     best = np.minimum.accumulate(np.where(feas, cyc, np.inf))
-    ax[0].scatter(np.array(n)[feas], cyc[feas], s=6, c="tab:blue", label="feasible")
-    ax[0].scatter(np.array(n)[~feas], cyc[~feas], s=6, c="tab:gray", marker="x", label="over budget")
+    ax[0].scatter(n[feas & ~full], cyc[feas & ~full], s=6, c="tab:blue", label="search (scaled to full res.)")
+    ax[0].scatter(n[feas & full], cyc[feas & full], s=8, c="tab:green", label="full-resolution polish")
+    ax[0].scatter(n[~feas], cyc[~feas], s=6, c="tab:gray", marker="x", label="over budget")
     ax[0].step(n, best, where="post", c="tab:red", label="best so far")
     ax[0].set(yscale="log", xlabel="evaluation", ylabel="cycles", title="search history")
     ax[0].legend(fontsize=8)
     cost = np.array([r["cost"] for r in h])
-    ax[1].scatter(cost, cyc, s=6, c="tab:blue", alpha=0.5, label="evaluated")
+    ax[1].scatter(cost, cyc, s=6, c="tab:blue", alpha=0.5, label="evaluated (scaled)")
     if "front" in report:
         fr = sorted((f["cost"], f["cycles"]) for f in report["front"])
         ax[1].step([c for c, _ in fr], [y for _, y in fr], where="post", c="tab:red", marker="o", ms=3,
