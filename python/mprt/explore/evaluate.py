@@ -171,24 +171,22 @@ class Level0:
         self._primaries = np.bincount(rpix, minlength=self.npix).astype(np.float64)
         self._agg: dict = {}
         self.visits = len(v)
-        self._checked = False
+        self._allow_linear = linear
         self._linear = None
-        if linear and getattr(self._visit_costs, "model", None) is not None:
-            try:
-                self._linear = _LinearPricing(trace, self._visit_costs.model, self._pix, self.npix, stage, src,
-                                              dst, self._primaries)
-            except (ImportError, AttributeError, KeyError, TypeError):
-                self._linear = None
+        self._linear_ok = None        # unknown until a second processor is priced
 
     def _aggregate(self, s: int, units: dict, design_units: dict):
         """Per pixel: process, receive by source stage, send by destination
         stage (cycles) of stage s's visits on a processor with ``units``.
-        The first call prices the design's processors with the cost model's
-        ``visit_costs``; later ones by linear pricing where it agreed exactly."""
+        The first design is priced with the cost model's ``visit_costs``;
+        from the second on, new processors are priced linearly where that
+        reproduces the first design's figures exactly."""
         key = (s, json.dumps(units, sort_keys=True))
         if key in self._agg:
             return self._agg[key]
-        if self._linear is not None and self._checked:
+        if self._agg and self._linear_ok is None:
+            self._linear_ok = self._build_linear()
+        if self._linear_ok:
             from ..cost import ProcessorConfig
             self._agg[key] = self._linear.aggregate(s, _processor_config(ProcessorConfig, units))
             return self._agg[key]
@@ -208,13 +206,23 @@ class Level0:
                 proc = proc + self._primaries * vc.inject_process
                 send[0] += self._primaries * vc.inject_send
             self._agg[k] = (proc, recv, send)
-            if self._linear is not None and not self._checked:
-                from ..cost import ProcessorConfig
-                lin = self._linear.aggregate(c, _processor_config(ProcessorConfig, design_units[name]))
-                if not all(np.array_equal(x, y) for x, y in zip(lin, self._agg[k])):
-                    self._linear = None          # the cost model counts differently: price every design in full
-        self._checked = True
         return self._agg[key]
+
+    def _build_linear(self) -> bool:
+        model = getattr(self._visit_costs, "model", None)
+        if not self._allow_linear or model is None:
+            return False
+        from ..cost import ProcessorConfig
+        try:
+            self._linear = _LinearPricing(self.trace, model, self._pix, self.npix, self._stage, self._src,
+                                          self._dst, self._primaries)
+        except (ImportError, AttributeError, KeyError, TypeError):
+            return False
+        for (c, units), exact in self._agg.items():
+            lin = self._linear.aggregate(c, _processor_config(ProcessorConfig, json.loads(units)))
+            if not all(np.array_equal(x, y) for x, y in zip(lin, exact)):
+                return False          # the cost model counts differently: price every design in full
+        return True
 
     def processor_work(self, design: Design) -> dict:
         """Per processor (name), cycles of work per pixel (all copies together)."""
