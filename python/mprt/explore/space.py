@@ -197,7 +197,7 @@ fifo = { choices = [16, 64, 256] }       # words per send and per receive FIFO
 pes = { min = 1, max = 4 }
 
 [subdivision]
-n = { min = 4, max = 128, step = 4 }    # voxels along the longest axis
+n = { choices = [4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256] }   # voxels along the longest axis
 shape = "proportional"                   # other axes in proportion to the scene's box
 
 [replication]
