@@ -223,3 +223,25 @@ def test_linear_pricing_equals_visit_costs(level0s):
             got = fast.run(d)
             assert got.to_dict() == slow.to_dict(), (name, d.describe())
         assert fast._linear_ok              # the linear pricing reproduced the first design exactly
+
+
+def test_machine_config_of_a_design():
+    """The machine-model configuration a design becomes at each level."""
+    from mprt.cost import packet_flits
+    from mprt.explore.machine_adapter import machine_config
+    d = Design.from_dict({"mapping": "OS+SC|IC", "replication": {"OS": 2, "IC": 3, "SC": 1}, "fifo": 256,
+                          "units": {"OS": {"int": 3, "fp": 1}, "IC": {"int": 1, "fp": 4}, "SC": {"general": 1}},
+                          "cache": {"IC": 16, "SC": 0}, "resident": {"IC": 0, "SC": 4}, "pes": 2})
+    c1 = machine_config(d, 1)
+    assert [s["subtasks"] for s in c1["stage"]] == [["OS", "SC"], ["IC"]]
+    assert [s["replicas"] for s in c1["stage"]] == [2, 3]
+    assert c1["stage"][0]["processor"] == {"units": {"int": 3, "fp": 1}}       # OS+SC takes OS's units
+    assert "ring" not in c1 and "send_fifo" not in c1["stage"][0] and c1["pes"] == 2
+    c2 = machine_config(d, 2)
+    biggest = max(packet_flits(0, 1, k) for k in range(4))
+    assert "ring" in c2 and 1 <= c2["stage"][1]["receive_fifo"] <= 256 // biggest
+    c3 = machine_config(d, 3)
+    assert c3["ic_memory"] == {"resident": 0, "cache": {"size": 16384, "line": 32, "ways": 4}}
+    assert c3["sc_memory"] == {"resident": 4096} and "icgm" in c3 and "scgm" in c3
+    s = machine_config(model_s(), 3)
+    assert len(s["stage"]) == 1 and "ring" not in s and "send_fifo" not in s["stage"][0]

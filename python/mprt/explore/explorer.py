@@ -70,6 +70,7 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
     b = best.result
     report = {
         "scene": scene.name,
+        "settings": settings(scene, width, height, threads),
         "width": width, "height": height,
         "objective": objective, "budget": budget,
         "best": {"subdivision": dims, "design": best.point.design.to_dict(), "cycles": best.cycles,
@@ -95,6 +96,13 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
                             "design": e.point.design.to_dict(), "cycles": e.cycles, "cost": e.cost} for e in front]
         report["budgets"] = [float(x) for x in sweep]
     return report
+
+
+def settings(scene, width, height, threads) -> dict:
+    """What made a report: the scene and its content hash, the image, the version."""
+    import mprt
+    return {"scene": scene.name, "scene_sha256": scene.content_hash(), "resolution": [width, height],
+            "rules": "paper", "threads": threads, "mprt_version": mprt.__version__}
 
 
 def _refine(problem, space, full, objective, budget, refine, refine_evals):

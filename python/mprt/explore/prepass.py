@@ -89,7 +89,9 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         _golden(f, a, b)
     cands = sorted(f.seen.items(), key=lambda kv: kv[0])
     best = min(cands, key=lambda kv: (kv[1], kv[0]))
+    from .explorer import settings
     return {"subdivision": list(best[0]), "predicted_cycles": best[1] * scale,
+            "settings": settings(scene, width, height, threads),
             "candidates": [{"subdivision": list(d), "predicted_cycles": c * scale} for d, c in cands],
             "low_resolution": [w, h], "full_resolution": [width, height], "design": f.design.to_dict(),
             "level": level, "seconds": time.perf_counter() - t0}
