@@ -3,10 +3,12 @@
 The paper proposes tracing at a fraction of the resolution for a few
 subdivisions and keeping the best.  Here the candidates are searched: the
 subdivision n (voxels along the scene box's longest axis, the other axes in
-proportion, or n per axis with ``shape="cube"``) is tried on a geometric
-ladder over the range, then the bracket around the best rung is narrowed by
-golden-section steps on the integers (the time is close to unimodal in n:
-fewer tests as voxels shrink, more steps and set-up).  Each candidate's
+proportion, or n per axis with ``shape="cube"``) is tried up a geometric
+ladder over the range until the time has risen on two rungs past the best
+(large grids cost the most to build), then the bracket around the best rung
+is narrowed by golden-section steps until its ends are within ``ratio`` (the
+time is close to unimodal in n, fewer tests as voxels shrink, more steps and
+set-up, and flat near its minimum).  Each candidate's
 full-resolution time is predicted as its low-resolution cycles times the
 ratio of pixel counts; the design replayed is the paper's 3MPPE unless given.
 """
@@ -65,8 +67,8 @@ def default_range(scene, density=(1.0, 24.0), limit: int = 512) -> tuple[int, in
 
 
 def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 8,
-            design: Design | None = None, shape: str = "proportional", rungs: int = 6, level: int = 0,
-            unit_costs: UnitCosts | None = None, threads: int = 1) -> dict:
+            design: Design | None = None, shape: str = "proportional", rungs: int = 7, level: int = 0,
+            unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15) -> dict:
     """Predict the full-resolution cycles of candidate subdivisions from traces
     at width/fraction x height/fraction, and return the best.  ``candidates``:
     explicit subdivisions (n or (nx, ny, nz)), all evaluated; otherwise n is
@@ -83,10 +85,15 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         if not 1 <= lo <= hi:
             raise ValueError(f"prepass: subdivision range {lo}..{hi} is empty")
         ladder = sorted({int(round(x)) for x in np.geomspace(lo, hi, min(rungs, hi - lo + 1))})
-        vals = [f(n) for n in ladder]
-        i = int(np.argmin(vals))
+        # up the ladder until the time has risen on two rungs past the best (the large grids cost most)
+        vals = []
+        for n in ladder:
+            vals.append(f(n))
+            i = int(np.argmin(vals))
+            if len(vals) - 1 - i >= 2:
+                break
         a, b = ladder[max(i - 1, 0)], ladder[min(i + 1, len(ladder) - 1)]
-        _golden(f, a, b)
+        _golden(f, a, b, ratio)
     cands = sorted(f.seen.items(), key=lambda kv: kv[0])
     best = min(cands, key=lambda kv: (kv[1], kv[0]))
     from .explorer import settings
@@ -97,10 +104,12 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
             "level": level, "seconds": time.perf_counter() - t0}
 
 
-def _golden(f, a: int, b: int) -> None:
-    """Narrow [a, b] around the minimum of f over the integers (golden section)."""
+def _golden(f, a: int, b: int, ratio: float) -> None:
+    """Narrow [a, b] around the minimum of f over the integers (golden
+    section) until b / a is at most ``ratio``: near its minimum the time is
+    flat in n, so a few percent in n changes it little."""
     g = (math.sqrt(5) - 1) / 2
-    while b - a > 2:
+    while b - a > 2 and b > a * ratio:
         c = int(round(b - g * (b - a)))
         d = int(round(a + g * (b - a)))
         if c == d:
@@ -109,5 +118,3 @@ def _golden(f, a: int, b: int) -> None:
             b = d
         else:
             a = c
-    for n in range(a, b + 1):
-        f(n)
