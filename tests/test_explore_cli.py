@@ -65,9 +65,15 @@ def test_explore_pareto_front(tmp_path):
     (["prepass", "balls:1", "--json", "no/such/dir/x.json"], "does not exist"),
 ])
 def test_errors_before_work(argv, message, capsys):
-    from mprt.explore.space import SpaceError
-    with pytest.raises((SpaceError, OSError), match=message):
+    with pytest.raises((mprt.MprtError, OSError), match=message):
         run(*argv)
+
+
+def test_level_without_machine_model_fails_before_work(monkeypatch):
+    import sys
+    monkeypatch.setitem(sys.modules, "mprt.machine", None)       # as in a build without mprt.machine
+    with pytest.raises(mprt.MprtError, match="level 2 needs the machine model"):
+        run("explore", "balls:1", "--level", "2")
 
 
 @pytest.mark.parametrize("argv", [["explore", "balls", "--res", "0x64"], ["explore", "balls", "--budget", "-3"],

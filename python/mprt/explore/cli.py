@@ -160,8 +160,11 @@ def run_explore(a) -> int:
     from .explorer import explore, plot
     from .space import default_space, load_space
 
+    from .machine_adapter import check_level
+
     check_output(a.json)
     check_output(a.plot)
+    check_level(a.level)
     space = load_space(a.space) if a.space else default_space()
     scene = Scene.load(a.scene)
     w, h = a.res

@@ -16,6 +16,7 @@ the search could prefer.
 """
 from __future__ import annotations
 
+from .. import MprtError
 from .evaluate import Result
 from .hwcost import cost_breakdown
 from .space import processor_name, processors
@@ -25,7 +26,7 @@ GLOBAL_MEMORY = {"latency": 20, "bandwidth": 8, "contention": True}
 CACHE_LINE, CACHE_WAYS = 32, 4
 
 
-class LevelUnavailable(RuntimeError):
+class LevelUnavailable(MprtError, RuntimeError):
     """The fidelity level asked for needs a part of mprt that is not installed."""
 
 
@@ -66,7 +67,13 @@ def _flow(src, dst, kind) -> bool:
         return False
 
 
-def simulate(trace, design, level, unit_costs):
+def check_level(level: int) -> None:
+    """Fail early (before any tracing) if the level cannot be evaluated here."""
+    if level:
+        simulate(None, None, level, None, check_only=True)
+
+
+def simulate(trace, design, level, unit_costs, check_only=False):
     try:
         from ..machine import simulate as machine_simulate
         from ..machine.config import config_from_dict
@@ -74,6 +81,8 @@ def simulate(trace, design, level, unit_costs):
     except ImportError:
         raise LevelUnavailable(f"level {level} needs the machine model (mprt.machine), which this build lacks; "
                                "use level 0") from None
+    if check_only:
+        return None
     cfg = config_from_dict(machine_config(design, level), source=f"design at level {level}")
     cost = float(sum(cost_breakdown(design, unit_costs).values()))
     names = [processor_name(g) for g in processors(design.mapping)]

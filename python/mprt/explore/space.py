@@ -20,6 +20,8 @@ import json
 import tomllib
 from dataclasses import dataclass, field
 
+from .. import MprtError
+
 STAGE_NAMES = ("OS", "IC", "SC")
 # The stage mappings: '|' separates processors, '+' joins subtasks on one processor.
 MAPPINGS = ("OS|IC|SC", "OS+SC|IC", "OS|IC+SC", "OS+IC+SC")
@@ -29,7 +31,7 @@ SHAPES = ("cube", "proportional")
 MAX_VALUES = 4096          # values of one variable (a range longer than this is refused)
 
 
-class SpaceError(ValueError):
+class SpaceError(MprtError, ValueError):
     """A design-space file or value is invalid; the message names the file and field."""
 
 
