@@ -84,7 +84,7 @@ def main(res=512, *fractions):
             return truth[dims]
 
         lo, hi = default_range(scene)
-        ladder = sorted({grid_dims(scene, (int(round(n)),), "proportional") for n in np.geomspace(lo, hi, 10)})
+        ladder = sorted({grid_dims(scene, (int(round(n)),), "proportional") for n in np.geomspace(lo, hi, 11)})
         for d in ladder:
             full(d)
         pres = {}

@@ -124,7 +124,7 @@ def add_parsers(sub) -> None:
     p.add_argument("--candidates", type=_candidates, default=None,
                    help="subdivisions to try, e.g. 20,50,100 or 20,50,100/8x8x2 (default: searched)")
     p.add_argument("--range", type=_range, default=None, dest="n_range",
-                   help="voxels along the longest axis to search, LO:HI (default: 1 to 24 times the cube root "
+                   help="voxels along the longest axis to search, LO:HI (default: 1 to 32 times the cube root "
                         "of the primitive count)")
     p.add_argument("--shape", choices=("proportional", "cube"), default="proportional",
                    help="one n as n along the longest axis, others in proportion (default), or n per axis")
