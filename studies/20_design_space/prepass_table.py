@@ -83,8 +83,8 @@ def main(res=512, *fractions):
                 cost[dims] = tuple(hit[1:])
             return truth[dims]
 
-        lo, hi = default_range(scene)
-        ladder = sorted({grid_dims(scene, (int(round(n)),), "proportional") for n in np.geomspace(lo, hi, 11)})
+        lo, hi = default_range(scene, density=(1.0, 24.0), limit=512)
+        ladder = sorted({grid_dims(scene, (int(round(n)),), "proportional") for n in np.geomspace(lo, hi, 10)})
         for d in ladder:
             full(d)
         pres = {}
