@@ -130,7 +130,9 @@ class Design:
         text = "; ".join(parts)
         if any(self.processor_copies(g) > 1 for g in self.processors()):
             text += f", fed {self.feed}"
-        text += (f"; FIFOs {self.fifo} words; IC cache {self.cache['IC']} KiB + resident {self.resident['IC']} KiB,"
+        if len(self.processors()) > 1:
+            text += f"; FIFOs {self.fifo} words"
+        text += (f"; IC cache {self.cache['IC']} KiB + resident {self.resident['IC']} KiB,"
                  f" SC cache {self.cache['SC']} KiB + resident {self.resident['SC']} KiB; {self.pes} PE(s)")
         return text
 
@@ -277,7 +279,8 @@ class Space:
         """The index vector with every variable that cannot change the machine
         set to its first value: units and replication of a subtask that shares
         its processor with an earlier one, and the feed when nothing is
-        replicated.  Two vectors with the same canonical form are one design."""
+        replicated, the FIFOs when one processor runs everything.  Two vectors
+        with the same canonical form are one design."""
         idx = list(int(i) for i in idx)
         mapping = self.value(idx, "mapping")
         live_stage = {g[0] for g in processors(mapping)}
@@ -287,6 +290,8 @@ class Space:
                 idx[i] = 0
         if all(self.value(idx, f"replication.{s}") == 1 for s in live_stage):
             idx[self._pos["replication.feed"]] = 0
+        if len(live_stage) == 1:          # one processor: no packets, so no FIFOs
+            idx[self._pos["fifo"]] = 0
         return tuple(idx)
 
     def index_of(self, point: Point) -> tuple:
