@@ -128,7 +128,7 @@ def add_parsers(sub) -> None:
                         "of the primitive count)")
     p.add_argument("--shape", choices=("proportional", "cube"), default="proportional",
                    help="one n as n along the longest axis, others in proportion (default), or n per axis")
-    p.add_argument("--fraction", type=_positive(int), default=8, help="trace at 1/FRACTION of --res (default 8)")
+    p.add_argument("--fraction", type=_positive(int), default=16, help="trace at 1/FRACTION of --res (default 16)")
     p.set_defaults(func=run_prepass)
 
     w = sub.add_parser("sweep", help="scenes x subdivisions x designs on Dask, to a CSV and plots")

@@ -68,7 +68,7 @@ def default_range(scene, density=(1.0, 32.0), limit: int = 768) -> tuple[int, in
     return (int(min(max(round(density[0] * c), 2), limit)), int(min(max(round(density[1] * c), 2), limit)))
 
 
-def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 8,
+def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 16,
             design: Design | None = None, shape: str = "proportional", rungs: int = 7, level: int = 0,
             unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15) -> dict:
     """Predict the full-resolution cycles of candidate subdivisions from traces
