@@ -107,7 +107,8 @@ def add_parsers(sub) -> None:
     e.add_argument("--level", type=int, choices=(0, 1, 2, 3), default=0, help="fidelity level (default 0)")
     e.add_argument("--algorithm", choices=[a for a in GLOBAL_ALGORITHMS if a != "none"], default="direct-l")
     e.add_argument("--polish", choices=POLISHES, default="lattice")
-    e.add_argument("--max-evals", type=_positive(int), default=300, help="distinct designs in the global phase")
+    e.add_argument("--max-evals", type=_positive(int), default=1000,
+                   help="most distinct designs in the global phase (default 1000)")
     e.add_argument("--seed", type=int, default=1)
     e.add_argument("--fraction", type=_positive(int), default=None,
                    help="search on traces at 1/FRACTION of --res, then polish the best at --res "

@@ -14,7 +14,7 @@ from .space import REFERENCE_DESIGNS, Point, Space, default_space
 
 def explore(scene, width: int = 64, height: int = 64, space: Space | None = None, objective: str = "time",
             budget: float | None = None, level: int = 0, algorithm: str = "direct-l", polish: str = "lattice",
-            max_evals: int = 300, seed: int = 1, budgets: int = 6, progress=None, threads: int = 1,
+            max_evals: int = 1000, seed: int = 1, budgets: int = 6, progress=None, threads: int = 1,
             fraction: int | None = None, refine: int = 2, refine_evals: int = 60) -> dict:
     """Search ``space`` for ``scene`` at width x height; returns the report
     as a dict (the JSON of ``mprt explore``).

@@ -185,7 +185,7 @@ def _nlopt_run(problem: Problem, algorithm: str, x0, max_evals: int, seed: int, 
 
     opt.set_min_objective(f)
     problem.opt = opt
-    opt.set_maxeval(max(50 * max_evals, 1000))      # calls; most land in memoised cells
+    opt.set_maxeval(max(200 * max_evals, 1000))     # calls; most land in memoised cells
     if step is not None:
         opt.set_initial_step([step] * n)
     if algorithm in ("GN_CRS2_LM", "GN_ISRES", "GN_ESCH"):
@@ -293,7 +293,7 @@ def _polish_starts(problem: Problem) -> list[tuple]:
     return list(starts.values())
 
 
-def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice", max_evals: int = 300,
+def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice", max_evals: int = 1000,
            seed: int = 1, polish_evals: int | None = None) -> SearchResult:
     """Global search then polish; ``max_evals`` distinct designs for the global phase."""
     if algorithm not in GLOBAL_ALGORITHMS:
@@ -313,10 +313,12 @@ def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice
     n1 = len(problem.memo)
     best = problem.best()
     if polish_evals is None:
-        polish_evals = max(max_evals // 2, 4 * len(problem.free))
+        polish_evals = max(max_evals, 32 * len(problem.free))        # as many again, at least 32 a variable
     if polish == "lattice":
-        for idx in _polish_starts(problem):
-            compass(problem, idx, polish_evals - (len(problem.memo) - n1))
+        starts = _polish_starts(problem)
+        for idx in starts:                # each start its share, then the best found gets what is left
+            compass(problem, idx, polish_evals // (len(starts) + 1))
+        compass(problem, problem.best().index, polish_evals - (len(problem.memo) - n1))
     elif polish != "none":
         name = {"sbplx": "LN_SBPLX", "neldermead": "LN_NELDERMEAD", "bobyqa": "LN_BOBYQA", "cobyla": "LN_COBYLA"}
         _nlopt_run(problem, name[polish], problem.index_to_x(best.index), polish_evals, seed, step=1.0)
