@@ -24,6 +24,7 @@ from tqdm import tqdm
 from . import options
 from .errors import MprtError
 from .grid import render_desc, write_png
+from .explore.cli import add_parsers as add_explore
 from .machine.cli import add_parser as add_simulate
 from .options import UsageError
 from .scene import SPD_SCENES
@@ -345,6 +346,7 @@ def build_parser() -> argparse.ArgumentParser:
                     help="print the statistics as JSON, with the trace's settings and the wall time")
     st.set_defaults(func=cmd_stats)
     add_simulate(sub)
+    add_explore(sub)
     return p
 
 

@@ -2,9 +2,11 @@
 paper's 3MPPE and models S and M; whether SC should keep its own processor;
 how the best subdivision moves with the machine.
 
-    .venv/bin/python studies/20_design_space/run.py [RES]     (default 128)
-Writes studies/out/design_space_RES.{csv,md} and prints the Markdown.
+    .venv/bin/python studies/20_design_space/run.py [--res RES] [--out DIR] [--quick]
+Writes DIR/design_space.{csv,md} (default studies/out) and prints the Markdown.  --quick: tetra
+at SPD size 1, 32x32, one budget (the committed ref/; the full run's results are in ref/full/).
 """
+import argparse
 import csv
 import sys
 import time
@@ -26,22 +28,35 @@ def mapping_space(mapping: str):
     return parse_space(text, f"<default space, mapping {mapping}>")
 
 
-def main(res=128):
-    OUT.mkdir(parents=True, exist_ok=True)
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--res", type=int, default=128)
+    ap.add_argument("--out", type=Path, default=OUT)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--quick", action="store_true")
+    a = ap.parse_args(argv)
+    scenes = [("tetra", 1)] if a.quick else [(n, None) for n in mprt.SPD_SCENES]
+    budgets = BUDGETS[1:2] if a.quick else BUDGETS
+    run(32 if a.quick else a.res, a.out, scenes, budgets, a.threads)
+    return 0
+
+
+def run(res, out, scenes, budgets, threads):
+    out.mkdir(parents=True, exist_ok=True)
     rows, md = [], []
     md.append(f"Level 0, {res}x{res} (search at {res // 2}x{res // 2}), built-in space, default unit costs.\n")
     md.append("| scene | budget kGE | best design | subdivision | cycles | cost | x 3MPPE | x M | x S |")
     md.append("|---|---|---|---|---|---|---|---|---|")
     sc_rows, sub_rows = [], []
-    for name in mprt.SPD_SCENES:
-        scene = mprt.Scene.spd(name)
-        for b in BUDGETS:
+    for name, size in scenes:
+        scene = mprt.Scene.spd(name, size)
+        for b in budgets:
             t0 = time.perf_counter()
-            r = explore(scene, res, res, objective="time", budget=b, fraction=2, threads=2)
+            r = explore(scene, res, res, objective="time", budget=b, fraction=2, threads=threads)
             best, refs = r["best"], r["references"]
             row = {"scene": name, "budget": b, "mapping": best["design"]["mapping"], "pes": best["design"]["pes"],
                    "subdivision": "x".join(map(str, best["subdivision"])), "cycles": best["cycles"],
-                   "cost": best["cost"], "evaluations": r["evaluations"], "seconds": time.perf_counter() - t0,
+                   "cost": best["cost"], "evaluations": r["evaluations"],
                    "described": best["described"], "design": best["design"]}
             for k in ("3mppe", "M", "S"):
                 row[f"{k}_cycles"] = refs[k]["cycles"]
@@ -49,19 +64,19 @@ def main(res=128):
             md.append(f"| {name} | {b:.0f} | {best['described']} | {row['subdivision']} | {best['cycles']:.3g} "
                       f"| {best['cost']:.0f} | {refs['3mppe']['cycles'] / best['cycles']:.2f} "
                       f"| {refs['M']['cycles'] / best['cycles']:.2f} | {refs['S']['cycles'] / best['cycles']:.2f} |")
-            print(row, file=sys.stderr, flush=True)
+            print(row, f"{time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
         # SC on its own processor or shared, at the middle budget
         per = {}
         for mapping in ("OS|IC|SC", "OS+SC|IC", "OS|IC+SC", "OS+IC+SC"):
             r = explore(scene, res, res, space=mapping_space(mapping), objective="time", budget=BUDGETS[1],
-                        fraction=2, threads=2)
+                        fraction=2, threads=threads)
             per[mapping] = r["best"]["cycles"]
         sc_rows.append((name, per))
         # the best subdivision per machine (prepass at this resolution)
         subs = {}
         for label, d in (("S", model_s()), ("M", model_m()), ("3MPPE", paper_3mppe()),
                          ("best@800", _design(rows, name, BUDGETS[1]))):
-            subs[label] = "x".join(map(str, prepass(scene, res, res, design=d, fraction=2, threads=2)["subdivision"]))
+            subs[label] = "x".join(map(str, prepass(scene, res, res, design=d, fraction=2, threads=threads)["subdivision"]))
         sub_rows.append((name, subs))
     md.append(f"\nSC's processor, best design per stage mapping at {BUDGETS[1]:.0f} kGE (cycles; "
               "lower is better):\n")
@@ -75,12 +90,12 @@ def main(res=128):
     md.append("|---|---|---|---|---|")
     for name, subs in sub_rows:
         md.append(f"| {name} | " + " | ".join(subs.values()) + " |")
-    with open(OUT / f"design_space_{res}.csv", "w", newline="") as f:
+    with open(out / "design_space.csv", "w", newline="") as f:
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
     text = "\n".join(md) + "\n"
-    (OUT / f"design_space_{res}.md").write_text(text)
+    (out / "design_space.md").write_text(text)
     print(text)
 
 
@@ -90,4 +105,4 @@ def _design(rows, name, budget):
 
 
 if __name__ == "__main__":
-    main(*(int(a) for a in sys.argv[1:]))
+    sys.exit(main())

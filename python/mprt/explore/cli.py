@@ -15,15 +15,7 @@ import os
 import sys
 import time
 
-
-def _res(text: str):
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"resolution must be WxH, not {text!r}") from None
-    if not (1 <= w <= 65536 and 1 <= h <= 65536):
-        raise argparse.ArgumentTypeError(f"resolution {text!r}: width and height must be in 1..65536")
-    return w, h
+from .. import options as opt
 
 
 def _positive(kind):
@@ -85,10 +77,10 @@ def check_output(path) -> None:
 
 def _common(p, res_default: str):
     p.add_argument("scene", help="NFF path, or SPD name with optional size (balls, balls:2)")
-    p.add_argument("--res", type=_res, default=_res(res_default), help=f"WxH (default {res_default})")
+    p.add_argument("--res", type=opt.resolution_arg, default=opt.resolution_arg(res_default), metavar="WxH", help=f"WxH (default {res_default})")
     p.add_argument("--json", metavar="OUT.json", help="write the report as JSON")
-    p.add_argument("--threads", type=_positive(int), default=os.cpu_count() or 1,
-                   help="tracing threads (default: the machine's cores)")
+    p.add_argument("--threads", type=opt.threads_arg, default=opt.default_threads(),
+                   help=f"tracing threads, 1..{opt.THREADS_MAX} (default: {opt.default_threads()}, the machine's cores)")
 
 
 def add_parsers(sub) -> None:
@@ -157,17 +149,15 @@ def _progress_printer(every: int = 25):
 
 
 def run_explore(a) -> int:
-    from .. import Scene
     from .explorer import explore, plot
     from .space import default_space, load_space
 
     from .machine_adapter import check_level
 
-    check_output(a.json)
-    check_output(a.plot)
+    opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"))
     check_level(a.level)
     space = load_space(a.space) if a.space else default_space()
-    scene = Scene.load(a.scene)
+    scene = opt.load_scene(a.scene)[0]
     w, h = a.res
     kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget, level=a.level,
               algorithm=a.algorithm, polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads,
@@ -193,9 +183,8 @@ def run_explore(a) -> int:
 
 def explore_spec(scene_spec, kw):
     """Runs on a Dask worker: load the scene there and explore."""
-    from .. import Scene
     from .explorer import explore
-    return explore(Scene.load(scene_spec), **kw)
+    return explore(opt.load_scene(scene_spec)[0], **kw)
 
 
 def print_report(rep: dict) -> None:
@@ -221,11 +210,10 @@ def print_report(rep: dict) -> None:
 
 
 def run_prepass(a) -> int:
-    from .. import Scene
     from .prepass import prepass
 
-    check_output(a.json)
-    scene = Scene.load(a.scene)
+    opt.check_outputs(("--json", a.json, "json"))
+    scene = opt.load_scene(a.scene)[0]
     w, h = a.res
     r = prepass(scene, w, h, candidates=a.candidates, n_range=a.n_range, fraction=a.fraction, shape=a.shape,
                 threads=a.threads)

@@ -100,9 +100,9 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
 
 def settings(scene, width, height, threads) -> dict:
     """What made a report: the scene and its content hash, the image, the version."""
-    import mprt
+    from ..options import version
     return {"scene": scene.name, "scene_sha256": scene.content_hash(), "resolution": [width, height],
-            "rules": "paper", "threads": threads, "mprt_version": mprt.__version__}
+            "rules": "paper", "threads": threads, "mprt_version": version()}
 
 
 def _refine(problem, space, full, objective, budget, refine, refine_evals):

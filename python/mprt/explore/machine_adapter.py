@@ -16,7 +16,7 @@ the search could prefer.
 """
 from __future__ import annotations
 
-from .. import MprtError
+from ..errors import MprtError
 from .evaluate import Result
 from .hwcost import cost_breakdown
 from .space import processor_name, processors

@@ -20,7 +20,7 @@ import json
 import tomllib
 from dataclasses import dataclass, field
 
-from .. import MprtError
+from ..errors import MprtError
 
 STAGE_NAMES = ("OS", "IC", "SC")
 # The stage mappings: '|' separates processors, '+' joins subtasks on one processor.

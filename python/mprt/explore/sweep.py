@@ -94,7 +94,7 @@ _TRACES: dict = {}
 def _batch_task(scene_spec, dims, width, height, rules, level, designs):
     """One task: trace the scene at this grid (kept per worker process for
     the next batch) and evaluate the designs; returns rows of plain values."""
-    from .. import Scene
+    from ..scene import Scene
     from .evaluate import Level0, evaluate
 
     key = (scene_spec, tuple(dims), width, height, rules)
@@ -112,7 +112,7 @@ def _batch_task(scene_spec, dims, width, height, rules, level, designs):
 
 
 def run_sweep(spec: dict, out_dir, scheduler=None, workers=None, progress=None) -> dict:
-    from .. import Scene
+    from ..scene import Scene
     from .evaluate import grid_dims
 
     t0 = time.perf_counter()
