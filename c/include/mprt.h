@@ -224,6 +224,11 @@ typedef struct {
     long long os_visits;         /* OS stage visits */
     long long ic_visits;         /* IC stage visits */
     long long sc_visits;         /* SC stage visits */
+    long long tir;               /* SC visits on a transmitting surface where total
+                                  * internal reflection left no refraction ray, counted
+                                  * where the depth limit allowed a child (SPD's "refract
+                                  * rays" column is refract_rays + tir); not in the
+                                  * trace records */
 } mprt_counters;
 
 typedef struct {

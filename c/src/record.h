@@ -2,7 +2,7 @@
  * (internal).  mprt__emit_visit and mprt__emit_ray feed both the counters
  * of a render and, when tracing, the trace records, so the two cannot
  * disagree: every counter of mprt_counters is a sum over the emitted visits
- * and rays. */
+ * and rays, and all but tir can be rebuilt from the trace records. */
 #ifndef MPRT_RECORD_H
 #define MPRT_RECORD_H
 
@@ -26,6 +26,8 @@ typedef struct {
     int32_t prim;           /* IC/SC: primitive hit, or -1 */
     int made;               /* SC: rays made */
     int suppressed;         /* SC: rays not made (threshold or depth) */
+    int tir;                /* SC: 1 when total internal reflection left no refraction
+                             * ray (counted in mprt_counters.tir; not in trace records) */
 } mprt__visit;
 
 /* Fill a visit with its identity and no counts. */
@@ -43,6 +45,7 @@ static inline void mprt__visit_init(mprt__visit *v, int64_t ray, int ray_kind, i
     v->prim = -1;
     v->made = 0;
     v->suppressed = 0;
+    v->tir = 0;
 }
 
 /* The trace records of one tile (mprt_grid_trace_tile's buffers). */
@@ -84,6 +87,7 @@ static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
     default: /* MPRT_STAGE_SC */
         counters->sc_visits++;
         counters->suppressed_rays += v->suppressed;
+        counters->tir += v->tir;
         break;
     }
     /* A hit ends the ray's search: IC accepts it (a shadow ray is blocked),

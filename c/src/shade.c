@@ -3,7 +3,10 @@
  * light to the sample and makes the ray's children: a shadow ray toward each
  * light (carrying the light it would add), a reflection ray and a refraction
  * ray.  Paper rules drop a child whose contribution falls under the
- * threshold; both rules drop children beyond the depth limit. */
+ * threshold; both rules drop children beyond the depth limit.  The two rule
+ * sets differ in which surfaces reflect (see the secondary rays below) and
+ * in the shadow rays (spd: none toward a light behind the surface, Phong
+ * highlights; paper: one per light, cut by the threshold). */
 #include "render.h"
 
 #include <string.h>
@@ -74,7 +77,8 @@ void mprt__sc_shade(const mprt__render_setup *setup, const mprt__tree_ray *ray, 
     const mprt__material *m = &s->materials[s->prims[hit.prim].material];
     vec3 p = vmadd(ray->origin, ray->dir, hit.t);
     vec3 n = shading_normal(s, hit.prim, p, sink);
-    int entering = 1, l, i, spd = desc->rules == MPRT_RULES_SPD;
+    int entering = 1, tir = 0, l, i, spd = desc->rules == MPRT_RULES_SPD;
+    vec3 refract = v3(0, 0, 0);
     double cosi;
     children ch;
     mprt__visit sc;
@@ -127,34 +131,39 @@ void mprt__sc_shade(const mprt__render_setup *setup, const mprt__tree_ray *ray, 
         kid = make_child(&ch, MPRT_RAY_SHADOW, to, dist, ray->contribution, ray->depth, l);
         memcpy(kid->light_rgb, carried, sizeof carried);
     }
-    /* Reflection */
-    if (m->ks > 0) {
-        if (keep_child(desc, ray->contribution * m->ks, ray->depth + 1))
-            make_child(&ch, MPRT_RAY_REFLECT, reflect_dir(ray->dir, n), INF_REAL, ray->contribution * m->ks,
-                       ray->depth + 1, -1);
+    /* Secondary rays.  Refraction follows Snell's law; at total internal
+     * reflection (TIR) there is no refraction ray and the transmitted share
+     * goes to the reflection ray instead, so one reflection ray carries
+     * Ks + T (never two rays along the same direction).  Paper rules make a
+     * reflection ray when Ks > 0 or at TIR.  SPD rules (its Readme, rules 8
+     * and 9) make one on every reflective or transmitting surface: on a
+     * transmitting surface with Ks = 0 it carries no weight (contribution
+     * 0), so it changes the ray counts but not the image. */
+    if (m->t > 0) {
+        double eta = entering ? 1 / m->ior : m->ior;
+        double k = 1 - eta * eta * (1 - cosi * cosi);
+        tir = k < 0;
+        if (!tir) refract = vnorm(vadd(vscale(ray->dir, (real)eta), vscale(n, (real)(eta * cosi - sqrt(k)))));
+    }
+    if (m->ks > 0 || tir || (spd && m->t > 0)) {
+        double w = ray->contribution * (m->ks + (tir ? m->t : 0));
+        if (keep_child(desc, w, ray->depth + 1))
+            make_child(&ch, MPRT_RAY_REFLECT, reflect_dir(ray->dir, n), INF_REAL, w, ray->depth + 1, -1);
         else
             ch.suppressed++;
     }
-    /* Refraction (Snell); total internal reflection makes a reflection ray */
-    if (m->t > 0) {
-        if (keep_child(desc, ray->contribution * m->t, ray->depth + 1)) {
-            double eta = entering ? 1 / m->ior : m->ior;
-            double k = 1 - eta * eta * (1 - cosi * cosi);
-            if (k < 0)
-                make_child(&ch, MPRT_RAY_REFLECT, reflect_dir(ray->dir, n), INF_REAL, ray->contribution * m->t,
-                           ray->depth + 1, -1);
-            else
-                make_child(&ch, MPRT_RAY_REFRACT,
-                           vnorm(vadd(vscale(ray->dir, (real)eta), vscale(n, (real)(eta * cosi - sqrt(k))))),
-                           INF_REAL, ray->contribution * m->t, ray->depth + 1, -1);
-        } else {
+    if (m->t > 0 && !tir) {
+        double w = ray->contribution * m->t;
+        if (keep_child(desc, w, ray->depth + 1))
+            make_child(&ch, MPRT_RAY_REFRACT, refract, INF_REAL, w, ray->depth + 1, -1);
+        else
             ch.suppressed++;
-        }
     }
     mprt__visit_init(&sc, ray->id, ray->kind, MPRT_STAGE_SC, MPRT_OUT_SHADED);
     sc.prim = hit.prim;
     sc.made = ch.made;
     sc.suppressed = ch.suppressed;
+    sc.tir = tir && ray->depth + 1 <= desc->max_depth;
     mprt__emit_visit(sink, &sc);
     /* Push in reverse so the children are traced in the order made */
     for (i = 0; i < ch.made / 2; i++) {
