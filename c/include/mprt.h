@@ -54,7 +54,8 @@ typedef enum {
     MPRT_ERR_STATE = -3,         /* the call is not allowed in the handle's state */
     MPRT_ERR_CAPACITY = -4,      /* a caller buffer is too small; the needed size is reported */
     MPRT_ERR_PARSE = -5,         /* malformed scene text; message names file and line */
-    MPRT_ERR_IO = -6             /* a file could not be opened, read or written */
+    MPRT_ERR_IO = -6,            /* a file could not be opened, read or written */
+    MPRT_ERR_LIMIT = -7          /* a work limit was reached (the ray budget of a sample) */
 } mprt_status;
 
 /* Primitive kinds, in the order the counters use. */
@@ -113,7 +114,11 @@ int mprt_scene_set_view(mprt_scene *scene, const double from[3], const double at
 int mprt_scene_set_background(mprt_scene *scene, const double rgb[3]);
 /* Add a point light; rgb may be NULL (NFF default intensity). */
 int mprt_scene_add_light(mprt_scene *scene, const double pos[3], const double *rgb);
-/* Set the material used by primitives added after this call (NFF "f"). */
+/* Set the material used by primitives added after this call (NFF "f"):
+ * colour, diffuse Kd, specular Ks, Phong exponent shine, transmittance t and
+ * index of refraction ior.  Kd, Ks and t must each be in [0, 1] and Ks + t
+ * at most 1 (a hit's reflection and refraction rays never carry more than
+ * their parent), shine >= 0, ior > 0 when t > 0; else MPRT_ERR_INVALID_ARG. */
 int mprt_scene_set_material(mprt_scene *scene, const double rgb[3], double kd, double ks,
                             double shine, double t, double ior);
 /* Add a sphere. */
@@ -242,14 +247,22 @@ typedef struct {
     int mailbox;         /* 1: IC skips primitives this ray already tested in an
                           * earlier voxel (fewer tests, same image); 0: test every
                           * listed primitive in every voxel, as the paper's IC does */
+    int max_rays;        /* ray budget of one sample (its eye ray and every ray of its
+                          * tree); a sample that needs more fails the render or trace
+                          * with MPRT_ERR_LIMIT naming the sample, so no scene can
+                          * run away (0 = MPRT_DEFAULT_MAX_RAYS) */
 } mprt_render_desc;
+
+/* Default ray budget of a sample: SPD's scenes need at most about 120. */
+#define MPRT_DEFAULT_MAX_RAYS 65536
 
 /* Fill a render description with defaults. OUT: desc. */
 void mprt_render_desc_init(mprt_render_desc *desc);
 
 /* Resolve a render description's defaults against the grid's scene: width
  * and height 0 -> the view's resolution, max_depth 0 -> the rules' default
- * (paper 64, spd 5), threads 0 -> 1, tile <= 0 -> 16; and validate every
+ * (paper 64, spd 5), threads 0 -> 1, tile <= 0 -> 16, max_rays 0 ->
+ * MPRT_DEFAULT_MAX_RAYS; and validate every
  * field (the same checks, with the same messages, as mprt_grid_render).
  * OUT: out (may alias desc). */
 int mprt_grid_resolve_desc(mprt_grid *grid, const mprt_render_desc *desc, mprt_render_desc *out);

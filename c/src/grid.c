@@ -208,6 +208,9 @@ int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_byt
     if (!s) return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: no scene");
     if (nx < 1 || ny < 1 || nz < 1 || nx > 1024 || ny > 1024 || nz > 1024)
         return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: subdivision %dx%dx%d is not in 1..1024 per axis", nx, ny, nz);
+    if (s->nprims == 0 && s->dropped > 0)
+        return grid_fail(g, MPRT_ERR_STATE, "grid: the scene has no primitives: %lld %s dropped while reading it (%s%s)",
+                         s->dropped, s->dropped == 1 ? "was" : "were", s->dropped == 1 ? "" : "the first: ", s->warning);
     if (s->nprims == 0) return grid_fail(g, MPRT_ERR_STATE, "grid: the scene has no primitives");
     g->n[0] = nx;
     g->n[1] = ny;

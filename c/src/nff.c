@@ -37,6 +37,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 /* ---- Entities ----------------------------------------------------------- */
 
@@ -311,31 +312,47 @@ int mprt_scene_parse_nff(mprt_scene *scene, const char *text, size_t len, const 
 int mprt_scene_load_nff(mprt_scene *s, const char *path)
 {
     FILE *f;
-    char *buf;
-    long len;
-    size_t got;
+    struct stat info;
+    char *buf = NULL;
+    size_t len = 0, cap = 0;
     int st;
     if (!s || !path) return MPRT_ERR_INVALID_ARG;
     if (mprt__scene_check_unshared(s, "load_nff") != MPRT_OK) return MPRT_ERR_STATE;
     f = fopen(path, "rb");
-    if (!f) return mprt__scene_fail(s, MPRT_ERR_IO, "%s: cannot open for reading", path);
-    if (fseek(f, 0, SEEK_END) != 0 || (len = ftell(f)) < 0 || fseek(f, 0, SEEK_SET) != 0) {
+    if (!f) return mprt__scene_fail(s, MPRT_ERR_IO, "%s: cannot open for reading (%s)", path, strerror(errno));
+    if (fstat(fileno(f), &info) == 0 && S_ISDIR(info.st_mode)) {
         fclose(f);
-        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: cannot determine the file size", path);
+        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: is a directory, not an NFF file", path);
     }
-    buf = malloc((size_t)len + 1);
-    if (!buf) {
-        fclose(f);
-        return mprt__scene_fail(s, MPRT_ERR_OUT_OF_MEMORY, "%s: out of memory reading %ld bytes", path, len);
+    /* Read to the end in growing blocks: the size of a pipe or a device is
+     * not known in advance */
+    for (;;) {
+        size_t got;
+        if (cap - len < 4096) {
+            size_t ncap = cap ? cap * 2 : 1 << 16;
+            char *nbuf = ncap > cap ? realloc(buf, ncap + 1) : NULL;
+            if (!nbuf) {
+                free(buf);
+                fclose(f);
+                return mprt__scene_fail(s, MPRT_ERR_OUT_OF_MEMORY, "%s: out of memory after reading %zu bytes", path,
+                                        len);
+            }
+            buf = nbuf;
+            cap = ncap;
+        }
+        got = fread(buf + len, 1, cap - len, f);
+        len += got;
+        if (got == 0) break;
     }
-    got = fread(buf, 1, (size_t)len, f);
-    fclose(f);
-    if (got != (size_t)len) {
+    if (ferror(f)) {
+        int err = errno;
         free(buf);
-        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: read failed", path);
+        fclose(f);
+        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: read failed after %zu bytes (%s)", path, len, strerror(err));
     }
+    fclose(f);
     buf[len] = '\0';
-    st = mprt_scene_parse_nff(s, buf, (size_t)len, path);
+    st = mprt_scene_parse_nff(s, buf, len, path);
     free(buf);
     return st;
 }

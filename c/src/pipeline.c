@@ -159,6 +159,7 @@ void mprt__trace_sample(const mprt__render_setup *setup, mprt__tree_ray eye, int
 {
     const mprt_scene *s = setup->scene;
     int top = 0;
+    long long rays = 1; /* made for this sample, against the budget */
     eye.id = mprt__emit_ray(sink, -1, MPRT_RAY_PRIMARY, 1, sample, -1, 1.0);
     stack[top++] = eye;
     rgb[0] = rgb[1] = rgb[2] = 0;
@@ -170,8 +171,15 @@ void mprt__trace_sample(const mprt__render_setup *setup, mprt__tree_ray eye, int
         mprt__ray_prepare(&ray, tree_ray.origin, tree_ray.dir);
         if (mprt__os_ic(setup->grid, &ray, tree_ray.tmin, tree_ray.tmax, shadow, setup->desc.mailbox, &hit, sink,
                         tree_ray.id, tree_ray.kind)) {
+            int before = top;
             if (shadow) continue; /* blocked shadow ray dies at IC */
             mprt__sc_shade(setup, &tree_ray, hit, sample, rgb, stack, &top, sink);
+            rays += top - before;
+            if (rays > setup->desc.max_rays) {
+                /* The tree outgrew the budget: abandon the sample (an error) */
+                sink->over_budget = sample;
+                return;
+            }
         } else if (shadow) {
             /* unblocked shadow ray: OS -> SC, adds its light */
             mprt__visit sc;
@@ -201,9 +209,7 @@ int mprt_grid_intersect(mprt_grid *g, size_t n, const double *org, const double 
     if (g->failed) return MPRT_ERR_STATE;
     if (n && (!org || !dir || !t || !prim)) return MPRT_ERR_INVALID_ARG;
     memset(&sum, 0, sizeof sum);
-    sink.counters = &sum;
-    sink.recorder = NULL;
-    sink.bad_prim = -1;
+    mprt__sink_init(&sink, &sum, NULL);
     for (i = 0; i < n; i++) {
         mprt__ray ray;
         mprt__hit hit;

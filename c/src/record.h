@@ -62,7 +62,18 @@ typedef struct {
     mprt_counters *counters;
     mprt__recorder *recorder;   /* NULL unless tracing */
     int64_t bad_prim;           /* -1, or a primitive of unknown kind met (an error) */
+    int64_t over_budget;        /* -1, or the first sample whose tree needed more rays
+                                 * than the budget (an error; the sample was abandoned) */
 } mprt__sink;
+
+/* A sink with no error yet. */
+static inline void mprt__sink_init(mprt__sink *sink, mprt_counters *counters, mprt__recorder *recorder)
+{
+    sink->counters = counters;
+    sink->recorder = recorder;
+    sink->bad_prim = -1;
+    sink->over_budget = -1;
+}
 
 /* Append the records (record.c). */
 void mprt__record_visit(mprt__recorder *recorder, const mprt__visit *visit);

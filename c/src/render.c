@@ -46,6 +46,10 @@ int mprt_grid_resolve_desc(mprt_grid *g, const mprt_render_desc *desc, mprt_rend
     if (rd.threads < 0 || rd.threads > 64)
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: threads %d is not in 0..64", rd.threads);
     if (rd.threads == 0) rd.threads = 1;
+    if (rd.max_rays < 0)
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: max_rays %d is negative (0 selects the default, %d)",
+                               rd.max_rays, MPRT_DEFAULT_MAX_RAYS);
+    if (rd.max_rays == 0) rd.max_rays = MPRT_DEFAULT_MAX_RAYS;
     *out = rd;
     return MPRT_OK;
 }
@@ -74,7 +78,8 @@ typedef struct {
     int x0, y0;             /* the sample rgb starts with */
 } sample_buffer;
 
-/* Trace the samples of one tile into out. */
+/* Trace the samples of one tile into out; stops at a sample over the ray
+ * budget (sink->over_budget). */
 static void render_tile(const mprt__render_setup *setup, int tile, const sample_buffer *out, mprt__tree_ray *stack,
                         mprt__sink *sink)
 {
@@ -93,7 +98,21 @@ static void render_tile(const mprt__render_setup *setup, int tile, const sample_
             eye.kind = MPRT_RAY_PRIMARY;
             eye.depth = 1;
             mprt__trace_sample(setup, eye, y * cam->samples_w + x, rgb, stack, sink);
+            if (sink->over_budget >= 0) return;
         }
+}
+
+/* The error of a sample over the ray budget. */
+static int budget_fail(mprt_grid *g, const mprt__render_setup *setup, const char *call, int64_t sample)
+{
+    const mprt_render_desc *d = &setup->desc;
+    int w = setup->camera.samples_w;
+    return mprt__grid_fail(g, MPRT_ERR_LIMIT,
+                           "%s: sample (%d, %d) needs more than %d rays (max_rays, the ray budget of a sample): its "
+                           "ray tree does not end (threshold %g, max_depth %d); raise the threshold or max_rays, or "
+                           "lower max_depth",
+                           call, (int)(sample % w), (int)(sample / w), d->max_rays,
+                           d->rules == MPRT_RULES_PAPER ? d->threshold : 0.0, d->max_depth);
 }
 
 /* ---- Trace one tile ---------------------------------------------------------- */
@@ -129,9 +148,7 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     recorder.visits = visits;
     recorder.cap_visits = cap_visits;
     memset(&sum, 0, sizeof sum);
-    sink.counters = &sum;
-    sink.recorder = &recorder;
-    sink.bad_prim = -1;
+    mprt__sink_init(&sink, &sum, &recorder);
     out.rgb = samples;
     out.stride = rect[2] - rect[0];
     out.x0 = rect[0];
@@ -144,6 +161,7 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     if (sink.bad_prim >= 0)
         return mprt__grid_fail(g, MPRT_ERR_STATE, "trace: " MPRT__UNKNOWN_KIND, (long long)sink.bad_prim,
                                g->scene->prims[sink.bad_prim].kind);
+    if (sink.over_budget >= 0) return budget_fail(g, &setup, "trace", sink.over_budget);
     if (recorder.nrays > cap_rays || recorder.nvisits > cap_visits)
         return mprt__grid_fail(g, MPRT_ERR_CAPACITY, "trace: tile %d needs %zu rays and %zu visits", tile,
                                recorder.nrays, recorder.nvisits);
@@ -163,6 +181,7 @@ typedef struct {
     sample_buffer samples;
     int ntiles, next_tile;
     int out_of_memory;
+    int stop;               /* a sample went over the ray budget: take no more tiles */
     pthread_mutex_t lock;
 } tile_queue;
 
@@ -171,6 +190,7 @@ typedef struct {
     tile_queue *queue;
     mprt_counters counters;
     mprt__sink sink;
+    int budget_tile;        /* the tile of sink.over_budget */
     pthread_t thread;
 } worker;
 
@@ -188,10 +208,20 @@ static void *work(void *arg)
     for (;;) {
         int tile;
         pthread_mutex_lock(&queue->lock);
-        tile = queue->out_of_memory ? queue->ntiles : queue->next_tile++;
+        tile = queue->out_of_memory || queue->stop ? queue->ntiles : queue->next_tile++;
         pthread_mutex_unlock(&queue->lock);
         if (tile >= queue->ntiles) break;
         render_tile(queue->setup, tile, &queue->samples, stack, &self->sink);
+        if (self->sink.over_budget >= 0) {
+            /* Tiles are handed out in order and the tiles being traced are
+             * finished, so the lowest failing tile is found whatever the
+             * thread count: the error names the same sample every time */
+            self->budget_tile = tile;
+            pthread_mutex_lock(&queue->lock);
+            queue->stop = 1;
+            pthread_mutex_unlock(&queue->lock);
+            break;
+        }
     }
     free(stack);
     return NULL;
@@ -227,9 +257,8 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
         worker *w = &workers[i];
         w->queue = &queue;
         memset(&w->counters, 0, sizeof w->counters);
-        w->sink.counters = &w->counters;
-        w->sink.recorder = NULL;
-        w->sink.bad_prim = -1;
+        mprt__sink_init(&w->sink, &w->counters, NULL);
+        w->budget_tile = -1;
     }
     /* Workers 1.. in threads of their own, worker 0 in this one */
     for (started = 1; started < setup.desc.threads; started++)
@@ -247,6 +276,14 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
         free(queue.samples.rgb);
         return mprt__grid_fail(g, MPRT_ERR_STATE, "render: " MPRT__UNKNOWN_KIND, (long long)bad_prim,
                                g->scene->prims[bad_prim].kind);
+    }
+    if (queue.stop) {
+        const worker *first = NULL;
+        for (i = 0; i < started; i++)
+            if (workers[i].budget_tile >= 0 && (!first || workers[i].budget_tile < first->budget_tile))
+                first = &workers[i];
+        free(queue.samples.rgb);
+        return budget_fail(g, &setup, "render", first->sink.over_budget);
     }
     /* Pixels: samples as they are, or the mean of each pixel's four corners */
     mprt__samples_to_pixels(setup.camera.corners, setup.camera.samples_w, setup.camera.samples_h, queue.samples.rgb,

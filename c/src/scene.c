@@ -17,6 +17,7 @@ const char *mprt_status_str(int status)
     case MPRT_ERR_CAPACITY: return "buffer too small";
     case MPRT_ERR_PARSE: return "parse error";
     case MPRT_ERR_IO: return "input/output error";
+    case MPRT_ERR_LIMIT: return "work limit reached";
     default: return "unknown status";
     }
 }
@@ -190,9 +191,19 @@ int mprt_scene_set_material(mprt_scene *s, const double rgb[3], double kd, doubl
     if (mprt__scene_check_unshared(s, "set_material") != MPRT_OK) return MPRT_ERR_STATE;
     if (!finite3(rgb) || !isfinite(kd) || !isfinite(ks) || !isfinite(shine) || !isfinite(t) || !isfinite(ior))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "material: NaN or infinite value");
-    if (kd < 0 || ks < 0 || t < 0 || shine < 0)
+    /* Weights are fractions of the light a ray carries, so a hit's reflection
+     * and refraction rays together never carry more than their parent (Ks + T
+     * <= 1): a ray tree cannot grow in weight, and the contribution cutoff
+     * ends it.  Colours and Shine are not fractions and may exceed 1. */
+    if (!(kd >= 0 && kd <= 1) || !(ks >= 0 && ks <= 1) || !(t >= 0 && t <= 1))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "material: Kd %g, Ks %g and T %g must each be in [0, 1]", kd,
+                                ks, t);
+    if (ks + t > 1 + 1e-12) /* (a margin for decimal text such as 0.3 and 0.7) */
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG,
-                                "material: Kd %g, Ks %g, Shine %g and T %g must not be negative", kd, ks, shine, t);
+                                "material: Ks %g + T %g = %g is over 1 (the reflection and refraction rays would "
+                                "carry more light than the ray that made them)",
+                                ks, t, ks + t);
+    if (shine < 0) return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "material: Shine %g is negative", shine);
     if (t > 0 && !(ior > 0))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG,
                                 "material: index of refraction %g must be positive for a transmissive surface", ior);

@@ -22,7 +22,7 @@ import os
 import numpy as np
 
 from . import _mprt, _mprt32
-from .errors import CapacityError, InvalidArgument, MprtError, SceneParseError, SceneStateError
+from .errors import CapacityError, InvalidArgument, MprtError, SceneParseError, SceneStateError, WorkLimitError
 
 _FFI = _mprt.ffi
 
@@ -53,6 +53,7 @@ _ERRORS = {
     Status.ERR_CAPACITY: CapacityError,
     Status.ERR_OUT_OF_MEMORY: MemoryError,
     Status.ERR_IO: OSError,
+    Status.ERR_LIMIT: WorkLimitError,
 }
 
 
