@@ -24,9 +24,10 @@
  * be seen.  It is counted with mprt__scene_warn ("NAME:LINE: polygon with
  * zero area dropped") and parsing goes on; the scene's error message is
  * left as it was.  Before a polygon is added, consecutive vertices that are
- * exactly equal (position, and normal for a patch), the last and first
- * included, are merged into one; a polygon left with fewer than 3 vertices
- * has zero area.
+ * equal as the scene stores them (position, and the unit normal for a
+ * patch), the last and first included, are merged into one; a polygon left
+ * with fewer than 3 vertices has zero area.  So the text the writer makes
+ * reads back to the same polygon.
  *
  * The writer is in nff_write.c. */
 #include "nff.h"
@@ -196,11 +197,19 @@ static int nff_reserve(nff_reader *r, size_t n)
     return MPRT_OK;
 }
 
-/* Vertex i equals vertex j (and so do their normals for a patch). */
+/* Vertex i equals vertex j (and so do their normals for a patch) as the
+ * scene would store them: positions in the build's precision, normals made
+ * unit.  Two vertices written differently but stored alike would be written
+ * back alike and merged when read again, so they are merged now. */
 static int nff_same_vertex(const nff_reader *r, int patch, int i, int j)
 {
-    if (memcmp(r->verts + 3 * i, r->verts + 3 * j, 3 * sizeof(double)) != 0) return 0;
-    return !patch || memcmp(r->norms + 3 * i, r->norms + 3 * j, 3 * sizeof(double)) == 0;
+    const double *a = r->verts + 3 * i, *b = r->verts + 3 * j;
+    vec3 na, nb;
+    if ((real)a[0] != (real)b[0] || (real)a[1] != (real)b[1] || (real)a[2] != (real)b[2]) return 0;
+    if (!patch) return 1;
+    na = mprt__unit_normal(r->norms + 3 * i);
+    nb = mprt__unit_normal(r->norms + 3 * j);
+    return na.x == nb.x && na.y == nb.y && na.z == nb.z;
 }
 
 /* Merge runs of equal consecutive vertices (cyclically); returns the count left. */

@@ -115,13 +115,14 @@ static vec3 tovec(const double *p) { return v3((real)p[0], (real)p[1], (real)p[2
 static int finite1(double x) { return isfinite(x) && fabs(x) <= (double)REAL_MAX; }
 static int finite3(const double *p) { return finite1(p[0]) && finite1(p[1]) && finite1(p[2]); }
 
-/* A vertex normal, normalised unless it already is (so NFF round trips are exact). */
-static vec3 unit_normal(const double *p)
+vec3 mprt__unit_normal(const double *p)
 {
     vec3 n = tovec(p);
-    real l2 = vdot(n, n);
+    real l2 = vdot(n, n), big;
     if (fabs((double)l2 - 1) <= 4 * (double)REAL_EPS) return n;
-    return vnorm(n);
+    /* Scaled first, so that a very long or very short normal keeps its direction */
+    big = vmaxabs(n);
+    return big > 0 ? vnorm(v3(n.x / big, n.y / big, n.z / big)) : n;
 }
 
 int mprt_scene_set_view(mprt_scene *s, const double from[3], const double at[3],
@@ -285,7 +286,7 @@ int mprt__scene_add_polygon(mprt_scene *s, int n, const double *verts, const dou
     }
     for (i = 0; i < n; i++) {
         s->verts[s->nverts + i] = tovec(verts + 3 * i);
-        if (s->vnormals) s->vnormals[s->nverts + i] = normals ? unit_normal(normals + 3 * i) : v3(0, 0, 0);
+        if (s->vnormals) s->vnormals[s->nverts + i] = normals ? mprt__unit_normal(normals + 3 * i) : v3(0, 0, 0);
     }
     memset(&p, 0, sizeof p);
     p.first = (int)s->nverts;
