@@ -104,6 +104,10 @@ int mprt_scene_write_nff(const mprt_scene *scene, char *buf, size_t cap, size_t 
  * factor size; size <= 0 selects the SPD default for that scene. */
 int mprt_scene_spd(mprt_scene *scene, const char *name, int size);
 
+/* Geometry (positions, radii, the view's points and hither distance) must be
+ * finite and at most 1e100 in magnitude (1e18 with MPRT_SINGLE), so that
+ * the squares intersection forms stay finite; else MPRT_ERR_INVALID_ARG. */
+
 /* Set the view: eye, look-at point, up vector, field angle in degrees (NFF
  * "angle": between the centres of the first and last pixel column, and of
  * the first and last row), hither distance, resolution. */

@@ -63,6 +63,17 @@ static void test_material_weights_in_range_are_accepted(void)
     mprt_scene_destroy(s);
 }
 
+/* A sphere of radius 1.1e301 was "hit" at t = inf (a fuzz finding): values
+ * whose squares would overflow are refused. */
+static void test_geometry_beyond_the_coordinate_limit_is_rejected(void)
+{
+    check_parse_fails("s 0 0 0 11e300\n", MPRT_ERR_PARSE, "t.nff:1: sphere: a value is NaN, infinite or over 1e");
+    check_parse_fails("l 0 0 1e200\n", MPRT_ERR_PARSE, "t.nff:1: light: a position value is NaN, infinite or over");
+    check_parse_fails("p 3\n0 0 0\n1 0 0\n0 -1e150 0\n", MPRT_ERR_PARSE, "polygon: a value of vertex 3 is");
+    check_parse_fails("c 0 0 0 1 0 0 1e101 1\n", MPRT_ERR_PARSE, "t.nff:1: cone: a value is");
+    mprt_scene_destroy(parse_ok("s 0 0 0 1e9\ns 1e9 0 0 1e-9\n"));
+}
+
 static void test_a_scene_whose_primitives_were_all_dropped_says_which(void)
 {
     /* A collinear triangle: dropped with a warning, leaving no primitive */
@@ -187,6 +198,7 @@ int main(void)
 {
     RUN(test_material_weights_out_of_range_are_rejected_with_the_line);
     RUN(test_material_weights_in_range_are_accepted);
+    RUN(test_geometry_beyond_the_coordinate_limit_is_rejected);
     RUN(test_a_scene_whose_primitives_were_all_dropped_says_which);
     RUN(test_a_directory_is_not_a_scene);
     RUN(test_a_tree_that_does_not_end_fails_at_the_budget);

@@ -222,7 +222,9 @@ static void brute_hit(const mprt_scene *s, const mprt__ray *ray, real *t, int32_
         case MPRT_CYLINDER: hit = mprt__cylinder_hit(&s->cones[p->index], ray, 0, *t, &ti); break;
         default: hit = mprt__cone_hit(&s->cones[p->index], ray, 0, *t, &ti); break;
         }
-        if (hit && (ti < *t || *prim < 0)) {
+        /* the grid's rule: nearer, or as near with a lower id (so a "hit" at
+         * t = inf is none) */
+        if (hit && (ti < *t || (ti == *t && (int32_t)i < *prim))) {
             *t = ti;
             *prim = (int32_t)i;
         }
