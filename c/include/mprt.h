@@ -70,7 +70,9 @@ typedef enum {
 /* Shading rule sets. */
 typedef enum {
     MPRT_RULES_PAPER = 0, /* 3MPRT: one ray per pixel centre, contribution cutoff */
-    MPRT_RULES_SPD = 1    /* SPD test procedure: pixel corners, depth 5, no cutoff */
+    MPRT_RULES_SPD = 1,   /* SPD test procedure: pixel corners, depth 5, no cutoff */
+    MPRT_RULES_PAPER1992 = 2 /* paper rules with the workload conventions that reproduce
+                              * the 1992 paper's counts (see mprt_render_desc) */
 } mprt_rules;
 
 typedef struct mprt_scene mprt_scene;
@@ -192,6 +194,17 @@ int mprt_scene_get_lights(const mprt_scene *scene, double *data, size_t cap);
  * (0 selects the default, 4 GiB). */
 int mprt_grid_create(const mprt_scene *scene, int nx, int ny, int nz, size_t max_bytes,
                      mprt_grid **out);
+/* How a grid lists primitives in voxels: in every voxel the primitive's
+ * surface may touch (exact overlap tests, the default); in every voxel its
+ * bounding box touches (as simpler tracers do); or in those and one more
+ * voxel beyond the box's last on each axis (a box's voxel range rounded
+ * outward, floor(lo) to ceil(hi), as an off-by-one tracer would).  More
+ * list entries, more intersection tests, the same hits. */
+typedef enum { MPRT_LIST_EXACT = 0, MPRT_LIST_BOX = 1, MPRT_LIST_BOX_OUTWARD = 2 } mprt_listing;
+
+/* mprt_grid_create with a listing convention (mprt_listing). */
+int mprt_grid_create_listing(const mprt_scene *scene, int nx, int ny, int nz, size_t max_bytes, int listing,
+                             mprt_grid **out);
 /* Destroy a grid; NULL is allowed. */
 void mprt_grid_destroy(mprt_grid *grid);
 /* Message of the last failed call on this grid ("" if none). */
@@ -206,6 +219,7 @@ typedef struct {
     double mean_len;             /* refs / nonempty (0 if none) */
     long long bytes;             /* memory of the grid's arrays */
     double lo[3], hi[3];         /* box the grid covers */
+    int listing;                 /* mprt_listing */
 } mprt_grid_stats;
 
 /* Statistics of the grid. OUT: stats. */
@@ -251,6 +265,15 @@ typedef struct {
     int mailbox;         /* 1: IC skips primitives this ray already tested in an
                           * earlier voxel (fewer tests, same image); 0: test every
                           * listed primitive in every voxel, as the paper's IC does */
+    /* Workload conventions; 0 selects the rule set's choice (MPRT_CONV_*
+     * below).  Each is one way a tracer may do a thing the paper leaves
+     * open; paper and spd rules pick the first of each, paper1992 the
+     * combination that reproduces the paper's counts best. */
+    int offset;          /* where secondary and shadow rays start */
+    int accept;          /* which hit IC accepts in a voxel */
+    int behind;          /* a light behind the surface */
+    int candidates;      /* the secondary candidates SC counts at a hit */
+    int shadow_term;     /* what the threshold compares for a shadow ray */
     int max_rays;        /* ray budget of one sample (its eye ray and every ray of its
                           * tree); a sample that needs more fails the render or trace
                           * with MPRT_ERR_LIMIT naming the sample, so no scene can
@@ -259,6 +282,37 @@ typedef struct {
 
 /* Default ray budget of a sample: SPD's scenes need at most about 120. */
 #define MPRT_DEFAULT_MAX_RAYS 65536
+
+/* The workload conventions' choices (fields of mprt_render_desc). */
+enum {
+    /* offset: off the surface by 512 ulps of the hit point's largest
+     * coordinate (paper, spd), or exactly on it (a ray may hit the surface
+     * it leaves at t ~ 1e-17) */
+    MPRT_OFFSET_SCALED = 1,
+    MPRT_OFFSET_NONE = 2,
+    /* accept: a hit within the voxel's stretch of the ray only (paper, spd:
+     * results do not depend on the grid), or the nearest hit among the
+     * voxel's primitives wherever it lies (results depend on the grid) */
+    MPRT_ACCEPT_IN_VOXEL = 1,
+    MPRT_ACCEPT_LISTED = 2,
+    /* behind (N.L <= 0): a shadow candidate carrying 0, cut by the threshold
+     * like any (paper), no candidate (spd), or a shadow ray cast whatever
+     * the threshold */
+    MPRT_BEHIND_CUTOFF = 1,
+    MPRT_BEHIND_SKIP = 2,
+    MPRT_BEHIND_CAST = 3,
+    /* candidates: a reflection candidate when Ks > 0 (spd: or T > 0) and a
+     * refraction one when T > 0 (paper, spd); both on every specular
+     * surface (Ks > 0 or T > 0); or both at every hit.  A candidate of
+     * weight 0 is suppressed by any threshold. */
+    MPRT_CANDIDATES_MATERIAL = 1,
+    MPRT_CANDIDATES_SPECULAR = 2,
+    MPRT_CANDIDATES_ALL = 3,
+    /* shadow_term: N.L x Kd x contribution times the light's mean intensity
+     * (paper), or without the light (the digest's luminance term) */
+    MPRT_SHADOW_LIGHT = 1,
+    MPRT_SHADOW_SURFACE = 2
+};
 
 /* Fill a render description with defaults. OUT: desc. */
 void mprt_render_desc_init(mprt_render_desc *desc);

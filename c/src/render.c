@@ -22,8 +22,38 @@ void mprt_render_desc_init(mprt_render_desc *d)
     d->ambient = 0.1;
 }
 
+/* The workload conventions of each rule set (mprt_rules order), field by field. */
+enum { NCONV = 5 };
+static const char *const conv_name[NCONV] = {"offset", "accept", "behind", "candidates", "shadow_term"};
+static const int conv_max[NCONV] = {MPRT_OFFSET_NONE, MPRT_ACCEPT_LISTED, MPRT_BEHIND_CAST, MPRT_CANDIDATES_ALL,
+                                    MPRT_SHADOW_SURFACE};
+static const int conv_of_rules[3][NCONV] = {
+    {MPRT_OFFSET_SCALED, MPRT_ACCEPT_IN_VOXEL, MPRT_BEHIND_CUTOFF, MPRT_CANDIDATES_MATERIAL, MPRT_SHADOW_LIGHT},
+    {MPRT_OFFSET_SCALED, MPRT_ACCEPT_IN_VOXEL, MPRT_BEHIND_SKIP, MPRT_CANDIDATES_MATERIAL, MPRT_SHADOW_LIGHT},
+    {MPRT_OFFSET_SCALED, MPRT_ACCEPT_IN_VOXEL, MPRT_BEHIND_SKIP, MPRT_CANDIDATES_SPECULAR, MPRT_SHADOW_LIGHT},
+};
+
+/* Fill the conventions left 0 from the rule set; check the others. */
+static int resolve_conventions(mprt_grid *g, mprt_render_desc *rd)
+{
+    int *field[NCONV], k;
+    field[0] = &rd->offset;
+    field[1] = &rd->accept;
+    field[2] = &rd->behind;
+    field[3] = &rd->candidates;
+    field[4] = &rd->shadow_term;
+    for (k = 0; k < NCONV; k++) {
+        if (*field[k] < 0 || *field[k] > conv_max[k])
+            return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: %s %d is not in 0..%d (0: the rule set's choice)",
+                                   conv_name[k], *field[k], conv_max[k]);
+        if (*field[k] == 0) *field[k] = conv_of_rules[rd->rules][k];
+    }
+    return MPRT_OK;
+}
+
 int mprt_grid_resolve_desc(mprt_grid *g, const mprt_render_desc *desc, mprt_render_desc *out)
 {
+    int st;
     mprt_render_desc rd;
     if (!g || !desc || !out) return MPRT_ERR_INVALID_ARG;
     if (g->failed) return MPRT_ERR_STATE;
@@ -33,8 +63,10 @@ int mprt_grid_resolve_desc(mprt_grid *g, const mprt_render_desc *desc, mprt_rend
     if (rd.width < 1 || rd.height < 1 || rd.width > 65536 || rd.height > 65536)
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: resolution %dx%d is not in 1..65536", rd.width,
                                rd.height);
-    if (rd.rules != MPRT_RULES_PAPER && rd.rules != MPRT_RULES_SPD)
-        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: unknown rule set %d (0 paper, 1 spd)", rd.rules);
+    if (rd.rules != MPRT_RULES_PAPER && rd.rules != MPRT_RULES_SPD && rd.rules != MPRT_RULES_PAPER1992)
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: unknown rule set %d (0 paper, 1 spd, 2 paper1992)",
+                               rd.rules);
+    if ((st = resolve_conventions(g, &rd)) != MPRT_OK) return st;
     if (!(rd.threshold >= 0 && rd.threshold < 1))
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: threshold %g is not in [0, 1)", rd.threshold);
     if (!(rd.ambient >= 0 && rd.ambient <= 1))
@@ -112,7 +144,7 @@ static int budget_fail(mprt_grid *g, const mprt__render_setup *setup, const char
                            "ray tree does not end (threshold %g, max_depth %d); raise the threshold or max_rays, or "
                            "lower max_depth",
                            call, (int)(sample % w), (int)(sample / w), d->max_rays,
-                           d->rules == MPRT_RULES_PAPER ? d->threshold : 0.0, d->max_depth);
+                           d->rules != MPRT_RULES_SPD ? d->threshold : 0.0, d->max_depth);
 }
 
 /* ---- Trace one tile ---------------------------------------------------------- */

@@ -37,7 +37,7 @@ static vec3 shading_normal(const mprt_scene *s, int32_t id, vec3 p, mprt__sink *
 /* Whether a child ray of this contribution and depth is made. */
 static int keep_child(const mprt_render_desc *desc, double contribution, int depth)
 {
-    return !(depth > desc->max_depth || (desc->rules == MPRT_RULES_PAPER && contribution < desc->threshold));
+    return !(depth > desc->max_depth || (desc->rules != MPRT_RULES_SPD && contribution < desc->threshold));
 }
 
 /* The children of one SC visit, made in order. */
@@ -77,16 +77,19 @@ void mprt__sc_shade(const mprt__render_setup *setup, const mprt__tree_ray *ray, 
     const mprt__material *m = &s->materials[s->prims[hit.prim].material];
     vec3 p = vmadd(ray->origin, ray->dir, hit.t);
     vec3 n = shading_normal(s, hit.prim, p, sink);
-    int entering = 1, tir = 0, l, i, spd = desc->rules == MPRT_RULES_SPD;
+    int entering = 1, tir = 0, l, i, spd = desc->rules == MPRT_RULES_SPD, all;
     vec3 refract = v3(0, 0, 0);
     double cosi;
     children ch;
     mprt__visit sc;
 
+    /* Whether SC counts both secondary candidates at this hit */
+    all = desc->candidates == MPRT_CANDIDATES_ALL ||
+          (desc->candidates == MPRT_CANDIDATES_SPECULAR && (m->ks > 0 || m->t > 0));
     ch.parent = ray;
     ch.sample = sample;
     ch.origin = p;
-    ch.offset = surface_offset(p);
+    ch.offset = desc->offset == MPRT_OFFSET_NONE ? 0 : surface_offset(p);
     ch.kids = stack + *top;
     ch.made = ch.suppressed = 0;
     ch.sink = sink;
@@ -110,15 +113,20 @@ void mprt__sc_shade(const mprt__render_setup *setup, const mprt__tree_ray *ray, 
         if (!(dist > ch.offset)) continue;
         to = vscale(to, 1 / dist);
         ndl = (double)vdot(n, to);
-        if (spd && ndl <= 0) continue; /* SPD: no shadow ray toward a light behind the surface */
+        /* A light behind the surface: no candidate (spd), a ray cast
+         * whatever the threshold, or a candidate carrying 0 (paper) */
+        if (ndl <= 0 && desc->behind == MPRT_BEHIND_SKIP) continue;
         lum = (ndl > 0 ? ndl : 0) * m->kd * ray->contribution;
         if (spd && m->ks > 0) {
             double rv = (double)vdot(reflect_dir(ray->dir, n), to);
             if (rv > 0) spec = m->ks * pow(rv, m->shine) * ray->contribution;
         }
-        if (!spd) {
-            double grey = light->has_rgb ? (light->rgb[0] + light->rgb[1] + light->rgb[2]) / 3
-                                         : setup->light_rgb_default;
+        if (!(ndl <= 0 && desc->behind == MPRT_BEHIND_CAST)) {
+            /* The threshold compares N.L Kd contribution, times the light's
+             * mean intensity unless the surface term alone */
+            double grey = desc->shadow_term == MPRT_SHADOW_SURFACE ? 1
+                          : light->has_rgb ? (light->rgb[0] + light->rgb[1] + light->rgb[2]) / 3
+                                           : setup->light_rgb_default;
             if (!keep_child(desc, lum * grey, ray->depth)) {
                 ch.suppressed++;
                 continue;
@@ -151,6 +159,8 @@ void mprt__sc_shade(const mprt__render_setup *setup, const mprt__tree_ray *ray, 
             make_child(&ch, MPRT_RAY_REFLECT, reflect_dir(ray->dir, n), INF_REAL, w, ray->depth + 1, -1);
         else
             ch.suppressed++;
+    } else if (all) {
+        ch.suppressed++; /* a reflection candidate of weight 0 */
     }
     if (m->t > 0 && !tir) {
         double w = ray->contribution * m->t;
@@ -158,6 +168,8 @@ void mprt__sc_shade(const mprt__render_setup *setup, const mprt__tree_ray *ray, 
             make_child(&ch, MPRT_RAY_REFRACT, refract, INF_REAL, w, ray->depth + 1, -1);
         else
             ch.suppressed++;
+    } else if (all && !(m->t > 0)) {
+        ch.suppressed++; /* a refraction candidate of weight 0 */
     }
     mprt__visit_init(&sc, ray->id, ray->kind, MPRT_STAGE_SC, MPRT_OUT_SHADED);
     sc.prim = hit.prim;

@@ -254,10 +254,10 @@ class Binding:
         return data
 
     # -- grid --------------------------------------------------------------------------
-    def grid_create(self, scene_h, dims, max_bytes: int):
+    def grid_create(self, scene_h, dims, max_bytes: int, listing: int = 0):
         ffi, lib = self.ffi, self.lib
         out = ffi.new("mprt_grid **")
-        rc = lib.mprt_grid_create(scene_h, dims[0], dims[1], dims[2], int(max_bytes), out)
+        rc = lib.mprt_grid_create_listing(scene_h, dims[0], dims[1], dims[2], int(max_bytes), int(listing), out)
         if out[0] == ffi.NULL:
             raise MemoryError("mprt_grid_create: out of memory")
         h = ffi.gc(out[0], lib.mprt_grid_destroy)

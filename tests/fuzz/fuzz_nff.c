@@ -1,6 +1,6 @@
 /* fuzz_nff.c: the fuzz target over the library's whole path from scene text
  * to pixels: NFF parse -> write -> parse again -> two grids -> tiny renders
- * under both rule sets and a traced tile -> batch intersection.
+ * under every rule set and a traced tile -> batch intersection.
  *
  * Besides crashes, hangs and sanitizer reports, it aborts when
  *   - a failed parse changes the scene it was parsing into;
@@ -297,6 +297,7 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     if (st == MPRT_OK) {
         check_renders(a, b, MPRT_RULES_PAPER);
         check_renders(a, b, MPRT_RULES_SPD);
+        check_renders(a, b, MPRT_RULES_PAPER1992);
         check_intersect(a, s);
     } else if (s->nprims > 0 && st != MPRT_ERR_OUT_OF_MEMORY) {
         FAIL("grid: %s", mprt_grid_errmsg(a && *mprt_grid_errmsg(a) ? a : b));
