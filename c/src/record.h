@@ -9,6 +9,7 @@
 #include "mprt_internal.h"
 
 #include <stdint.h>
+#include <string.h>
 
 /* A ray that belongs to no ray tree (mprt_grid_intersect's rays). */
 #define MPRT__RAY_QUERY (-1)
@@ -59,17 +60,17 @@ typedef struct {
 
 /* Where the visits and rays of a tile go. */
 typedef struct {
-    mprt_counters *counters;
+    mprt_counters counters;     /* in the sink itself: one pointer less on the hot path */
     mprt__recorder *recorder;   /* NULL unless tracing */
     int64_t bad_prim;           /* -1, or a primitive of unknown kind met (an error) */
     int64_t over_budget;        /* -1, or the first sample whose tree needed more rays
                                  * than the budget (an error; the sample was abandoned) */
 } mprt__sink;
 
-/* A sink with no error yet. */
-static inline void mprt__sink_init(mprt__sink *sink, mprt_counters *counters, mprt__recorder *recorder)
+/* A sink with no counts and no error yet. */
+static inline void mprt__sink_init(mprt__sink *sink, mprt__recorder *recorder)
 {
-    sink->counters = counters;
+    memset(&sink->counters, 0, sizeof sink->counters);
     sink->recorder = recorder;
     sink->bad_prim = -1;
     sink->over_budget = -1;
@@ -83,7 +84,7 @@ int64_t mprt__record_ray(mprt__recorder *recorder, int64_t parent, int kind, int
 /* A stage visit: counted, and recorded when tracing. */
 static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
 {
-    mprt_counters *counters = sink->counters;
+    mprt_counters *counters = &sink->counters;
     int k;
     switch (v->stage) {
     case MPRT_STAGE_OS:
@@ -119,7 +120,7 @@ static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
 static inline int64_t mprt__emit_ray(mprt__sink *sink, int64_t parent, int kind, int depth, int sample, int light,
                                      double contribution)
 {
-    mprt_counters *counters = sink->counters;
+    mprt_counters *counters = &sink->counters;
     switch (kind) {
     case MPRT_RAY_PRIMARY: counters->eye_rays++; break;
     case MPRT_RAY_REFLECT: counters->reflect_rays++; break;

@@ -156,7 +156,6 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     mprt__render_setup setup;
     mprt__recorder recorder;
     mprt__sink sink;
-    mprt_counters sum;
     sample_buffer out;
     mprt__tree_ray *stack;
     int rect[4], tiles_x, tiles_y;
@@ -179,8 +178,7 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     recorder.cap_rays = cap_rays;
     recorder.visits = visits;
     recorder.cap_visits = cap_visits;
-    memset(&sum, 0, sizeof sum);
-    mprt__sink_init(&sink, &sum, &recorder);
+    mprt__sink_init(&sink, &recorder);
     out.rgb = samples;
     out.stride = rect[2] - rect[0];
     out.x0 = rect[0];
@@ -189,7 +187,7 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     free(stack);
     *nrays = recorder.nrays;
     *nvisits = recorder.nvisits;
-    if (counters) *counters = sum;
+    if (counters) *counters = sink.counters;
     if (sink.bad_prim >= 0)
         return mprt__grid_fail(g, MPRT_ERR_STATE, "trace: " MPRT__UNKNOWN_KIND, (long long)sink.bad_prim,
                                g->scene->prims[sink.bad_prim].kind);
@@ -217,10 +215,9 @@ typedef struct {
     pthread_mutex_t lock;
 } tile_queue;
 
-/* One worker thread: its counters and errors. */
+/* One worker thread: its counters and errors (in its sink). */
 typedef struct {
     tile_queue *queue;
-    mprt_counters counters;
     mprt__sink sink;
     int budget_tile;        /* the tile of sink.over_budget */
     pthread_t thread;
@@ -288,8 +285,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
     for (i = 0; i < setup.desc.threads; i++) {
         worker *w = &workers[i];
         w->queue = &queue;
-        memset(&w->counters, 0, sizeof w->counters);
-        mprt__sink_init(&w->sink, &w->counters, NULL);
+        mprt__sink_init(&w->sink, NULL);
         w->budget_tile = -1;
     }
     /* Workers 1.. in threads of their own, worker 0 in this one */
@@ -322,7 +318,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
                             rgb);
     if (counters) {
         memset(counters, 0, sizeof *counters);
-        for (i = 0; i < started; i++) mprt__counters_add(counters, &workers[i].counters);
+        for (i = 0; i < started; i++) mprt__counters_add(counters, &workers[i].sink.counters);
     }
     free(queue.samples.rgb);
     return MPRT_OK;
