@@ -54,7 +54,8 @@ typedef enum {
     MPRT_ERR_STATE = -3,         /* the call is not allowed in the handle's state */
     MPRT_ERR_CAPACITY = -4,      /* a caller buffer is too small; the needed size is reported */
     MPRT_ERR_PARSE = -5,         /* malformed scene text; message names file and line */
-    MPRT_ERR_IO = -6             /* a file could not be opened, read or written */
+    MPRT_ERR_IO = -6,            /* a file could not be opened, read or written */
+    MPRT_ERR_LIMIT = -7          /* a work limit was reached (the ray budget of a sample) */
 } mprt_status;
 
 /* Primitive kinds, in the order the counters use. */
@@ -69,7 +70,9 @@ typedef enum {
 /* Shading rule sets. */
 typedef enum {
     MPRT_RULES_PAPER = 0, /* 3MPRT: one ray per pixel centre, contribution cutoff */
-    MPRT_RULES_SPD = 1    /* SPD test procedure: pixel corners, depth 5, no cutoff */
+    MPRT_RULES_SPD = 1,   /* SPD test procedure: pixel corners, depth 5, no cutoff */
+    MPRT_RULES_PAPER1992 = 2 /* paper rules with the workload conventions that reproduce
+                              * the 1992 paper's counts (see mprt_render_desc) */
 } mprt_rules;
 
 typedef struct mprt_scene mprt_scene;
@@ -103,6 +106,10 @@ int mprt_scene_write_nff(const mprt_scene *scene, char *buf, size_t cap, size_t 
  * factor size; size <= 0 selects the SPD default for that scene. */
 int mprt_scene_spd(mprt_scene *scene, const char *name, int size);
 
+/* Geometry (positions, radii, the view's points and hither distance) must be
+ * finite and at most 1e100 in magnitude (1e18 with MPRT_SINGLE), so that
+ * the squares intersection forms stay finite; else MPRT_ERR_INVALID_ARG. */
+
 /* Set the view: eye, look-at point, up vector, field angle in degrees (NFF
  * "angle": between the centres of the first and last pixel column, and of
  * the first and last row), hither distance, resolution. */
@@ -113,7 +120,11 @@ int mprt_scene_set_view(mprt_scene *scene, const double from[3], const double at
 int mprt_scene_set_background(mprt_scene *scene, const double rgb[3]);
 /* Add a point light; rgb may be NULL (NFF default intensity). */
 int mprt_scene_add_light(mprt_scene *scene, const double pos[3], const double *rgb);
-/* Set the material used by primitives added after this call (NFF "f"). */
+/* Set the material used by primitives added after this call (NFF "f"):
+ * colour, diffuse Kd, specular Ks, Phong exponent shine, transmittance t and
+ * index of refraction ior.  Kd, Ks and t must each be in [0, 1] and Ks + t
+ * at most 1 (a hit's reflection and refraction rays never carry more than
+ * their parent), shine >= 0, ior > 0 when t > 0; else MPRT_ERR_INVALID_ARG. */
 int mprt_scene_set_material(mprt_scene *scene, const double rgb[3], double kd, double ks,
                             double shine, double t, double ior);
 /* Add a sphere. */
@@ -183,6 +194,17 @@ int mprt_scene_get_lights(const mprt_scene *scene, double *data, size_t cap);
  * (0 selects the default, 4 GiB). */
 int mprt_grid_create(const mprt_scene *scene, int nx, int ny, int nz, size_t max_bytes,
                      mprt_grid **out);
+/* How a grid lists primitives in voxels: in every voxel the primitive's
+ * surface may touch (exact overlap tests, the default); in every voxel its
+ * bounding box touches (as simpler tracers do); or in those and one more
+ * voxel beyond the box's last on each axis (a box's voxel range rounded
+ * outward, floor(lo) to ceil(hi), as an off-by-one tracer would).  More
+ * list entries, more intersection tests, the same hits. */
+typedef enum { MPRT_LIST_EXACT = 0, MPRT_LIST_BOX = 1, MPRT_LIST_BOX_OUTWARD = 2 } mprt_listing;
+
+/* mprt_grid_create with a listing convention (mprt_listing). */
+int mprt_grid_create_listing(const mprt_scene *scene, int nx, int ny, int nz, size_t max_bytes, int listing,
+                             mprt_grid **out);
 /* Destroy a grid; NULL is allowed. */
 void mprt_grid_destroy(mprt_grid *grid);
 /* Message of the last failed call on this grid ("" if none). */
@@ -197,6 +219,7 @@ typedef struct {
     double mean_len;             /* refs / nonempty (0 if none) */
     long long bytes;             /* memory of the grid's arrays */
     double lo[3], hi[3];         /* box the grid covers */
+    int listing;                 /* mprt_listing */
 } mprt_grid_stats;
 
 /* Statistics of the grid. OUT: stats. */
@@ -224,6 +247,11 @@ typedef struct {
     long long os_visits;         /* OS stage visits */
     long long ic_visits;         /* IC stage visits */
     long long sc_visits;         /* SC stage visits */
+    long long tir;               /* SC visits on a transmitting surface where total
+                                  * internal reflection left no refraction ray, counted
+                                  * where the depth limit allowed a child (SPD's "refract
+                                  * rays" column is refract_rays + tir); not in the
+                                  * trace records */
 } mprt_counters;
 
 typedef struct {
@@ -237,14 +265,62 @@ typedef struct {
     int mailbox;         /* 1: IC skips primitives this ray already tested in an
                           * earlier voxel (fewer tests, same image); 0: test every
                           * listed primitive in every voxel, as the paper's IC does */
+    /* Workload conventions; 0 selects the rule set's choice (MPRT_CONV_*
+     * below).  Each is one way a tracer may do a thing the paper leaves
+     * open; paper and spd rules pick the first of each, paper1992 the
+     * combination that reproduces the paper's counts best. */
+    int offset;          /* where secondary and shadow rays start */
+    int accept;          /* which hit IC accepts in a voxel */
+    int behind;          /* a light behind the surface */
+    int candidates;      /* the secondary candidates SC counts at a hit */
+    int shadow_term;     /* what the threshold compares for a shadow ray */
+    int max_rays;        /* ray budget of one sample (its eye ray and every ray of its
+                          * tree); a sample that needs more fails the render or trace
+                          * with MPRT_ERR_LIMIT naming the sample, so no scene can
+                          * run away (0 = MPRT_DEFAULT_MAX_RAYS) */
 } mprt_render_desc;
+
+/* Default ray budget of a sample: SPD's scenes need at most about 120. */
+#define MPRT_DEFAULT_MAX_RAYS 65536
+
+/* The workload conventions' choices (fields of mprt_render_desc). */
+enum {
+    /* offset: off the surface by 512 ulps of the hit point's largest
+     * coordinate (paper, spd), or exactly on it (a ray may hit the surface
+     * it leaves at t ~ 1e-17) */
+    MPRT_OFFSET_SCALED = 1,
+    MPRT_OFFSET_NONE = 2,
+    /* accept: a hit within the voxel's stretch of the ray only (paper, spd:
+     * results do not depend on the grid), or the nearest hit among the
+     * voxel's primitives wherever it lies (results depend on the grid) */
+    MPRT_ACCEPT_IN_VOXEL = 1,
+    MPRT_ACCEPT_LISTED = 2,
+    /* behind (N.L <= 0): a shadow candidate carrying 0, cut by the threshold
+     * like any (paper), no candidate (spd), or a shadow ray cast whatever
+     * the threshold */
+    MPRT_BEHIND_CUTOFF = 1,
+    MPRT_BEHIND_SKIP = 2,
+    MPRT_BEHIND_CAST = 3,
+    /* candidates: a reflection candidate when Ks > 0 (spd: or T > 0) and a
+     * refraction one when T > 0 (paper, spd); both on every specular
+     * surface (Ks > 0 or T > 0); or both at every hit.  A candidate of
+     * weight 0 is suppressed by any threshold. */
+    MPRT_CANDIDATES_MATERIAL = 1,
+    MPRT_CANDIDATES_SPECULAR = 2,
+    MPRT_CANDIDATES_ALL = 3,
+    /* shadow_term: N.L x Kd x contribution times the light's mean intensity
+     * (paper), or without the light (the digest's luminance term) */
+    MPRT_SHADOW_LIGHT = 1,
+    MPRT_SHADOW_SURFACE = 2
+};
 
 /* Fill a render description with defaults. OUT: desc. */
 void mprt_render_desc_init(mprt_render_desc *desc);
 
 /* Resolve a render description's defaults against the grid's scene: width
  * and height 0 -> the view's resolution, max_depth 0 -> the rules' default
- * (paper 64, spd 5), threads 0 -> 1, tile <= 0 -> 16; and validate every
+ * (paper 64, spd 5), threads 0 -> 1, tile <= 0 -> 16, max_rays 0 ->
+ * MPRT_DEFAULT_MAX_RAYS; and validate every
  * field (the same checks, with the same messages, as mprt_grid_render).
  * OUT: out (may alias desc). */
 int mprt_grid_resolve_desc(mprt_grid *grid, const mprt_render_desc *desc, mprt_render_desc *out);

@@ -17,6 +17,7 @@ struct mprt_grid {
     uint8_t *flag;     /* per voxel: 1 when its list is not empty (the OS flag) */
     int32_t *ids;      /* primitive ids, voxel by voxel */
     long long refs;
+    int listing;       /* mprt_listing */
     int failed;
     int counted;       /* 1 once counted among the scene's grids (see mprt__scene_count_grid) */
     pthread_mutex_t errlock; /* renders may fail in several threads at once */

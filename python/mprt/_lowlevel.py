@@ -22,7 +22,7 @@ import os
 import numpy as np
 
 from . import _mprt, _mprt32
-from .errors import CapacityError, InvalidArgument, MprtError, SceneParseError, SceneStateError
+from .errors import CapacityError, InvalidArgument, MprtError, SceneParseError, SceneStateError, WorkLimitError
 
 _FFI = _mprt.ffi
 
@@ -53,6 +53,7 @@ _ERRORS = {
     Status.ERR_CAPACITY: CapacityError,
     Status.ERR_OUT_OF_MEMORY: MemoryError,
     Status.ERR_IO: OSError,
+    Status.ERR_LIMIT: WorkLimitError,
 }
 
 
@@ -256,10 +257,10 @@ class Binding:
         return data
 
     # -- grid --------------------------------------------------------------------------
-    def grid_create(self, scene_h, dims, max_bytes: int):
+    def grid_create(self, scene_h, dims, max_bytes: int, listing: int = 0):
         ffi, lib = self.ffi, self.lib
         out = ffi.new("mprt_grid **")
-        rc = lib.mprt_grid_create(scene_h, dims[0], dims[1], dims[2], int(max_bytes), out)
+        rc = lib.mprt_grid_create_listing(scene_h, dims[0], dims[1], dims[2], int(max_bytes), int(listing), out)
         if out[0] == ffi.NULL:
             raise MemoryError("mprt_grid_create: out of memory")
         h = ffi.gc(out[0], lib.mprt_grid_destroy)
