@@ -61,7 +61,7 @@ pytest: $(VENV)/.installed
 test: ctest pytest fuzz-replay
 
 demo: $(VENV)/.installed
-	$(PY) -m mprt render balls -o balls.png --stats balls-stats.json
+	$(PY) -m mprt explore balls --res 48x48 --budget 1000 --plot explore.png --json explore.json
 
 bench: $(VENV)/.installed
 	$(PY) -m pip install -q embreex

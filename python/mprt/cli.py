@@ -25,7 +25,7 @@ from . import options
 from .errors import MprtError
 from .grid import render_desc, write_png
 from .explore.cli import add_parsers as add_explore
-from .machine.cli import add_parser as add_simulate
+from .fidelity.cli import add_parser as add_simulate
 from .options import UsageError
 from .scene import SPD_SCENES
 from .trace import load_trace
