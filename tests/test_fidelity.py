@@ -258,3 +258,14 @@ def test_zero_cost_making_sends_primaries_to_os(traces):
     free = SimpleNamespace(process=vc.process, receive=vc.receive, send=vc.send, flits=vc.flits)
     a, b = simulate(t, "M", costs=free), replay(t, "M", costs=free)
     assert same(a, b) and b.stages["SC"]["primaries_made"] == 0
+
+
+def test_long_visits_take_the_wide_records(traces):
+    # visits of 2^24 cycles or more do not fit the replay's 8-byte records; the 16-byte ones
+    # must give the same machine
+    t = head(traces["balls-g9"], 20)
+    vc = CM.visit_costs(t, builtin("M").processors())
+    long = SimpleNamespace(process=vc.process * 100_000, receive=vc.receive, send=vc.send, flits=vc.flits,
+                           inject_process=vc.inject_process, inject_send=vc.inject_send)
+    assert long.process.max() >= 1 << 24
+    assert same(simulate(t, "M", costs=long), replay(t, "M", costs=long))

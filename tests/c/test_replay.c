@@ -142,6 +142,17 @@ static void test_parent_and_children(void)
     CHECK(cycles(&h, &s, NULL, 0) == 86);
 }
 
+static void test_long_visits(void)
+{
+    /* a visit of 2^25 cycles does not fit the packed 8-byte records: the 16-byte ones give
+     * the same machine (the last OS visit, at 79 on M and at 83 on S, now that long) */
+    hand h = parent_and_children();
+    mprt_replay_config m = model_m(), s = model_s();
+    h.process[7] = (int64_t)1 << 25;
+    CHECK(cycles(&h, &m, NULL, 0) == 79 + ((int64_t)1 << 25));
+    CHECK(cycles(&h, &s, NULL, 0) == 83 + ((int64_t)1 << 25));
+}
+
 static void test_replicas_share_the_work(void)
 {
     /* four primaries of 10 cycles on one stage of two processors: 20 cycles */
@@ -319,6 +330,7 @@ int main(void)
     RUN(test_one_ray);
     RUN(test_a_ray_with_a_return);
     RUN(test_parent_and_children);
+    RUN(test_long_visits);
     RUN(test_replicas_share_the_work);
     RUN(test_sc_makes_the_primaries);
     RUN(test_deadlock);
