@@ -6,7 +6,8 @@ PYTHON ?= python3
 VENV ?= .venv
 PY := $(VENV)/bin/python
 B ?= build
-WARN = -std=c99 -pedantic -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes
+# Warnings are errors: the library and its tests build clean under all of these.
+WARN = -std=c99 -pedantic -Wall -Wextra -Wshadow -Wstrict-prototypes -Wmissing-prototypes -Wconversion -Werror
 # -ffp-contract=off: no fused multiply-add, so the watertight edge tests stay
 # exactly antisymmetric and results do not depend on the compiler's choices.
 OPT ?= -O2 -g
@@ -30,6 +31,15 @@ $(B)/libmprt.a: $(patsubst c/src/%.c,$(B)/obj/%.o,$(SRC))
 
 $(B)/test_%: tests/c/test_%.c $(B)/libmprt.a $(wildcard tests/c/*.h)
 	$(CC) $(CFLAGS) $< $(B)/libmprt.a -o $@ $(LDLIBS)
+
+# The usage example of mprt.h: the indented lines of its "Usage" comment,
+# compiled as they stand by test_header_example.c.
+$(B)/header_example.inc: c/include/mprt.h
+	@mkdir -p $(dir $@)
+	sed -n '/^ \* Usage/,/^ \* Limitations:/s/^ \*     //p' $< > $@
+
+$(B)/test_header_example: tests/c/test_header_example.c $(B)/header_example.inc $(B)/libmprt.a tests/c/check.h
+	$(CC) $(CFLAGS) -I$(B) $< $(B)/libmprt.a -o $@ $(LDLIBS)
 
 # C tests run from tests/c (they read ../data/spd-reference).
 ctest: $(TESTS)

@@ -1,13 +1,14 @@
 /* mprt.h: the whole public C API of mprt, a ray tracer built as the 3MPRT
  * macropipeline (object search OS, intersection calculation IC, shading SC).
  *
- * Usage:
+ * Usage (tests/c/test_header_example.c compiles and runs this block as it
+ * stands):
  *
  *     mprt_scene *scene;  mprt_grid *grid;  mprt_render_desc rd;  mprt_counters c;
  *     mprt_scene_create(&scene);
  *     if (mprt_scene_spd(scene, "balls", 2) != MPRT_OK)       // or mprt_scene_load_nff
  *         fprintf(stderr, "%s\n", mprt_scene_errmsg(scene));
- *     mprt_grid_create(scene, 32, 32, 32, &grid);              // builds the voxel grid
+ *     mprt_grid_create(scene, 32, 32, 32, 0, &grid);           // the voxel grid; 0: default memory limit
  *     mprt_render_desc_init(&rd);                              // defaults: paper rules
  *     rd.width = rd.height = 256;
  *     float *rgb = malloc(sizeof(float) * 3 * 256 * 256);

@@ -80,6 +80,14 @@ static void nff_put_vec(nff_writer *w, vec3 v)
     nff_put_real(w, v.z);
 }
 
+/* A colour: three doubles. */
+static void nff_put_rgb(nff_writer *w, const double rgb[3])
+{
+    nff_put_double(w, rgb[0]);
+    nff_put_double(w, rgb[1]);
+    nff_put_double(w, rgb[2]);
+}
+
 static void nff_put_int(nff_writer *w, long long x)
 {
     char text[32];
@@ -90,9 +98,7 @@ static void nff_put_int(nff_writer *w, long long x)
 static void nff_put_material(nff_writer *w, const mprt__material *m)
 {
     nff_puts(w, "f");
-    nff_put_double(w, m->rgb[0]);
-    nff_put_double(w, m->rgb[1]);
-    nff_put_double(w, m->rgb[2]);
+    nff_put_rgb(w, m->rgb);
     nff_put_double(w, m->kd);
     nff_put_double(w, m->ks);
     nff_put_double(w, m->shine);
@@ -170,19 +176,13 @@ int mprt_scene_write_nff(const mprt_scene *s, char *buf, size_t cap, size_t *nee
     nff_put_int(&w, s->width);
     nff_put_int(&w, s->height);
     nff_puts(&w, "\nb");
-    nff_put_double(&w, s->background[0]);
-    nff_put_double(&w, s->background[1]);
-    nff_put_double(&w, s->background[2]);
+    nff_put_rgb(&w, s->background);
     nff_puts(&w, "\n");
     for (i = 0; i < s->nlights; i++) {
         const mprt__light *l = &s->lights[i];
         nff_puts(&w, "l");
         nff_put_vec(&w, l->pos);
-        if (l->has_rgb) {
-            nff_put_double(&w, l->rgb[0]);
-            nff_put_double(&w, l->rgb[1]);
-            nff_put_double(&w, l->rgb[2]);
-        }
+        if (l->has_rgb) nff_put_rgb(&w, l->rgb);
         nff_puts(&w, "\n");
     }
     for (i = 0; i < s->nprims; i++) {

@@ -164,7 +164,8 @@ typedef struct {
     double from[3], hither;
 } ref_counts;
 
-static const ref_counts refs[6] = {
+enum { NREFS = 6 };
+static const ref_counts refs[NREFS] = {
     {"balls.nff", 7381, 1, 0, 0, 3, 2, {2.1, 1.3, 1.7}, 0.01},
     {"gears.nff", 0, 9345, 0, 0, 5, 65, {-1.1, -2.1, 2.6}, 1},
     {"mount.nff", 4, 8192, 0, 0, 1, 2, {-1.6, 1.6, 1.7}, 0.01},

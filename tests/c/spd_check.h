@@ -14,9 +14,11 @@
 /* Tolerance for values the source defines exactly (wider if built with MPRT_SINGLE). */
 #define NEAR (REAL_EPS > 1e-10 ? 1e-5 : 1e-12)
 
-static const char *const names[6] = {"balls", "gears", "mount", "rings", "tetra", "tree"};
-static const int default_size[6] = {4, 4, 6, 7, 6, 11};
-static const int max_size[6] = {8, 69, 12, 135, 12, 23};
+/* The scenes, in the order of names[]. */
+enum { BALLS, GEARS, MOUNT, RINGS, TETRA, TREE, NSCENES };
+static const char *const names[NSCENES] = {"balls", "gears", "mount", "rings", "tetra", "tree"};
+static const int default_size[NSCENES] = {4, 4, 6, 7, 6, 11};
+static const int max_size[NSCENES] = {8, 69, 12, 135, 12, 23};
 
 static inline mprt_scene *gen(const char *name, int size)
 {

@@ -189,6 +189,10 @@ static void test_cone_analytic(void)
     CHECK(n.y < 0 && n.z > 0);
 }
 
+/* Shapes of the random cones (apex radius), and where their rays aim. */
+enum { CYLINDER, POINTED, ANY_CONE, FRUSTUM, NSHAPES };
+enum { NEAR_SURFACE, APEX_CENTRE, ALONG_AXIS, ALONG_GENERATOR, NAIMS };
+
 /* Random rays at random cones, frustums and cylinders agree with a long-double
  * reference, including rays through the apex, near the axis and near generators. */
 static void test_cone_random(void)
@@ -197,27 +201,27 @@ static void test_cone_random(void)
     int i, bad = 0, n = 0, hits = 0;
     rng_seed(&r, 12);
     for (i = 0; i < 60000; i++) {
-        int kind = i % 4;
+        int shape = i % NSHAPES;
         vec3 base = vscale(rnd_unit(&r), (real)rnd_in(&r, 0, 3)), w = rnd_unit(&r), o, d;
         double len = rnd_in(&r, 0.2, 3), rb = rnd_in(&r, 0.1, 1.5);
-        double ra = kind == 0 ? rb : kind == 1 ? 0 : kind == 2 ? rnd_in(&r, 0, 2) : rnd_in(&r, 0.1, 1.5);
+        double ra = shape == CYLINDER ? rb : shape == POINTED ? 0 : shape == ANY_CONE ? rnd_in(&r, 0, 2) : rnd_in(&r, 0.1, 1.5);
         mprt__cone c = mkcone(base, rb, vadd(base, vscale(w, (real)len)), ra);
         mprt__ray ray;
         real t = 0;
         double tr = 0;
-        int h, hr, amb, mode = rnd_int(&r, 0, 3);
+        int h, hr, amb, aim_at = rnd_int(&r, 0, NAIMS - 1);
         vec3 aim = cone_point(&c, rnd_in(&r, -0.2, 1.2), rnd_in(&r, 0, 2 * PI));
-        if (mode == 0) { /* aim near a surface point */
+        if (aim_at == NEAR_SURFACE) {
             aim = vadd(aim, vscale(rnd_unit(&r), (real)rnd_in(&r, 0, 0.3)));
             o = vadd(aim, vscale(rnd_unit(&r), (real)rnd_in(&r, 0.5, 8)));
             d = vsub(aim, o);
-        } else if (mode == 1) { /* through the apex end's centre */
+        } else if (aim_at == APEX_CENTRE) {
             o = vadd(c.apex, vscale(rnd_unit(&r), (real)rnd_in(&r, 0.5, 8)));
             d = vsub(c.apex, o);
-        } else if (mode == 2) { /* nearly along the axis */
+        } else if (aim_at == ALONG_AXIS) {
             o = vadd(vmadd(base, w, (real)rnd_in(&r, -5, -1)), vscale(rnd_unit(&r), (real)rnd_in(&r, 0, 0.5)));
             d = vadd(w, vscale(rnd_unit(&r), (real)rnd_in(&r, 0, 0.05)));
-        } else { /* nearly parallel to a generator, from outside or inside */
+        } else { /* ALONG_GENERATOR, from outside or inside */
             vec3 g = vsub(cone_point(&c, 1, 1.0), cone_point(&c, 0, 1.0));
             d = vadd(g, vscale(rnd_unit(&r), (real)(rnd_in(&r, 0, 1e-3) * len)));
             o = vsub(vadd(aim, vscale(rnd_unit(&r), (real)rnd_in(&r, 0, 0.5))), vscale(d, 2));
@@ -235,8 +239,8 @@ static void test_cone_random(void)
             hits++;
             if (fabs(sqrt(x * x + y * y) - rr) > tol * sc || z < -tol * sc || z > (double)c.len + tol * sc) {
                 if (bad++ < 5)
-                    fprintf(stderr, "  cone ray %d (kind %d mode %d): hit off the surface: rho %.9g r %.9g z %.9g len %.9g t %.9g\n",
-                            i, kind, mode, sqrt(x * x + y * y), rr, z, (double)c.len, (double)t);
+                    fprintf(stderr, "  cone ray %d (shape %d aim %d): hit off the surface: rho %.9g r %.9g z %.9g len %.9g t %.9g\n",
+                            i, shape, aim_at, sqrt(x * x + y * y), rr, z, (double)c.len, (double)t);
                 continue;
             }
         }
@@ -244,8 +248,8 @@ static void test_cone_random(void)
         n++;
         if (h != hr || (h && fabs((double)t - tr) > 1e2 * TOL * (fabs(tr) + 1))) {
             if (bad++ < 5)
-                fprintf(stderr, "  cone ray %d (kind %d mode %d): hit %d/%d t %.17g ref %.17g\n", i, kind,
-                        mode, h, hr, (double)t, tr);
+                fprintf(stderr, "  cone ray %d (shape %d aim %d): hit %d/%d t %.17g ref %.17g\n", i, shape,
+                        aim_at, h, hr, (double)t, tr);
         }
     }
     CHECK_MSG(bad == 0, "%d of %d rays disagree", bad, n);

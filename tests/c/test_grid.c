@@ -139,7 +139,7 @@ static void test_random_rays_keep_the_walk_invariants(void)
             vec3 o = v3((real)(rnd() * 12 - 2), (real)(rnd() * 12 - 2), (real)(rnd() * 12 - 2));
             vec3 d = v3((real)(rnd() * 2 - 1), (real)(rnd() * 2 - 1), (real)(rnd() * 2 - 1));
             /* every fifth ray snaps its origin onto voxel boundaries */
-            if (i % 5 == 0) o = v3((real)(int)(o.x * n / 8) * 8 / (real)n, (real)(int)(o.y * n / 8) * 8 / (real)n, o.z);
+            if (i % 5 == 0) o = v3((real)(int)(o.x * (real)n / 8) * 8 / (real)n, (real)(int)(o.y * (real)n / 8) * 8 / (real)n, o.z);
             if (walk_checked(g, o, d, (real)INFINITY, NULL, 0) < 0) break;
         }
         mprt_grid_destroy(g);

@@ -196,7 +196,7 @@ static mprt_scene *load_ref(const char *file)
 static void test_reference_counts(void)
 {
     int i;
-    for (i = 0; i < 6; i++) {
+    for (i = 0; i < NREFS; i++) {
         const ref_counts *r = &refs[i];
         mprt_scene *s = load_ref(r->file);
         mprt_scene_info info;
@@ -238,7 +238,7 @@ static void test_round_trip(void)
     static const double p1[3] = {-0.0, 1e30, 123456789.123456789};
     static const double quad[12] = {0, 0, 0.1, 1.0 / 3, 0, 0.1, 1.0 / 3, 1.0 / 7, 0.1, 0, 1.0 / 7, 0.1};
     static const double nrm[12] = {0.1, 0.2, 1, 0, 0, 3, 1.0 / 3, 1, 1, -0.1, 0, 1};
-    for (i = 0; i < 6; i++) {
+    for (i = 0; i < NREFS; i++) {
         s = load_ref(refs[i].file);
         check_round_trip(refs[i].file, s);
         mprt_scene_destroy(s);

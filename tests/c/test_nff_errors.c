@@ -214,7 +214,7 @@ static void test_fuzz(void)
         parse_any(buf, rng() % 4 ? n : (size_t)(rng() % (n + 1)));
     }
     free(buf);
-    for (f = 0; f < 6; f++) {
+    for (f = 0; f < NREFS; f++) {
         char path[256];
         snprintf(path, sizeof path, REF "%s", refs[f].file);
         file = slurp(path, &len);

@@ -33,6 +33,9 @@ static void box_at(vec3 q, double h, vec3 *lo, vec3 *hi)
 
 /* ---- Reintersection --------------------------------------------------------- */
 
+/* Shapes of the random cases. */
+enum { SPHERE_SHAPE, CYLINDER_SHAPE, CONE_SHAPE, FRUSTUM_SHAPE };
+
 /* A ray leaving a convex surface outward from its hit point never hits it again. */
 static void test_reintersect(void)
 {
@@ -40,7 +43,7 @@ static void test_reintersect(void)
     int i, bad = 0, tried = 0;
     rng_seed(&r, 14);
     for (i = 0; i < 30000; i++) {
-        int kind = i % 3;
+        int shape = i % 3; /* SPHERE_SHAPE, CYLINDER_SHAPE or CONE_SHAPE */
         double scale = pow(10.0, rnd_in(&r, -3, 3));
         vec3 cen = vscale(rnd_unit(&r), (real)(scale * rnd_in(&r, 0, 10)));
         mprt__sphere s;
@@ -51,25 +54,25 @@ static void test_reintersect(void)
         int h;
         s.c = cen;
         s.r = (real)scale;
-        c = mkcone(cen, scale, vadd(cen, vscale(rnd_unit(&r), (real)(2 * scale))), kind == 1 ? scale : 0.3 * scale);
+        c = mkcone(cen, scale, vadd(cen, vscale(rnd_unit(&r), (real)(2 * scale))), shape == CYLINDER_SHAPE ? scale : 0.3 * scale);
         o = vadd(cen, vscale(rnd_unit(&r), (real)(scale * rnd_in(&r, 4, 20))));
-        d = vsub(kind == 0 ? vadd(cen, vscale(rnd_unit(&r), (real)(0.9 * scale)))
+        d = vsub(shape == SPHERE_SHAPE ? vadd(cen, vscale(rnd_unit(&r), (real)(0.9 * scale)))
                            : cone_point(&c, rnd_in(&r, 0.05, 0.95), rnd_in(&r, 0, 2 * PI)),
                  o);
         ray = mkray(o, d);
-        h = kind == 0 ? mprt__sphere_hit(&s, &ray, 0, REAL_MAX, &t) : cone_any_hit(&c, &ray, 0, REAL_MAX, &t);
+        h = shape == SPHERE_SHAPE ? mprt__sphere_hit(&s, &ray, 0, REAL_MAX, &t) : cone_any_hit(&c, &ray, 0, REAL_MAX, &t);
         if (!h) continue;
         p = vmadd(o, d, t);
-        n = kind == 0 ? mprt__sphere_normal(&s, p) : mprt__cone_normal(&c, p);
-        if (kind != 0 && vdot(n, d) > 0) continue; /* reached the inside of the cone first */
+        n = shape == SPHERE_SHAPE ? mprt__sphere_normal(&s, p) : mprt__cone_normal(&c, p);
+        if (shape != SPHERE_SHAPE && vdot(n, d) > 0) continue; /* reached the inside of the cone first */
         /* a random direction in the outer hemisphere, not grazing */
         do d2 = rnd_unit(&r);
         while (vdot(d2, n) < R(0.05));
         tried++;
         tmin = (real)(256 * EPS * (dmag(p) + 3 * scale));
         ray = mkray(p, d2);
-        h = kind == 0 ? mprt__sphere_hit(&s, &ray, tmin, REAL_MAX, &t) : cone_any_hit(&c, &ray, tmin, REAL_MAX, &t);
-        if (h && bad++ < 5) fprintf(stderr, "  reintersect %d (kind %d): t %.9g tmin %.9g\n", i, kind, (double)t, (double)tmin);
+        h = shape == SPHERE_SHAPE ? mprt__sphere_hit(&s, &ray, tmin, REAL_MAX, &t) : cone_any_hit(&c, &ray, tmin, REAL_MAX, &t);
+        if (h && bad++ < 5) fprintf(stderr, "  reintersect %d (shape %d): t %.9g tmin %.9g\n", i, shape, (double)t, (double)tmin);
     }
     CHECK_MSG(bad == 0, "%d of %d rays hit again", bad, tried);
     CHECK(tried > 15000);
@@ -179,9 +182,9 @@ static void test_cone_box(void)
     int i, miss = 0, wrong = 0;
     rng_seed(&r, 17);
     for (i = 0; i < 40000; i++) {
-        int kind = i % 3;
+        int shape = CYLINDER_SHAPE + i % 3; /* or CONE_SHAPE (pointed) or FRUSTUM_SHAPE */
         double sc = pow(10.0, rnd_in(&r, -4, 4)), len = sc * rnd_in(&r, 0.5, 3), rb = sc * rnd_in(&r, 0.3, 1);
-        double ra = kind == 0 ? rb : kind == 1 ? 0 : rb * rnd_in(&r, 0.2, 2), f, rr, g;
+        double ra = shape == CYLINDER_SHAPE ? rb : shape == CONE_SHAPE ? 0 : rb * rnd_in(&r, 0.2, 2), f, rr, g;
         vec3 base = vscale(rnd_unit(&r), (real)(sc * rnd_in(&r, 0, 5))), lo, hi, p;
         mprt__cone c = mkcone(base, rb, vadd(base, vscale(rnd_unit(&r), (real)len)), ra);
         f = rnd(&r);
@@ -189,7 +192,7 @@ static void test_cone_box(void)
         p = cone_point(&c, f, rnd_in(&r, 0, 2 * PI));
         box_around(&r, p, sc, &lo, &hi);
         if (!mprt__cone_box(&c, lo, hi)) {
-            if (miss++ < 5) fprintf(stderr, "  cone box missed (kind %d, f %g)\n", kind, f);
+            if (miss++ < 5) fprintf(stderr, "  cone box missed (shape %d, f %g)\n", shape, f);
         }
         /* separated: |g| = |rho - r(z)| at the centre beyond the box's reach */
         f = rnd_in(&r, 0.1, 0.9);
@@ -205,7 +208,7 @@ static void test_cone_box(void)
             if (h > 0.1 * (double)c.len) h = 0.1 * (double)c.len;
             box_at(vd(q[0], q[1], q[2]), h, &lo, &hi);
             if (mprt__cone_box(&c, lo, hi)) {
-                if (wrong++ < 5) fprintf(stderr, "  cone box wrongly reported (kind %d)\n", kind);
+                if (wrong++ < 5) fprintf(stderr, "  cone box wrongly reported (shape %d)\n", shape);
             }
         }
         /* beyond an end plane */

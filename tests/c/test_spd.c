@@ -124,12 +124,12 @@ static void compare_with_reference(int which)
     mprt_scene_destroy(s);
 }
 
-static void test_balls_matches_reference(void) { compare_with_reference(0); }
-static void test_gears_matches_reference(void) { compare_with_reference(1); }
-static void test_mount_matches_reference(void) { compare_with_reference(2); }
-static void test_rings_matches_reference(void) { compare_with_reference(3); }
-static void test_tetra_matches_reference(void) { compare_with_reference(4); }
-static void test_tree_matches_reference(void) { compare_with_reference(5); }
+static void test_balls_matches_reference(void) { compare_with_reference(BALLS); }
+static void test_gears_matches_reference(void) { compare_with_reference(GEARS); }
+static void test_mount_matches_reference(void) { compare_with_reference(MOUNT); }
+static void test_rings_matches_reference(void) { compare_with_reference(RINGS); }
+static void test_tetra_matches_reference(void) { compare_with_reference(TETRA); }
+static void test_tree_matches_reference(void) { compare_with_reference(TREE); }
 
 /* ---- closed-form counts for other sizes ---------------------------------- */
 
@@ -144,24 +144,24 @@ static counts expected_counts(int which, int sf)
     long long n3 = (long long)sf * sf * sf, k, sq = (long long)sf * (sf + 1) * (2 * sf + 1) / 6;
     memset(&c, 0, sizeof c);
     switch (which) {
-    case 0: /* balls: sum_{k=0}^{sf} 9^k spheres, floor square */
+    case BALLS: /* balls: sum_{k=0}^{sf} 9^k spheres, floor square */
         for (k = 0; k <= sf; k++) c.spheres += ipow(9, (int)k);
         c.polygons = 1; c.vertices = 4; c.lights = 3; c.materials = 2;
         break;
-    case 1: /* gears: sf^3 gears of 2 faces (144-gons) + 144 side quads, ground */
+    case GEARS: /* gears: sf^3 gears of 2 faces (144-gons) + 144 side quads, ground */
         c.polygons = 1 + n3 * (2 + 144);
         c.vertices = 4 + n3 * (2 * 144 + 144 * 4);
         c.lights = 5; c.materials = 1 + n3;
         break;
-    case 2: /* mount: 2*4^sf triangles, 4 spheres */
+    case MOUNT: /* mount: 2*4^sf triangles, 4 spheres */
         c.spheres = 4; c.polygons = 2 * ipow(4, sf); c.vertices = 3 * c.polygons;
         c.lights = 1; c.materials = 2;
         break;
-    case 3: /* rings: sum_{k=1}^{sf} k^2 objects of 30 cylinders + 30 spheres, 6 surfaces */
+    case RINGS: /* rings: sum_{k=1}^{sf} k^2 objects of 30 cylinders + 30 spheres, 6 surfaces */
         c.spheres = c.cylinders = 30 * sq; c.polygons = 1; c.vertices = 4;
         c.lights = 3; c.materials = 1 + 6 * sq;
         break;
-    case 4: /* tetra: 4^sf triangles */
+    case TETRA: /* tetra: 4^sf triangles */
         c.polygons = ipow(4, sf); c.vertices = 3 * c.polygons; c.lights = 1; c.materials = 1;
         break;
     default: /* tree: 2^(sf+1)-1 branches, each a cone and a sphere, field square */
@@ -196,7 +196,7 @@ static void check_counts(int which, int sf)
 static void test_counts_sizes_1_to_3(void)
 {
     int w, sf;
-    for (w = 0; w < 6; w++)
+    for (w = 0; w < NSCENES; w++)
         for (sf = 1; sf <= 3; sf++) check_counts(w, sf);
     check_counts(5, 8);
 }
@@ -204,9 +204,9 @@ static void test_counts_sizes_1_to_3(void)
 static void test_default_counts(void)
 {
     /* The README's table for the default sizes */
-    static const long long prims[6] = {7382, 9345, 8196, 8401, 4096, 8191};
+    static const long long prims[NSCENES] = {7382, 9345, 8196, 8401, 4096, 8191};
     int w;
-    for (w = 0; w < 6; w++) {
+    for (w = 0; w < NSCENES; w++) {
         counts e = expected_counts(w, default_size[w]);
         CHECK(e.spheres + e.polygons + e.cylinders + e.cones == prims[w]);
         check_counts(w, default_size[w]);
@@ -218,7 +218,7 @@ static void test_default_counts(void)
 static void test_max_sizes_bound_primitives(void)
 {
     int w;
-    for (w = 0; w < 6; w++) {
+    for (w = 0; w < NSCENES; w++) {
         counts at = expected_counts(w, max_size[w]), above = expected_counts(w, max_size[w] + 1);
         long long n = at.spheres + at.polygons + at.cylinders + at.cones;
         long long m = above.spheres + above.polygons + above.cylinders + above.cones;

@@ -26,74 +26,46 @@ static void check_lights(const mprt_scene *s, const double *pos, int n)
 
 static void test_views_and_lights(void)
 {
-    static const double balls_l[3][3] = {{4, 3, 2}, {1, -4, 4}, {-3, 1, 5}};
-    static const double gears_l[5][3] = {{2, 4, 4}, {-2, 4, 3}, {2, -2.5, 2.5}, {-1, -4, 2}, {-1.111, -2.121, 2.626}};
-    static const double mount_l[1][3] = {{-100, -100, 100}};
-    static const double tetra_l[1][3] = {{2, -18, -5}};
-    static const double tree_l[7][3] = {{-5, 5, 50}, {30, -30, 30}, {-40, -30, 20}, {10, 30, 40},
-                                        {-30, 40, 10}, {50, 25, 20}, {-10, -60, 30}};
-    double spread = 1.0 / sin(PI / 8.0), rings_l[3][3];
-    int sf;
-    rings_l[0][0] = 3; rings_l[0][1] = -spread; rings_l[0][2] = 3;
-    rings_l[1][0] = -4; rings_l[1][1] = -spread; rings_l[1][2] = 1;
-    rings_l[2][0] = 2; rings_l[2][1] = -spread; rings_l[2][2] = -4;
-
-    for (sf = 1; sf <= 3; sf++) {
-        mprt_scene *s;
-        int w;
-        for (w = 0; w < 6; w++) {
-            s = gen(names[w], sf);
+    static const double balls_l[] = {4, 3, 2, 1, -4, 4, -3, 1, 5};
+    static const double gears_l[] = {2, 4, 4, -2, 4, 3, 2, -2.5, 2.5, -1, -4, 2, -1.111, -2.121, 2.626};
+    static const double mount_l[] = {-100, -100, 100};
+    static const double tetra_l[] = {2, -18, -5};
+    static const double tree_l[] = {-5, 5, 50, 30, -30, 30, -40, -30, 20, 10, 30, 40, -30, 40, 10, 50, 25, 20, -10, -60, 30};
+    double spread = 1.0 / sin(PI / 8.0);
+    double rings_l[] = {3, -spread, 3, -4, -spread, 1, 2, -spread, -4};
+    /* What each scene's program states: view, hither, lights */
+    const struct {
+        double from[3], at[3], up[3], hither;
+        const double *lights;
+        int nlights;
+    } view[NSCENES] = {
+        {{2.1, 1.3, 1.7}, {0, 0, 0}, {0, 0, 1}, 0.01, balls_l, 3},
+        {{-1.1, -2.1, 2.6}, {0, 0, 0}, {0, 0, 1}, 1, gears_l, 5},
+        {{-1.6, 1.6, 1.7}, {0, 0, 0}, {0, 0, 1}, 0.01, mount_l, 1},
+        {{-1, -spread, 0.5}, {-1, -spread + 1.0, 0.5}, {0, 0, 1}, 1, rings_l, 3},
+        {{1.022846, -3.177154, -2.174512}, {-0.004103, -0.004103, 0.216539}, {-0.816497, -0.816497, 0.816497}, 1,
+         tetra_l, 1},
+        {{4.5, 0.4, 2}, {0, 0, 1.5}, {0, 0, 1}, 1, tree_l, 7},
+    };
+    int sf, w;
+    for (sf = 1; sf <= 3; sf++)
+        for (w = 0; w < NSCENES; w++) {
+            mprt_scene *s = gen(names[w], sf);
+            char what[64];
             if (!s) continue;
             CHECK(s->angle == 45.0 && s->width == 512 && s->height == 512);
             CHECK(fabs(s->background[0] - 0.078) < 1e-12 && fabs(s->background[1] - 0.361) < 1e-12 &&
                   fabs(s->background[2] - 0.753) < 1e-12);
-            switch (w) {
-            case 0:
-                check_v3(s->from, 2.1, 1.3, 1.7, "balls from");
-                check_v3(s->at, 0, 0, 0, "balls at");
-                check_v3(s->up, 0, 0, 1, "balls up");
-                CHECK(fabs(s->hither - 0.01) < 1e-12);
-                check_lights(s, &balls_l[0][0], 3);
-                break;
-            case 1:
-                check_v3(s->from, -1.1, -2.1, 2.6, "gears from");
-                check_v3(s->at, 0, 0, 0, "gears at");
-                check_v3(s->up, 0, 0, 1, "gears up");
-                CHECK(s->hither == 1.0);
-                check_lights(s, &gears_l[0][0], 5);
-                break;
-            case 2:
-                check_v3(s->from, -1.6, 1.6, 1.7, "mount from");
-                check_v3(s->at, 0, 0, 0, "mount at");
-                check_v3(s->up, 0, 0, 1, "mount up");
-                CHECK(fabs(s->hither - 0.01) < 1e-12);
-                check_lights(s, &mount_l[0][0], 1);
-                break;
-            case 3:
-                check_v3(s->from, -1, -spread, 0.5, "rings from");
-                check_v3(s->at, -1, -spread + 1.0, 0.5, "rings at");
-                check_v3(s->up, 0, 0, 1, "rings up");
-                CHECK(s->hither == 1.0);
-                check_lights(s, &rings_l[0][0], 3);
-                break;
-            case 4:
-                check_v3(s->from, 1.022846, -3.177154, -2.174512, "tetra from");
-                check_v3(s->at, -0.004103, -0.004103, 0.216539, "tetra at");
-                check_v3(s->up, -0.816497, -0.816497, 0.816497, "tetra up");
-                CHECK(s->hither == 1.0);
-                check_lights(s, &tetra_l[0][0], 1);
-                break;
-            default:
-                check_v3(s->from, 4.5, 0.4, 2, "tree from");
-                check_v3(s->at, 0, 0, 1.5, "tree at");
-                check_v3(s->up, 0, 0, 1, "tree up");
-                CHECK(s->hither == 1.0);
-                check_lights(s, &tree_l[0][0], 7);
-                break;
-            }
+            snprintf(what, sizeof what, "%s from", names[w]);
+            check_v3(s->from, view[w].from[0], view[w].from[1], view[w].from[2], what);
+            snprintf(what, sizeof what, "%s at", names[w]);
+            check_v3(s->at, view[w].at[0], view[w].at[1], view[w].at[2], what);
+            snprintf(what, sizeof what, "%s up", names[w]);
+            check_v3(s->up, view[w].up[0], view[w].up[1], view[w].up[2], what);
+            CHECK_MSG(fabs(s->hither - view[w].hither) < 1e-12, "%s hither %g", names[w], s->hither);
+            check_lights(s, view[w].lights, view[w].nlights);
             mprt_scene_destroy(s);
         }
-    }
 }
 
 /* ---- size-dependent rules from the source --------------------------------- */
@@ -281,7 +253,7 @@ static void test_bad_name(void)
 static void test_sizes_default_and_limits(void)
 {
     int w;
-    for (w = 0; w < 6; w++) {
+    for (w = 0; w < NSCENES; w++) {
         mprt_scene *a = gen(names[w], 0), *b = gen(names[w], -3), *c = gen(names[w], default_size[w]);
         mprt_scene *s = NULL;
         char want[64];

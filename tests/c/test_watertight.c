@@ -142,6 +142,8 @@ static void test_watertight_sphere_mesh(void)
     mesh_free(&m);
 }
 
+enum { QUAD, SPLIT_AC, SPLIT_BD };
+
 /* Flat grids of quads and triangles, and a triangulated height field: rays
  * exactly through shared vertices and edges never leak. */
 static void test_watertight_grids(void)
@@ -161,15 +163,16 @@ static void test_watertight_grids(void)
                 vec3 a = v3((real)i, (real)j, z[i][j]), b = v3((real)(i + 1), (real)j, z[i + 1][j]),
                      c = v3((real)(i + 1), (real)(j + 1), z[i + 1][j + 1]),
                      d = v3((real)i, (real)(j + 1), z[i][j + 1]), f[4];
-                int kind = field ? 1 + rnd_int(&r, 0, 1) : rnd_int(&r, 0, 2);
-                diag_ac[i][j] = kind == 1;
-                if (kind == 0) {
+                /* a quad, or two triangles split along a-c or along b-d */
+                int split = field ? SPLIT_AC + rnd_int(&r, 0, 1) : rnd_int(&r, 0, 2);
+                diag_ac[i][j] = split == SPLIT_AC;
+                if (split == QUAD) {
                     f[0] = a;
                     f[1] = b;
                     f[2] = c;
                     f[3] = d;
                     CHECK(mesh_add(&m, 4, f, rnd(&r) < 0.5) == 0);
-                } else if (kind == 1) {
+                } else if (split == SPLIT_AC) {
                     f[0] = a;
                     f[1] = b;
                     f[2] = c;
