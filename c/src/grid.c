@@ -5,7 +5,14 @@
  * ("holds primitives") is start[v+1] > start[v].  A primitive is listed in
  * every voxel its surface may touch, by the primitives' conservative box
  * tests against the voxel box grown by a small relative margin, so that
- * rounding in the 3DDDA's voxel boundaries can never hide a primitive. */
+ * rounding in the 3DDDA's voxel boundaries can never hide a primitive.
+ *
+ * Empty space: the grid is also split into macro cells of whole voxels,
+ * about cubic in space (one voxel each on a grid of cubic voxels), and each
+ * empty voxel holds the chessboard distance from its macro cell to the
+ * nearest macro cell with primitives (grid.h, empty), which lets the walk
+ * jump across the block of empty macro cells around it (dda.h) with the
+ * same counts. */
 #include "grid.h"
 
 #include <stdio.h>
@@ -35,7 +42,8 @@ void mprt_grid_destroy(mprt_grid *g)
     if (!g) return;
     if (g->counted) mprt__scene_count_grid(g->scene, -1);
     free(g->start);
-    free(g->flag);
+    free(g->empty);
+    free(g->macro_lo[0]);
     free(g->ids);
     pthread_mutex_destroy(&g->errlock);
     free(g);
@@ -69,6 +77,141 @@ static int axis_cell(const mprt_grid *g, int a, real x)
 vec3 mprt__grid_voxel_lo(const mprt_grid *g, int i, int j, int k)
 {
     return v3(g->lo.x + (real)i * g->cell.x, g->lo.y + (real)j * g->cell.y, g->lo.z + (real)k * g->cell.z);
+}
+
+/* ---- Distance to the nearest voxel with primitives -------------------------
+ * The chessboard (L-infinity) distance in voxels, capped at 255: two chamfer
+ * passes over the 26 neighbours with unit weights, the first in raster
+ * order from the neighbours already visited, the second in reverse.  This
+ * is exact for the chessboard metric: between any two voxels there is a
+ * shortest king's path whose steps go first forward then backward in
+ * raster order (tests/c/test_skip.c compares it with brute force). */
+
+static uint8_t min_u8(uint8_t a, uint8_t b) { return a < b ? a : b; }
+
+/* One pass: dir +1 forward, -1 backward.  p3: n[0] * n[1] bytes of scratch. */
+static void chamfer_pass(const int n[3], uint8_t *d, uint8_t *p3, int dir)
+{
+    const int nx = n[0], ny = n[1], nz = n[2];
+    const size_t slice = (size_t)nx * (size_t)ny;
+    int i, j, k, x, y, z;
+    for (k = 0; k < nz; k++) {
+        uint8_t *cur;
+        int have_prev;
+        z = dir > 0 ? k : nz - 1 - k;
+        cur = d + (size_t)z * slice;
+        have_prev = dir > 0 ? z > 0 : z < nz - 1;
+        if (have_prev) {
+            /* p3: the 3x3 minimum, across x then y, of the slice before */
+            const uint8_t *prev = d + (size_t)(z - dir) * slice;
+            for (y = 0; y < ny; y++) {
+                const uint8_t *r = prev + (size_t)y * (size_t)nx;
+                uint8_t *o = p3 + (size_t)y * (size_t)nx;
+                for (x = 0; x < nx; x++) {
+                    uint8_t m = r[x];
+                    if (x > 0) m = min_u8(m, r[x - 1]);
+                    if (x < nx - 1) m = min_u8(m, r[x + 1]);
+                    o[x] = m;
+                }
+            }
+            for (x = 0; x < nx; x++) {
+                uint8_t up = 255, here = p3[x];
+                for (y = 0; y < ny; y++) {
+                    uint8_t *o = p3 + (size_t)y * (size_t)nx + x;
+                    uint8_t down = y < ny - 1 ? o[nx] : 255, m = min_u8(min_u8(up, here), down);
+                    up = here;
+                    here = down;
+                    *o = m;
+                }
+            }
+        }
+        for (j = 0; j < ny; j++) {
+            uint8_t *row;
+            const uint8_t *before;
+            y = dir > 0 ? j : ny - 1 - j;
+            row = cur + (size_t)y * (size_t)nx;
+            before = (dir > 0 ? y > 0 : y < ny - 1) ? row - (ptrdiff_t)dir * nx : NULL;
+            for (i = 0; i < nx; i++) {
+                uint8_t m;
+                x = dir > 0 ? i : nx - 1 - i;
+                m = have_prev ? p3[(size_t)y * (size_t)nx + (size_t)x] : 255;
+                if (before) {
+                    m = min_u8(m, before[x]);
+                    if (x > 0) m = min_u8(m, before[x - 1]);
+                    if (x < nx - 1) m = min_u8(m, before[x + 1]);
+                }
+                if (i > 0) m = min_u8(m, row[x - dir]);
+                if (m < 254 && m + 1 < row[x]) row[x] = (uint8_t)(m + 1);
+            }
+        }
+    }
+}
+
+int mprt__chessboard_distance(const int n[3], uint8_t *d)
+{
+    uint8_t *p3 = malloc((size_t)n[0] * (size_t)n[1]);
+    if (!p3) return MPRT_ERR_OUT_OF_MEMORY;
+    chamfer_pass(n, d, p3, +1);
+    chamfer_pass(n, d, p3, -1);
+    free(p3);
+    return MPRT_OK;
+}
+
+/* Macro cells: m[a] voxels on axis a, the nearest whole number to the
+ * largest voxel extent over this axis's extent, so that macro cells are
+ * about cubic; macro_lo maps each voxel index to its macro cell's first. */
+static int macro_cells(mprt_grid *g)
+{
+    real big = g->cell.x > g->cell.y ? g->cell.x : g->cell.y;
+    int a, i, *lo;
+    if (g->cell.z > big) big = g->cell.z;
+    lo = malloc((size_t)(g->n[0] + g->n[1] + g->n[2]) * sizeof *lo);
+    if (!lo) return MPRT_ERR_OUT_OF_MEMORY;
+    for (a = 0; a < 3; a++) {
+        real r = big / vget(g->cell, a) + R(0.5);
+        g->macro[a] = r >= (real)g->n[a] ? g->n[a] : r < 1 ? 1 : (int)r;
+        g->macro_lo[a] = lo;
+        for (i = 0; i < g->n[a]; i++) lo[i] = i - i % g->macro[a];
+        lo += g->n[a];
+    }
+    return MPRT_OK;
+}
+
+/* Mark the voxels the walk may jump from (empty values 2 and up): the
+ * chessboard distance of each macro cell to the nearest one holding
+ * primitives, given to the empty voxels it contains.  A block that is a
+ * single voxel is not worth a jump: those voxels stay at 1. */
+static int mark_jumps(mprt_grid *g)
+{
+    int M[3], a, x, y, z, single = g->macro[0] == 1 && g->macro[1] == 1 && g->macro[2] == 1;
+    uint8_t *md;
+    if (macro_cells(g) != MPRT_OK) return MPRT_ERR_OUT_OF_MEMORY;
+    for (a = 0; a < 3; a++) M[a] = (g->n[a] + g->macro[a] - 1) / g->macro[a];
+    md = malloc((size_t)M[0] * (size_t)M[1] * (size_t)M[2]);
+    if (!md) return MPRT_ERR_OUT_OF_MEMORY;
+    memset(md, 255, (size_t)M[0] * (size_t)M[1] * (size_t)M[2]);
+    /* a macro cell holds primitives when one of its voxels does */
+    for (z = 0; z < g->n[2]; z++)
+        for (y = 0; y < g->n[1]; y++)
+            for (x = 0; x < g->n[0]; x++)
+                if (g->empty[((size_t)z * (size_t)g->n[1] + (size_t)y) * (size_t)g->n[0] + (size_t)x] == 0)
+                    md[((size_t)(z / g->macro[2]) * (size_t)M[1] + (size_t)(y / g->macro[1])) * (size_t)M[0] +
+                       (size_t)(x / g->macro[0])] = 0;
+    if (mprt__chessboard_distance(M, md) != MPRT_OK) {
+        free(md);
+        return MPRT_ERR_OUT_OF_MEMORY;
+    }
+    /* distance d >= 1: the macro cells within d - 1 are empty; empty = d + 1 */
+    for (z = 0; z < g->n[2]; z++)
+        for (y = 0; y < g->n[1]; y++)
+            for (x = 0; x < g->n[0]; x++) {
+                uint8_t *e = &g->empty[((size_t)z * (size_t)g->n[1] + (size_t)y) * (size_t)g->n[0] + (size_t)x];
+                unsigned d = md[((size_t)(z / g->macro[2]) * (size_t)M[1] + (size_t)(y / g->macro[1])) * (size_t)M[0] +
+                                (size_t)(x / g->macro[0])];
+                if (*e && d >= (single ? 2u : 1u)) *e = (uint8_t)(d > 254 ? 255 : d + 1);
+            }
+    free(md);
+    return MPRT_OK;
 }
 
 /* (voxel, primitive) pairs, filled while testing, then sorted by voxel. */
@@ -175,18 +318,28 @@ static int build(mprt_grid *g, size_t max_bytes)
     memcpy(count, g->start, (size_t)nvox * sizeof *count);
     for (i = 0; i < (long long)P.n; i++) g->ids[count[P.vox[i]]++] = P.prim[i];
     g->refs = (long long)P.n;
-    g->flag = malloc((size_t)nvox);
-    if (!g->flag) {
+    g->empty = malloc((size_t)nvox);
+    if (!g->empty) {
         st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %lld voxel flags", nvox);
         goto done;
     }
-    for (i = 0; i < nvox; i++) g->flag[i] = g->start[i + 1] > g->start[i];
+    for (i = 0; i < nvox; i++) g->empty[i] = g->start[i + 1] > g->start[i] ? 0 : 1;
+    if (g->skip && mark_jumps(g) != MPRT_OK)
+        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the macro cells of %lld voxels", nvox);
 
 done:
     free(count);
     free(P.vox);
     free(P.prim);
     return st;
+}
+
+/* The environment asks for the plain voxel-by-voxel walk: MPRT_NO_SKIP set
+ * to anything but "" or "0" (read once per grid, when it is made). */
+static int skip_off(void)
+{
+    const char *e = getenv("MPRT_NO_SKIP");
+    return e && *e && strcmp(e, "0") != 0;
 }
 
 int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, mprt_grid **out)
@@ -230,6 +383,7 @@ int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_byt
     }
     g->cell = v3((g->hi.x - g->lo.x) / (real)nx, (g->hi.y - g->lo.y) / (real)ny, (g->hi.z - g->lo.z) / (real)nz);
     g->inv_cell = v3(1 / g->cell.x, 1 / g->cell.y, 1 / g->cell.z);
+    g->skip = !skip_off();
     st = build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES);
     if (st == MPRT_OK) {
         /* The scene now refuses changes until this grid is destroyed */
