@@ -30,6 +30,9 @@ typedef struct {
     long long stride[3]; /* change of the linear voxel id per step on each axis */
     real tnext[3];     /* t at which the ray crosses the next boundary per axis */
     real tdelta[3];    /* t between boundaries per axis */
+    real run_inc[3];   /* per axis, a run of the sums (below): what each addition adds */
+    real run_last[3];  /* ... and the largest sum from which an addition still adds it (-inf: none yet) */
+    real run_rinc[3];  /* ... and 1 / run_inc (0 when run_inc is 0) */
     real t_start;      /* where the walk starts: the first voxel's t_enter */
     real t_enter;      /* start of the current voxel's stretch */
     real t_exit;       /* end of the current voxel's stretch */
@@ -87,6 +90,7 @@ static inline int mprt__dda_start(const mprt_grid *g, const mprt__ray *ray, real
             w->tdelta[a] = vget(g->cell, a) * (inv[a] < 0 ? -inv[a] : inv[a]);
         }
         w->stride[a] = w->step[a] * stride;
+        w->run_last[a] = -(real)INFINITY;
     }
     w->t_start = w->t_enter = t0;
     w->t_end = t1;
@@ -153,6 +157,7 @@ static inline int mprt__dda_next(const mprt_grid *g, mprt__dda *w)
 /* A run of additions from s that each add exactly inc. */
 typedef struct {
     real inc;
+    real last;             /* the largest sum from which an addition stays in the run */
     long long m, q, delta; /* s / u, floor(d / u) and inc / u */
 } mprt__run;
 
@@ -184,102 +189,60 @@ static inline int mprt__run_start(real s, real d, mprt__run *r)
     else
         r->delta = r->q + (r->q & 1);
     r->inc = (real)((double)r->delta * u);
+    /* an addition from m ulps stays in the binade while m + q + 1 <= 2^MANT */
+    r->last = (real)((double)((1LL << MPRT__MANT) - r->q - 1) * u);
     return 1;
 }
 
-/* Additions of the run that stay in the binade (at least those wanted, when
- * it holds that many): the sum before each is at most 2^MANT - q - 1 ulps. */
-static inline long long mprt__run_length(const mprt__run *r, long long wanted)
+/* How many of the next additions on axis a (at most `most`) the cached run
+ * covers exactly, refreshing the run when the sum has passed its end; the
+ * sums after k <= that many additions are tnext[a] + k run_inc[a].  The
+ * run stays valid as the walk sums on: within it every addition adds
+ * run_inc, and its sums only grow. */
+static inline int mprt__dda_run(mprt__dda *w, int a, int most)
 {
-    long long room = (1LL << MPRT__MANT) - r->q - 1 - r->m;
-    if (room < 0) return 0;
-    if (r->delta == 0 || (double)(wanted - 1) * (double)r->delta <= (double)room) return wanted;
-    return room / r->delta + 1;
-}
-
-/* The sum after n more additions of d to s, as the walk makes them. */
-static inline real mprt__sum_after(real s, real d, long long n)
-{
-    while (n > 0) {
-        mprt__run r;
-        long long k;
-        if (mprt__run_start(s, d, &r) && (k = mprt__run_length(&r, n)) > 0) {
-            s += (real)k * r.inc;
-            n -= k;
-        } else {
-            s += d;
-            n--;
-        }
-    }
-    return s;
-}
-
-/* Additions of d the walk makes to *s before the sum reaches lim (is no
- * longer below lim, or with inclusive no longer at most lim), at most
- * most; *s becomes the sum after them. */
-static inline int mprt__sum_count(real *s, real d, int most, real lim, int inclusive)
-{
-    real t = *s;
-    long long k = 0;
-#define MPRT__BEFORE(x) (inclusive ? (x) <= lim : (x) < lim)
-    while (k < most && MPRT__BEFORE(t)) {
-        mprt__run r;
-        long long n, c;
-        double e;
-        if (!mprt__run_start(t, d, &r) || (n = mprt__run_length(&r, most - k)) == 0) {
-            t += d;
-            k++;
-            continue;
-        }
-        if (r.delta == 0) { /* the sum no longer moves */
-            k = most;
-            break;
-        }
-        /* t + c inc for c = 0..n: the first c not before lim, estimated */
-        e = (double)(lim - t) / (double)r.inc;
-        c = !(e < (double)n) ? n + 1 : e < 0 ? 1 : (long long)e + 1;
-        while (c <= n && MPRT__BEFORE(t + (real)c * r.inc)) c++;
-        while (c > 1 && !MPRT__BEFORE(t + (real)(c - 1) * r.inc)) c--;
-        if (c > n) c = n;
-        t += (real)c * r.inc;
-        k += c;
-    }
-#undef MPRT__BEFORE
-    *s = t;
-    return (int)k;
-}
-
-/* Below this many additions, they are made one by one (cheaper than a run). */
-#define MPRT__FEW_SUMS 8
-
-/* The crossing after `most` more on axis a, as the walk sums it. */
-static inline real mprt__dda_ahead(const mprt__dda *w, int a, int most)
-{
-    real t = w->tnext[a];
+    const real s = w->tnext[a];
+    real inc;
     int k;
-    if (most > MPRT__FEW_SUMS) return mprt__sum_after(t, w->tdelta[a], most);
-    for (k = 0; k < most; k++) t += w->tdelta[a];
-    return t;
+    if (!(s <= w->run_last[a])) {
+        mprt__run r;
+        if (!mprt__run_start(s, w->tdelta[a], &r)) return 0;
+        w->run_inc[a] = r.inc;
+        w->run_last[a] = r.last;
+        w->run_rinc[a] = r.inc > 0 ? 1 / r.inc : 0;
+        if (!(s <= r.last)) return 0;
+    }
+    inc = w->run_inc[a];
+    if (inc == 0) return most;
+    /* additions from the sums up to run_last: k with s + (k - 1) inc <= run_last */
+    {
+        real e = (w->run_last[a] - s) * w->run_rinc[a];
+        k = e >= (real)most ? most : (int)e + 1;
+    }
+    while (k > 0 && !(s + (real)(k - 1) * inc <= w->run_last[a])) k--;
+    return k;
 }
 
 /* Crossings on axis a the walk takes before the event at t == lim (with
- * inclusive: ties count as before it), out of the at most `most` ahead; the
- * axis's tnext and cell move past them. */
+ * inclusive: ties count as before it), out of the at most `most` ahead, all
+ * in the cached run; the axis's tnext and cell move past them. */
 static inline int mprt__dda_take(mprt__dda *w, int a, int most, real lim, int inclusive)
 {
-    int k = 0;
-    if (w->tdelta[a] == (real)INFINITY) return 0;
-    if (most > MPRT__FEW_SUMS) {
-        k = mprt__sum_count(&w->tnext[a], w->tdelta[a], most, lim, inclusive);
+    const real s = w->tnext[a], inc = w->run_inc[a];
+    int k;
+    if (most == 0) return 0;
+    /* the first k whose sum is not before lim: estimated, then settled */
+#define MPRT__BEFORE(x) (inclusive ? (x) <= lim : (x) < lim)
+    if (inc == 0) {
+        k = MPRT__BEFORE(s) ? most : 0;
     } else {
-        real t = w->tnext[a];
-        const real dt = w->tdelta[a];
-        if (inclusive)
-            while (k < most && t <= lim) { t += dt; k++; }
-        else
-            while (k < most && t < lim) { t += dt; k++; }
-        w->tnext[a] = t;
+        real e = (lim - s) * w->run_rinc[a];
+        k = !(e < (real)most) ? most : e < 0 ? 0 : (int)e;
+        while (k < most && MPRT__BEFORE(s + (real)k * inc)) k++;
+        while (k > 0 && !MPRT__BEFORE(s + (real)(k - 1) * inc)) k--;
     }
+#undef MPRT__BEFORE
+    w->tnext[a] = s + (real)k * inc;
     w->cell[a] += w->step[a] * k;
     return k;
 }
@@ -316,19 +279,17 @@ static inline int mprt__dda_jump(const mprt_grid *g, mprt__dda *w, const int las
     int a, ax, most[3], taken = 0;
     real out[3], t;
     if (w->t_exit >= w->t_end) return 0;
-    /* Per axis, the crossing out of the block, `most` crossings ahead: first
-     * estimated (a product); summed exactly for the earliest, and for the
-     * others only where the estimate, give or take its rounding, could
-     * come first */
+    /* Per axis, the crossing out of the block, `most` crossings ahead; the
+     * block shrinks on an axis to the crossings its cached run covers (none
+     * when there is no run: the block is then the current voxel's slab) */
     for (a = 0; a < 3; a++) {
-        most[a] = (last[a] - w->cell[a]) * w->step[a];
-        out[a] = w->tdelta[a] == (real)INFINITY ? (real)INFINITY : w->tnext[a] + (real)most[a] * w->tdelta[a];
-    }
-    ax = out[0] <= out[1] && out[0] <= out[2] ? 0 : out[1] <= out[2] ? 1 : 2;
-    out[ax] = mprt__dda_ahead(w, ax, most[ax]);
-    for (a = 0; a < 3; a++) {
-        real slack = (real)(most[a] + 4) * R(2.0) * REAL_EPS * ABS(out[a]);
-        if (a != ax && out[a] != (real)INFINITY && !(out[a] - slack > out[ax])) out[a] = mprt__dda_ahead(w, a, most[a]);
+        if (w->tdelta[a] == (real)INFINITY) {
+            most[a] = 0;
+            out[a] = (real)INFINITY;
+            continue;
+        }
+        most[a] = mprt__dda_run(w, a, (last[a] - w->cell[a]) * w->step[a]);
+        out[a] = most[a] == 0 ? w->tnext[a] : w->tnext[a] + (real)most[a] * w->run_inc[a];
     }
     ax = out[0] <= out[1] && out[0] <= out[2] ? 0 : out[1] <= out[2] ? 1 : 2;
     if (out[ax] >= w->t_end) {
@@ -354,12 +315,6 @@ static inline int mprt__dda_jump(const mprt_grid *g, mprt__dda *w, const int las
     return 1;
 }
 
-/* Empty values (grid.h) from which a jump pays: smaller blocks are
- * stepped through voxel by voxel. */
-#ifndef MPRT__JUMP_MIN
-#define MPRT__JUMP_MIN 24
-#endif
-
 /* Walk on from the current voxel to the first voxel that holds primitives,
  * the current one included: returns 1 with the state at it, or 0 when the
  * walk ends first; adds the voxels entered to *steps.  The voxel-by-voxel
@@ -367,9 +322,10 @@ static inline int mprt__dda_jump(const mprt_grid *g, mprt__dda *w, const int las
  * ends at max(t_start, min(first crossing ahead, t_end)), the value
  * mprt__dda_next's running maximum reaches, since the crossing ahead never
  * decreases. */
-static inline int mprt__dda_seek(const mprt_grid *g, mprt__dda *w, int32_t *steps, int skip)
+static inline int mprt__dda_seek(const mprt_grid *g, mprt__dda *w, int32_t *steps)
 {
     const uint8_t *empty = g->empty;
+    const unsigned jump_min = g->jump_min;
     const real te = w->t_end, ts = w->t_start;
     const unsigned n0 = (unsigned)g->n[0], n1 = (unsigned)g->n[1], n2 = (unsigned)g->n[2];
     for (;;) {
@@ -380,7 +336,7 @@ static inline int mprt__dda_seek(const mprt_grid *g, mprt__dda *w, int32_t *step
         unsigned e;
         if (w->t_exit >= te) return empty[v] == 0;
         /* voxel by voxel while the voxels are empty and no jump pays */
-        while ((e = empty[v]) != 0 && !(skip && e >= MPRT__JUMP_MIN)) {
+        while ((e = empty[v]) != 0 && e < jump_min) {
             if (t0 <= t1 && t0 <= t2) {
                 last = t0;
                 if (t0 >= te || (unsigned)(c0 += w->step[0]) >= n0) break;
@@ -400,7 +356,7 @@ static inline int mprt__dda_seek(const mprt_grid *g, mprt__dda *w, int32_t *step
             n++;
         }
         *steps += n;
-        if (e != 0 && !(skip && e >= MPRT__JUMP_MIN)) return 0; /* the walk ended */
+        if (e != 0 && e < jump_min) return 0; /* the walk ended */
         w->tnext[0] = t0;
         w->tnext[1] = t1;
         w->tnext[2] = t2;

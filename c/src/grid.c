@@ -324,7 +324,7 @@ static int build(mprt_grid *g, size_t max_bytes)
         goto done;
     }
     for (i = 0; i < nvox; i++) g->empty[i] = g->start[i + 1] > g->start[i] ? 0 : 1;
-    if (g->skip && mark_jumps(g) != MPRT_OK)
+    if (g->jump_min <= 255 && mark_jumps(g) != MPRT_OK)
         st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the macro cells of %lld voxels", nvox);
 
 done:
@@ -334,12 +334,29 @@ done:
     return st;
 }
 
-/* The environment asks for the plain voxel-by-voxel walk: MPRT_NO_SKIP set
- * to anything but "" or "0" (read once per grid, when it is made). */
-static int skip_off(void)
+/* Empty values from which the walk jumps by default: smaller blocks are
+ * cheaper to step through voxel by voxel (studies/03_bench measures it). */
+#define DEFAULT_JUMP_MIN 16
+
+/* The jump threshold the environment asks for: MPRT_NO_SKIP set to
+ * anything but "" or "0" turns jumps off (the plain voxel-by-voxel walk);
+ * MPRT_JUMP_MIN=k (2..255) jumps from smaller blocks than the default (the
+ * tests use 2, to jump wherever the grid allows).  Read once per grid, when
+ * it is made.  Returns MPRT_OK or fails the grid naming the variable. */
+static int jump_threshold(mprt_grid *g)
 {
-    const char *e = getenv("MPRT_NO_SKIP");
-    return e && *e && strcmp(e, "0") != 0;
+    const char *off = getenv("MPRT_NO_SKIP"), *k = getenv("MPRT_JUMP_MIN");
+    g->jump_min = DEFAULT_JUMP_MIN;
+    if (off && *off && strcmp(off, "0") != 0) {
+        g->jump_min = 256;
+    } else if (k && *k) {
+        char *end;
+        long v = strtol(k, &end, 10);
+        if (*end || v < 2 || v > 255)
+            return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: environment MPRT_JUMP_MIN=%.40s is not a whole number in 2..255", k);
+        g->jump_min = (unsigned)v;
+    }
+    return MPRT_OK;
 }
 
 int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, mprt_grid **out)
@@ -383,7 +400,7 @@ int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_byt
     }
     g->cell = v3((g->hi.x - g->lo.x) / (real)nx, (g->hi.y - g->lo.y) / (real)ny, (g->hi.z - g->lo.z) / (real)nz);
     g->inv_cell = v3(1 / g->cell.x, 1 / g->cell.y, 1 / g->cell.z);
-    g->skip = !skip_off();
+    if ((st = jump_threshold(g)) != MPRT_OK) return st;
     st = build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES);
     if (st == MPRT_OK) {
         /* The scene now refuses changes until this grid is destroyed */
@@ -408,10 +425,12 @@ int mprt_grid_get_stats(const mprt_grid *g, mprt_grid_stats *st)
         long long len = (long long)(g->start[v + 1] - g->start[v]);
         if (len) st->nonempty++;
         if (len > st->max_len) st->max_len = len;
+        if (g->empty[v] >= g->jump_min) st->jump_voxels++;
     }
     st->mean_len = st->nonempty ? (double)st->refs / (double)st->nonempty : 0;
     st->bytes = (long long)((g->voxels + 1) * (long long)sizeof *g->start + g->voxels +
-                            g->refs * (long long)sizeof *g->ids);
+                            g->refs * (long long)sizeof *g->ids +
+                            (g->macro_lo[0] ? (long long)(g->n[0] + g->n[1] + g->n[2]) * (long long)sizeof(int) : 0));
     st->lo[0] = g->lo.x; st->lo[1] = g->lo.y; st->lo[2] = g->lo.z;
     st->hi[0] = g->hi.x; st->hi[1] = g->hi.y; st->hi[2] = g->hi.z;
     return MPRT_OK;

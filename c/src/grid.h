@@ -20,9 +20,9 @@ struct mprt_grid {
                         * distance in macro cells): the walk may jump that block */
     int macro[3];      /* voxels per macro cell on each axis: about cubic macro cells */
     int *macro_lo[3];  /* per axis, per voxel index: the first index of its macro cell */
-    int skip;          /* 1: the walk jumps over empty space (dda.h); 0 (environment
-                        * MPRT_NO_SKIP=1 when the grid was made): voxel by voxel, and
-                        * empty is never above 1 */
+    unsigned jump_min; /* the walk jumps from voxels whose empty value is at least this
+                        * (dda.h); above 255 (environment MPRT_NO_SKIP=1 when the grid
+                        * was made): never, voxel by voxel, and empty is never above 1 */
     int32_t *ids;      /* primitive ids, voxel by voxel */
     long long refs;
     int failed;

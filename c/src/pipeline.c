@@ -119,7 +119,7 @@ int mprt__os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, 
         pmb = &mb;
     }
     steps = 1;
-    while (mprt__dda_seek(g, &walk, &steps, g->skip)) {
+    while (mprt__dda_seek(g, &walk, &steps)) {
         /* OS hands the ray to IC */
         mprt__visit ic;
         int accepted;

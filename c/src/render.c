@@ -166,19 +166,28 @@ typedef struct {
     pthread_mutex_t lock;
 } tile_queue;
 
-/* One worker thread: its counters and errors. */
+/* One worker thread: its counters and errors, written once when it ends. */
 typedef struct {
     tile_queue *queue;
     mprt_counters counters;
-    mprt__sink sink;
+    int64_t bad_prim;       /* -1, or a primitive of unknown kind met */
     pthread_t thread;
 } worker;
 
+/* A worker counts into its own stack frame, not into the worker array:
+ * the counters change at every stage visit, and neighbouring workers'
+ * entries share cache lines. */
 static void *work(void *arg)
 {
     worker *self = arg;
     tile_queue *queue = self->queue;
+    mprt_counters counters;
+    mprt__sink sink;
     mprt__tree_ray *stack = malloc(mprt__tree_stack_size(queue->setup) * sizeof *stack);
+    memset(&counters, 0, sizeof counters);
+    sink.counters = &counters;
+    sink.recorder = NULL;
+    sink.bad_prim = -1;
     if (!stack) {
         pthread_mutex_lock(&queue->lock);
         queue->out_of_memory = 1;
@@ -191,9 +200,11 @@ static void *work(void *arg)
         tile = queue->out_of_memory ? queue->ntiles : queue->next_tile++;
         pthread_mutex_unlock(&queue->lock);
         if (tile >= queue->ntiles) break;
-        render_tile(queue->setup, tile, &queue->samples, stack, &self->sink);
+        render_tile(queue->setup, tile, &queue->samples, stack, &sink);
     }
     free(stack);
+    self->counters = counters;
+    self->bad_prim = sink.bad_prim;
     return NULL;
 }
 
@@ -227,9 +238,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
         worker *w = &workers[i];
         w->queue = &queue;
         memset(&w->counters, 0, sizeof w->counters);
-        w->sink.counters = &w->counters;
-        w->sink.recorder = NULL;
-        w->sink.bad_prim = -1;
+        w->bad_prim = -1;
     }
     /* Workers 1.. in threads of their own, worker 0 in this one */
     for (started = 1; started < setup.desc.threads; started++)
@@ -242,7 +251,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
         return mprt__grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "render: out of memory for a worker's ray stack");
     }
     for (i = 0; i < started; i++)
-        if (workers[i].sink.bad_prim >= 0) bad_prim = workers[i].sink.bad_prim;
+        if (workers[i].bad_prim >= 0) bad_prim = workers[i].bad_prim;
     if (bad_prim >= 0) {
         free(queue.samples.rgb);
         return mprt__grid_fail(g, MPRT_ERR_STATE, "render: " MPRT__UNKNOWN_KIND, (long long)bad_prim,

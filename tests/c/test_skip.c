@@ -60,21 +60,25 @@ static void hard_ray(rng *r, const mprt_grid *g, vec3 *o, vec3 *d)
     *d = vd(v[0], v[1], v[2]);
 }
 
-/* From the state w, the plain walk until it leaves the block whose last
- * voxel per axis in the ray's direction is last[]: *entered voxels entered;
- * returns 1 with *out the state in the first voxel outside, 0 when the walk
- * ended first. */
-static int plain_leave(const mprt_grid *g, const mprt__dda *w, const int last[3], mprt__dda *out, int32_t *entered)
+/* Whether the plain walk from w, taking n steps, stays in the block whose
+ * last voxel per axis in the ray's direction is last[] for all but the last
+ * voxel it enters; *out is its state after the n steps, *ended whether the
+ * walk ended right there (a further step fails). */
+static int plain_steps(const mprt_grid *g, const mprt__dda *w, const int last[3], int32_t n, mprt__dda *out,
+                       int *ended)
 {
-    int a;
+    int a, inside = 1;
+    int32_t k;
+    mprt__dda probe;
     *out = *w;
-    *entered = 0;
-    while (mprt__dda_next(g, out)) {
-        ++*entered;
+    for (k = 0; k < n; k++) {
         for (a = 0; a < 3; a++)
-            if ((out->cell[a] - last[a]) * out->step[a] > 0) return 1;
+            if ((out->cell[a] - last[a]) * out->step[a] > 0) inside = 0; /* left the block too early */
+        if (!mprt__dda_next(g, out)) return 0;
     }
-    return 0;
+    probe = *out;
+    *ended = !mprt__dda_next(g, &probe);
+    return inside;
 }
 
 static void test_a_jump_ends_where_the_plain_walk_leaves_the_block(void)
@@ -82,17 +86,18 @@ static void test_a_jump_ends_where_the_plain_walk_leaves_the_block(void)
     mprt_scene *s = corner_scene();
     static const int dims[][3] = {{8, 8, 8}, {13, 5, 9}, {1, 7, 30}, {40, 40, 40}};
     rng r;
-    int gi, i, bad = 0, jumps = 0, ended = 0;
+    int gi, i, bad = 0, jumps = 0, ended = 0, longest = 0;
     rng_seed(&r, 11);
     for (gi = 0; gi < 4; gi++) {
         mprt_grid *g = make_grid(s, dims[gi][0], dims[gi][1], dims[gi][2]);
         for (i = 0; i < 20000; i++) {
             mprt__ray ray;
             mprt__dda w, plain, jumped;
+            int ok, plain_ended = 0;
             vec3 o, d;
-            int32_t n_plain, n_jump = 0, k, skip = rnd_int(&r, 0, 6), h = rnd_int(&r, 1, 12);
+            int32_t n_jump = 0, k, skip = rnd_int(&r, 0, 6), h = rnd_int(&r, 1, 12);
             real tmax = rnd_int(&r, 0, 3) == 0 ? (real)rnd_in(&r, 0, 12) : (real)INFINITY;
-            int more_plain, more_jump, last[3], a;
+            int more_jump, last[3], a;
             hard_ray(&r, g, &o, &d);
             mprt__ray_prepare(&ray, o, d);
             if (!mprt__dda_start(g, &ray, 0, tmax, &w)) continue;
@@ -107,27 +112,113 @@ static void test_a_jump_ends_where_the_plain_walk_leaves_the_block(void)
                 int c = w.cell[a] + w.step[a] * rnd_int(&r, 0, h);
                 last[a] = c < 0 ? 0 : c >= g->n[a] ? g->n[a] - 1 : c;
             }
-            more_plain = plain_leave(g, &w, last, &plain, &n_plain);
             jumped = w;
             more_jump = mprt__dda_jump(g, &jumped, last, &n_jump);
             jumps++;
-            ended += !more_plain;
-            if (more_plain != more_jump || n_plain != n_jump || (more_plain && !same_state(&plain, &jumped))) {
-                if (bad++ < 5)
-                    fprintf(stderr, "grid %d ray %d h %d: plain %d (%d voxels), jump %d (%d voxels)\n", gi, i, (int)h,
-                            more_plain, (int)n_plain, more_jump, (int)n_jump);
+            ended += !more_jump;
+            /* the jump moved as the plain walk does, within the block, and
+             * either landed on a voxel (past at least one crossing) or ended
+             * where the plain walk ends */
+            ok = plain_steps(g, &w, last, more_jump ? n_jump - 1 : n_jump, &plain, &plain_ended);
+            if (ok && more_jump) {
+                ok = mprt__dda_next(g, &plain) && same_state(&plain, &jumped) && n_jump >= 1;
+                for (a = 0; a < 3; a++) /* the landing voxel lies outside the block or at a run's end */
+                    longest += (jumped.cell[a] - last[a]) * jumped.step[a] > 0;
+            } else if (ok) {
+                ok = plain_ended;
             }
+            if (!ok && bad++ < 5)
+                fprintf(stderr, "grid %d ray %d h %d: jump %d (%d voxels)\n", gi, i, (int)h, more_jump, (int)n_jump);
         }
         mprt_grid_destroy(g);
     }
     CHECK_MSG(bad == 0, "%d of %d jumps differ from the plain walk", bad, jumps);
-    /* both ways out were exercised: walks ending in the block and leaving it */
-    CHECK(ended > 1000 && jumps - ended > 1000);
+    /* every way out was exercised: walks ending in the block, leaving it,
+     * and stopping short of it at the end of a run */
+    CHECK(ended > 1000 && longest > 1000 && jumps - ended - longest > 1000);
     mprt_scene_destroy(s);
+}
+
+/* Sums of d from s made one by one and by runs: every run start gives
+ * s + k inc equal to k rounded additions for every k it covers, including
+ * exact ties (d an odd number of half ulps of s) and binade ends. */
+static void test_runs_sum_as_the_walk_sums(void)
+{
+    rng r;
+    int i, bad = 0, runs = 0, ties = 0, long_runs = 0;
+    rng_seed(&r, 5);
+    for (i = 0; i < 20000; i++) {
+        real s = (real)ldexp(1 + rnd(&r), rnd_int(&r, -20, 20)), d, t;
+        mprt__run run;
+        int k;
+        if (i % 4 == 0) { /* an exact tie: d = (q + 1/2) ulps of s */
+            int e;
+            double u;
+            frexp((double)s, &e);
+            u = ldexp(1.0, e - MPRT__MANT);
+            d = (real)(((double)rnd_int(&r, 0, 1000) + 0.5) * u);
+            ties++;
+        } else {
+            d = (real)((double)s * ldexp(rnd(&r), -rnd_int(&r, 0, 30)));
+        }
+        if (!(d > 0) || !mprt__run_start(s, d, &run)) continue;
+        runs++;
+        t = s;
+        for (k = 1; k <= 5000 && s + (real)(k - 1) * run.inc <= run.last; k++) {
+            t += d;
+            if (t != s + (real)k * run.inc) {
+                if (bad++ < 5)
+                    fprintf(stderr, "s %a d %a: %d additions give %a, the run %a\n", (double)s, (double)d, k, (double)t,
+                            (double)(s + (real)k * run.inc));
+                break;
+            }
+        }
+        long_runs += k > 100;
+    }
+    CHECK_MSG(bad == 0, "%d runs differ from the additions", bad);
+    CHECK(runs > 10000 && ties > 1000 && long_runs > 1000);
+}
+
+/* The chessboard distance transform equals the brute-force minimum over the
+ * cells holding 0 of the largest per-axis distance (255 when there are none). */
+static void test_chessboard_distance_matches_brute_force(void)
+{
+    static const int dims[][3] = {{7, 5, 9}, {12, 12, 3}, {1, 1, 20}, {16, 1, 16}, {9, 9, 9}};
+    rng r;
+    int di, bad = 0;
+    rng_seed(&r, 3);
+    for (di = 0; di < 5; di++) {
+        const int *n = dims[di];
+        int count = n[0] * n[1] * n[2], v, w, trial;
+        uint8_t *d = malloc((size_t)count), *ref = malloc((size_t)count);
+        for (trial = 0; trial < 20; trial++) {
+            int dens = rnd_int(&r, 0, 40); /* per mille of cells holding 0; trial 0 holds none */
+            for (v = 0; v < count; v++) d[v] = trial > 0 && rnd_int(&r, 0, 999) < dens ? 0 : 255;
+            if (trial == 1) d[count / 2] = 0;
+            for (v = 0; v < count; v++) {
+                int best = 255, c[3] = {v % n[0], v / n[0] % n[1], v / (n[0] * n[1])};
+                for (w = 0; w < count; w++)
+                    if (d[w] == 0) {
+                        int o[3] = {w % n[0], w / n[0] % n[1], w / (n[0] * n[1])}, m = 0, a;
+                        for (a = 0; a < 3; a++)
+                            if (abs(o[a] - c[a]) > m) m = abs(o[a] - c[a]);
+                        if (m < best) best = m;
+                    }
+                ref[v] = (uint8_t)best;
+            }
+            CHECK(mprt__chessboard_distance(n, d) == MPRT_OK);
+            for (v = 0; v < count; v++) bad += d[v] != ref[v];
+        }
+        free(d);
+        free(ref);
+    }
+    CHECK_MSG(bad == 0, "%d cells differ from brute force", bad);
 }
 
 int main(void)
 {
     RUN(test_a_jump_ends_where_the_plain_walk_leaves_the_block);
+    RUN(test_runs_sum_as_the_walk_sums);
+    RUN(test_chessboard_distance_matches_brute_force);
     return CHECK_DONE();
 }
