@@ -87,13 +87,28 @@ vec3 mprt__grid_voxel_lo(const mprt_grid *g, int i, int j, int k)
  * shortest king's path whose steps go first forward then backward in
  * raster order (tests/c/test_skip.c compares it with brute force). */
 
-static uint8_t min_u8(uint8_t a, uint8_t b) { return a < b ? a : b; }
+static unsigned min_u(unsigned a, unsigned b) { return a < b ? a : b; }
 
-/* One pass: dir +1 forward, -1 backward.  p3: n[0] * n[1] bytes of scratch. */
-static void chamfer_pass(const int n[3], uint8_t *d, uint8_t *p3, int dir)
+/* o[x] = the minimum of r over x - 1 .. x + 1 (within 0 .. n - 1). */
+static void min3_row(const uint8_t *r, uint8_t *o, int n)
+{
+    int x;
+    if (n == 1) {
+        o[0] = r[0];
+        return;
+    }
+    o[0] = (uint8_t)min_u(r[0], r[1]);
+    for (x = 1; x < n - 1; x++) o[x] = (uint8_t)min_u(min_u(r[x - 1], r[x]), r[x + 1]);
+    o[n - 1] = (uint8_t)min_u(r[n - 2], r[n - 1]);
+}
+
+/* One pass: dir +1 forward, -1 backward.  Scratch: p3, n[0] * n[1] bytes
+ * (the 3x3 minimum of the slice before), and cand, 2 n[0] bytes. */
+static void chamfer_pass(const int n[3], uint8_t *d, uint8_t *p3, uint8_t *cand, int dir)
 {
     const int nx = n[0], ny = n[1], nz = n[2];
     const size_t slice = (size_t)nx * (size_t)ny;
+    uint8_t *rowmin = cand + nx;
     int i, j, k, x, y, z;
     for (k = 0; k < nz; k++) {
         uint8_t *cur;
@@ -104,44 +119,39 @@ static void chamfer_pass(const int n[3], uint8_t *d, uint8_t *p3, int dir)
         if (have_prev) {
             /* p3: the 3x3 minimum, across x then y, of the slice before */
             const uint8_t *prev = d + (size_t)(z - dir) * slice;
+            for (y = 0; y < ny; y++) min3_row(prev + (size_t)y * (size_t)nx, p3 + (size_t)y * (size_t)nx, nx);
+            /* across y row by row, keeping the row above as it was (in cand) */
             for (y = 0; y < ny; y++) {
-                const uint8_t *r = prev + (size_t)y * (size_t)nx;
                 uint8_t *o = p3 + (size_t)y * (size_t)nx;
+                const uint8_t *below = y < ny - 1 ? o + nx : o;
                 for (x = 0; x < nx; x++) {
-                    uint8_t m = r[x];
-                    if (x > 0) m = min_u8(m, r[x - 1]);
-                    if (x < nx - 1) m = min_u8(m, r[x + 1]);
-                    o[x] = m;
-                }
-            }
-            for (x = 0; x < nx; x++) {
-                uint8_t up = 255, here = p3[x];
-                for (y = 0; y < ny; y++) {
-                    uint8_t *o = p3 + (size_t)y * (size_t)nx + x;
-                    uint8_t down = y < ny - 1 ? o[nx] : 255, m = min_u8(min_u8(up, here), down);
-                    up = here;
-                    here = down;
-                    *o = m;
+                    unsigned here = o[x], m = min_u(here, below[x]);
+                    if (y > 0) m = min_u(m, cand[x]);
+                    cand[x] = (uint8_t)here;
+                    o[x] = (uint8_t)m;
                 }
             }
         }
         for (j = 0; j < ny; j++) {
             uint8_t *row;
-            const uint8_t *before;
+            unsigned left = 255;
             y = dir > 0 ? j : ny - 1 - j;
             row = cur + (size_t)y * (size_t)nx;
-            before = (dir > 0 ? y > 0 : y < ny - 1) ? row - (ptrdiff_t)dir * nx : NULL;
+            /* the neighbours in the slice before and the row before */
+            if (have_prev) memcpy(cand, p3 + (size_t)y * (size_t)nx, (size_t)nx);
+            else memset(cand, 255, (size_t)nx);
+            if (dir > 0 ? y > 0 : y < ny - 1) {
+                min3_row(row - (ptrdiff_t)dir * nx, rowmin, nx);
+                for (x = 0; x < nx; x++) cand[x] = (uint8_t)min_u(cand[x], rowmin[x]);
+            }
+            /* then along the row, from the voxel just done */
             for (i = 0; i < nx; i++) {
-                uint8_t m;
+                unsigned m, v;
                 x = dir > 0 ? i : nx - 1 - i;
-                m = have_prev ? p3[(size_t)y * (size_t)nx + (size_t)x] : 255;
-                if (before) {
-                    m = min_u8(m, before[x]);
-                    if (x > 0) m = min_u8(m, before[x - 1]);
-                    if (x < nx - 1) m = min_u8(m, before[x + 1]);
-                }
-                if (i > 0) m = min_u8(m, row[x - dir]);
-                if (m < 254 && m + 1 < row[x]) row[x] = (uint8_t)(m + 1);
+                m = min_u(cand[x], left);
+                v = min_u(row[x], m + 1);
+                row[x] = (uint8_t)v;
+                left = v;
             }
         }
     }
@@ -149,11 +159,16 @@ static void chamfer_pass(const int n[3], uint8_t *d, uint8_t *p3, int dir)
 
 int mprt__chessboard_distance(const int n[3], uint8_t *d)
 {
-    uint8_t *p3 = malloc((size_t)n[0] * (size_t)n[1]);
-    if (!p3) return MPRT_ERR_OUT_OF_MEMORY;
-    chamfer_pass(n, d, p3, +1);
-    chamfer_pass(n, d, p3, -1);
+    uint8_t *p3 = malloc((size_t)n[0] * (size_t)n[1]), *cand = malloc(2 * (size_t)n[0]);
+    if (!p3 || !cand) {
+        free(p3);
+        free(cand);
+        return MPRT_ERR_OUT_OF_MEMORY;
+    }
+    chamfer_pass(n, d, p3, cand, +1);
+    chamfer_pass(n, d, p3, cand, -1);
     free(p3);
+    free(cand);
     return MPRT_OK;
 }
 
@@ -183,35 +198,38 @@ static int macro_cells(mprt_grid *g)
  * single voxel is not worth a jump: those voxels stay at 1. */
 static int mark_jumps(mprt_grid *g)
 {
-    int M[3], a, x, y, z, single = g->macro[0] == 1 && g->macro[1] == 1 && g->macro[2] == 1;
-    uint8_t *md;
-    if (macro_cells(g) != MPRT_OK) return MPRT_ERR_OUT_OF_MEMORY;
+    int M[3], a, i, x, y, z, single = g->macro[0] == 1 && g->macro[1] == 1 && g->macro[2] == 1;
+    size_t *of[3] = {NULL, NULL, NULL}; /* per axis and voxel index: macro cell offset in md */
+    uint8_t *md = NULL, *e = g->empty;
+    int st = MPRT_ERR_OUT_OF_MEMORY;
+    if (macro_cells(g) != MPRT_OK) return st;
     for (a = 0; a < 3; a++) M[a] = (g->n[a] + g->macro[a] - 1) / g->macro[a];
     md = malloc((size_t)M[0] * (size_t)M[1] * (size_t)M[2]);
-    if (!md) return MPRT_ERR_OUT_OF_MEMORY;
+    for (a = 0; a < 3; a++) of[a] = malloc((size_t)g->n[a] * sizeof *of[a]);
+    if (!md || !of[0] || !of[1] || !of[2]) goto done;
+    for (a = 0; a < 3; a++)
+        for (i = 0; i < g->n[a]; i++)
+            of[a][i] = (size_t)(i / g->macro[a]) * (a == 0 ? 1 : a == 1 ? (size_t)M[0] : (size_t)M[0] * (size_t)M[1]);
     memset(md, 255, (size_t)M[0] * (size_t)M[1] * (size_t)M[2]);
     /* a macro cell holds primitives when one of its voxels does */
     for (z = 0; z < g->n[2]; z++)
         for (y = 0; y < g->n[1]; y++)
-            for (x = 0; x < g->n[0]; x++)
-                if (g->empty[((size_t)z * (size_t)g->n[1] + (size_t)y) * (size_t)g->n[0] + (size_t)x] == 0)
-                    md[((size_t)(z / g->macro[2]) * (size_t)M[1] + (size_t)(y / g->macro[1])) * (size_t)M[0] +
-                       (size_t)(x / g->macro[0])] = 0;
-    if (mprt__chessboard_distance(M, md) != MPRT_OK) {
-        free(md);
-        return MPRT_ERR_OUT_OF_MEMORY;
-    }
+            for (x = 0; x < g->n[0]; x++, e++)
+                if (*e == 0) md[of[2][z] + of[1][y] + of[0][x]] = 0;
+    if (mprt__chessboard_distance(M, md) != MPRT_OK) goto done;
     /* distance d >= 1: the macro cells within d - 1 are empty; empty = d + 1 */
+    e = g->empty;
     for (z = 0; z < g->n[2]; z++)
         for (y = 0; y < g->n[1]; y++)
-            for (x = 0; x < g->n[0]; x++) {
-                uint8_t *e = &g->empty[((size_t)z * (size_t)g->n[1] + (size_t)y) * (size_t)g->n[0] + (size_t)x];
-                unsigned d = md[((size_t)(z / g->macro[2]) * (size_t)M[1] + (size_t)(y / g->macro[1])) * (size_t)M[0] +
-                                (size_t)(x / g->macro[0])];
+            for (x = 0; x < g->n[0]; x++, e++) {
+                unsigned d = md[of[2][z] + of[1][y] + of[0][x]];
                 if (*e && d >= (single ? 2u : 1u)) *e = (uint8_t)(d > 254 ? 255 : d + 1);
             }
+    st = MPRT_OK;
+done:
     free(md);
-    return MPRT_OK;
+    for (a = 0; a < 3; a++) free(of[a]);
+    return st;
 }
 
 /* (voxel, primitive) pairs, filled while testing, then sorted by voxel. */
