@@ -192,13 +192,11 @@ int mprt_grid_intersect(mprt_grid *g, size_t n, const double *org, const double 
                         mprt_counters *counters)
 {
     size_t i;
-    mprt_counters sum;
     mprt__sink sink;
     if (!g) return MPRT_ERR_INVALID_ARG;
     if (g->failed) return MPRT_ERR_STATE;
     if (n && (!org || !dir || !t || !prim)) return MPRT_ERR_INVALID_ARG;
-    memset(&sum, 0, sizeof sum);
-    sink.counters = &sum;
+    memset(&sink.counters, 0, sizeof sink.counters);
     sink.recorder = NULL;
     sink.bad_prim = -1;
     for (i = 0; i < n; i++) {
@@ -223,6 +221,6 @@ int mprt_grid_intersect(mprt_grid *g, size_t n, const double *org, const double 
     if (sink.bad_prim >= 0)
         return mprt__grid_fail(g, MPRT_ERR_STATE, "intersect: " MPRT__UNKNOWN_KIND, (long long)sink.bad_prim,
                                g->scene->prims[sink.bad_prim].kind);
-    if (counters) *counters = sum;
+    if (counters) *counters = sink.counters;
     return MPRT_OK;
 }

@@ -56,7 +56,7 @@ typedef struct {
 
 /* Where the visits and rays of a tile go. */
 typedef struct {
-    mprt_counters *counters;
+    mprt_counters counters;     /* in the sink itself: one pointer less on the hot path */
     mprt__recorder *recorder;   /* NULL unless tracing */
     int64_t bad_prim;           /* -1, or a primitive of unknown kind met (an error) */
 } mprt__sink;
@@ -69,7 +69,7 @@ int64_t mprt__record_ray(mprt__recorder *recorder, int64_t parent, int kind, int
 /* A stage visit: counted, and recorded when tracing. */
 static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
 {
-    mprt_counters *counters = sink->counters;
+    mprt_counters *counters = &sink->counters;
     int k;
     switch (v->stage) {
     case MPRT_STAGE_OS:
@@ -104,7 +104,7 @@ static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
 static inline int64_t mprt__emit_ray(mprt__sink *sink, int64_t parent, int kind, int depth, int sample, int light,
                                      double contribution)
 {
-    mprt_counters *counters = sink->counters;
+    mprt_counters *counters = &sink->counters;
     switch (kind) {
     case MPRT_RAY_PRIMARY: counters->eye_rays++; break;
     case MPRT_RAY_REFLECT: counters->reflect_rays++; break;

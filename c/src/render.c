@@ -105,7 +105,6 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     mprt__render_setup setup;
     mprt__recorder recorder;
     mprt__sink sink;
-    mprt_counters sum;
     sample_buffer out;
     mprt__tree_ray *stack;
     int rect[4], tiles_x, tiles_y;
@@ -128,8 +127,7 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     recorder.cap_rays = cap_rays;
     recorder.visits = visits;
     recorder.cap_visits = cap_visits;
-    memset(&sum, 0, sizeof sum);
-    sink.counters = &sum;
+    memset(&sink.counters, 0, sizeof sink.counters);
     sink.recorder = &recorder;
     sink.bad_prim = -1;
     out.rgb = samples;
@@ -140,7 +138,7 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     free(stack);
     *nrays = recorder.nrays;
     *nvisits = recorder.nvisits;
-    if (counters) *counters = sum;
+    if (counters) *counters = sink.counters;
     if (sink.bad_prim >= 0)
         return mprt__grid_fail(g, MPRT_ERR_STATE, "trace: " MPRT__UNKNOWN_KIND, (long long)sink.bad_prim,
                                g->scene->prims[sink.bad_prim].kind);
@@ -166,28 +164,22 @@ typedef struct {
     pthread_mutex_t lock;
 } tile_queue;
 
-/* One worker thread: its counters and errors, written once when it ends. */
+/* One worker thread: its counters and errors (its sink), copied here when it ends. */
 typedef struct {
     tile_queue *queue;
-    mprt_counters counters;
-    int64_t bad_prim;       /* -1, or a primitive of unknown kind met */
+    mprt__sink sink;
     pthread_t thread;
 } worker;
 
-/* A worker counts into its own stack frame, not into the worker array:
- * the counters change at every stage visit, and neighbouring workers'
- * entries share cache lines. */
+/* A worker counts into a sink in its own stack frame, not into the worker
+ * array: the counters change at every stage visit, and neighbouring
+ * workers' entries share cache lines. */
 static void *work(void *arg)
 {
     worker *self = arg;
     tile_queue *queue = self->queue;
-    mprt_counters counters;
-    mprt__sink sink;
+    mprt__sink sink = self->sink;
     mprt__tree_ray *stack = malloc(mprt__tree_stack_size(queue->setup) * sizeof *stack);
-    memset(&counters, 0, sizeof counters);
-    sink.counters = &counters;
-    sink.recorder = NULL;
-    sink.bad_prim = -1;
     if (!stack) {
         pthread_mutex_lock(&queue->lock);
         queue->out_of_memory = 1;
@@ -203,8 +195,7 @@ static void *work(void *arg)
         render_tile(queue->setup, tile, &queue->samples, stack, &sink);
     }
     free(stack);
-    self->counters = counters;
-    self->bad_prim = sink.bad_prim;
+    self->sink = sink;
     return NULL;
 }
 
@@ -237,8 +228,9 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
     for (i = 0; i < setup.desc.threads; i++) {
         worker *w = &workers[i];
         w->queue = &queue;
-        memset(&w->counters, 0, sizeof w->counters);
-        w->bad_prim = -1;
+        memset(&w->sink.counters, 0, sizeof w->sink.counters);
+        w->sink.recorder = NULL;
+        w->sink.bad_prim = -1;
     }
     /* Workers 1.. in threads of their own, worker 0 in this one */
     for (started = 1; started < setup.desc.threads; started++)
@@ -251,7 +243,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
         return mprt__grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "render: out of memory for a worker's ray stack");
     }
     for (i = 0; i < started; i++)
-        if (workers[i].bad_prim >= 0) bad_prim = workers[i].bad_prim;
+        if (workers[i].sink.bad_prim >= 0) bad_prim = workers[i].sink.bad_prim;
     if (bad_prim >= 0) {
         free(queue.samples.rgb);
         return mprt__grid_fail(g, MPRT_ERR_STATE, "render: " MPRT__UNKNOWN_KIND, (long long)bad_prim,
@@ -262,7 +254,7 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
                             rgb);
     if (counters) {
         memset(counters, 0, sizeof *counters);
-        for (i = 0; i < started; i++) mprt__counters_add(counters, &workers[i].counters);
+        for (i = 0; i < started; i++) mprt__counters_add(counters, &workers[i].sink.counters);
     }
     free(queue.samples.rgb);
     return MPRT_OK;

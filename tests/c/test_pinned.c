@@ -150,17 +150,15 @@ static void test_rays_through_shared_terrain_edges_do_not_leak(void)
 /* The outcome of the last OS visit of ray r's walk through g. */
 static int last_os_outcome(const mprt_grid *g, const pinned_ray *r)
 {
-    mprt_counters counters;
     mprt_trace_visit visits[64];
     mprt__recorder recorder;
     mprt__sink sink;
     mprt__ray ray;
     mprt__hit hit;
-    memset(&counters, 0, sizeof counters);
     memset(&recorder, 0, sizeof recorder);
     recorder.visits = visits;
     recorder.cap_visits = 64;
-    sink.counters = &counters;
+    memset(&sink.counters, 0, sizeof sink.counters);
     sink.recorder = &recorder;
     sink.bad_prim = -1;
     mprt__ray_prepare(&ray, v3((real)r->origin[0], (real)r->origin[1], (real)r->origin[2]),
