@@ -18,7 +18,7 @@ SRC := $(wildcard c/src/*.c)
 HDR := c/include/mprt.h $(wildcard c/src/*.h)
 TESTS := $(patsubst tests/c/%.c,$(B)/%,$(wildcard tests/c/test_*.c))
 
-.PHONY: all test ctest pytest demo bench asan tsan single clean install
+.PHONY: all test ctest pytest demo bench asan tsan single clean install fuzz fuzz-replay
 
 all: $(B)/libmprt.a $(TESTS)
 
@@ -58,7 +58,7 @@ $(VENV)/.installed: $(PY) $(SRC) $(HDR) python/mprt/_build.py pyproject.toml set
 pytest: $(VENV)/.installed
 	$(PY) -m pytest -q tests
 
-test: ctest pytest
+test: ctest pytest fuzz-replay
 
 demo: $(VENV)/.installed
 	$(PY) -m mprt render balls -o balls.png --stats balls-stats.json
@@ -76,8 +76,38 @@ bench: $(VENV)/.installed
 
 # The C tests under AddressSanitizer and UndefinedBehaviorSanitizer.
 asan:
-	$(MAKE) B=build/asan OPT="-O1 -g" EXTRA="-fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all" \
+	$(MAKE) B=build/asan OPT="-O1 -g" EXTRA="$(SAN)" \
 	    EXTRA_LD="-fsanitize=address,undefined" ctest
+
+# The fuzz target over NFF parse, write, grids, renders and intersection
+# (tests/fuzz/fuzz_nff.c), replayed on its seed corpus and on every input
+# that ever failed, with gcc and the sanitizers of make asan (part of make
+# test; no clang needed).
+SAN = -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
+FUZZ_SRC = tests/fuzz/fuzz_nff.c
+fuzz-replay:
+	@$(MAKE) -s B=build/asan OPT="-O1 -g" EXTRA="$(SAN)" EXTRA_LD="-fsanitize=address,undefined" build/asan/fuzz_replay
+	build/asan/fuzz_replay tests/fuzz/corpus tests/fuzz/crashes
+
+$(B)/fuzz_replay: $(FUZZ_SRC) tests/fuzz/replay.c $(B)/libmprt.a
+	$(CC) $(CFLAGS) $(FUZZ_SRC) tests/fuzz/replay.c $(B)/libmprt.a -o $@ $(LDLIBS)
+
+# libFuzzer on the same target, with Debian's clang (apt-get install clang):
+# FUZZ_TIME seconds from the seed corpus and dictionary in tests/fuzz; new
+# inputs go to build/fuzz/corpus, failing ones to build/fuzz/found (copy
+# those into tests/fuzz/crashes once fixed).
+FUZZ_TIME ?= 60
+FUZZ_CC ?= clang
+fuzz:
+	@command -v $(FUZZ_CC) >/dev/null || { echo "make fuzz needs clang: apt-get install clang" >&2; exit 1; }
+	$(MAKE) B=build/fuzz CC=$(FUZZ_CC) OPT="-O1 -g" WARN="-std=c99" \
+	    EXTRA="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all" build/fuzz/libmprt.a
+	$(FUZZ_CC) -O1 -g -std=c99 -ffp-contract=off -D_POSIX_C_SOURCE=200809L -Ic/include -Ic/src \
+	    -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all $(FUZZ_SRC) build/fuzz/libmprt.a \
+	    -lm -lpthread -o build/fuzz/fuzz_nff
+	@mkdir -p build/fuzz/corpus build/fuzz/found
+	build/fuzz/fuzz_nff -dict=tests/fuzz/nff.dict -max_total_time=$(FUZZ_TIME) -timeout=10 -print_final_stats=1 \
+	    -artifact_prefix=build/fuzz/found/ build/fuzz/corpus tests/fuzz/corpus
 
 # The C tests under ThreadSanitizer (threaded renders, concurrent tile traces).
 tsan:

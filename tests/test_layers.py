@@ -22,6 +22,7 @@ ORDER = [
     "stats",       # the paper's statistics of a trace
     "trace",       # Trace, load_trace, the record enums and dtypes
     "tracing",     # trace(grid, ...) -> (image, Trace) (adds Grid.trace)
+    "options",     # the command line's options, validated once for every subcommand
     "cost",        # operation costs of stage visits (takes a Trace)
     "replay",      # costed trace -> per-PE ray streams
     "machine",     # the SimPy machine model (takes a Trace, never a Grid)

@@ -54,7 +54,8 @@ typedef enum {
     MPRT_ERR_STATE = -3,         /* the call is not allowed in the handle's state */
     MPRT_ERR_CAPACITY = -4,      /* a caller buffer is too small; the needed size is reported */
     MPRT_ERR_PARSE = -5,         /* malformed scene text; message names file and line */
-    MPRT_ERR_IO = -6             /* a file could not be opened, read or written */
+    MPRT_ERR_IO = -6,            /* a file could not be opened, read or written */
+    MPRT_ERR_LIMIT = -7          /* a work limit was reached (the ray budget of a sample) */
 } mprt_status;
 
 /* Primitive kinds, in the order the counters use. */
@@ -69,7 +70,9 @@ typedef enum {
 /* Shading rule sets. */
 typedef enum {
     MPRT_RULES_PAPER = 0, /* 3MPRT: one ray per pixel centre, contribution cutoff */
-    MPRT_RULES_SPD = 1    /* SPD test procedure: pixel corners, depth 5, no cutoff */
+    MPRT_RULES_SPD = 1,   /* SPD test procedure: pixel corners, depth 5, no cutoff */
+    MPRT_RULES_PAPER1992 = 2 /* paper rules with the workload conventions that reproduce
+                              * the 1992 paper's counts (see mprt_render_desc) */
 } mprt_rules;
 
 typedef struct mprt_scene mprt_scene;
@@ -103,6 +106,10 @@ int mprt_scene_write_nff(const mprt_scene *scene, char *buf, size_t cap, size_t 
  * factor size; size <= 0 selects the SPD default for that scene. */
 int mprt_scene_spd(mprt_scene *scene, const char *name, int size);
 
+/* Geometry (positions, radii, the view's points and hither distance) must be
+ * finite and at most 1e100 in magnitude (1e18 with MPRT_SINGLE), so that
+ * the squares intersection forms stay finite; else MPRT_ERR_INVALID_ARG. */
+
 /* Set the view: eye, look-at point, up vector, field angle in degrees (NFF
  * "angle": between the centres of the first and last pixel column, and of
  * the first and last row), hither distance, resolution. */
@@ -113,7 +120,11 @@ int mprt_scene_set_view(mprt_scene *scene, const double from[3], const double at
 int mprt_scene_set_background(mprt_scene *scene, const double rgb[3]);
 /* Add a point light; rgb may be NULL (NFF default intensity). */
 int mprt_scene_add_light(mprt_scene *scene, const double pos[3], const double *rgb);
-/* Set the material used by primitives added after this call (NFF "f"). */
+/* Set the material used by primitives added after this call (NFF "f"):
+ * colour, diffuse Kd, specular Ks, Phong exponent shine, transmittance t and
+ * index of refraction ior.  Kd, Ks and t must each be in [0, 1] and Ks + t
+ * at most 1 (a hit's reflection and refraction rays never carry more than
+ * their parent), shine >= 0, ior > 0 when t > 0; else MPRT_ERR_INVALID_ARG. */
 int mprt_scene_set_material(mprt_scene *scene, const double rgb[3], double kd, double ks,
                             double shine, double t, double ior);
 /* Add a sphere. */
@@ -183,6 +194,17 @@ int mprt_scene_get_lights(const mprt_scene *scene, double *data, size_t cap);
  * (0 selects the default, 4 GiB). */
 int mprt_grid_create(const mprt_scene *scene, int nx, int ny, int nz, size_t max_bytes,
                      mprt_grid **out);
+/* How a grid lists primitives in voxels: in every voxel the primitive's
+ * surface may touch (exact overlap tests, the default); in every voxel its
+ * bounding box touches (as simpler tracers do); or in those and one more
+ * voxel beyond the box's last on each axis (a box's voxel range rounded
+ * outward, floor(lo) to ceil(hi), as an off-by-one tracer would).  More
+ * list entries, more intersection tests, the same hits. */
+typedef enum { MPRT_LIST_EXACT = 0, MPRT_LIST_BOX = 1, MPRT_LIST_BOX_OUTWARD = 2 } mprt_listing;
+
+/* mprt_grid_create with a listing convention (mprt_listing). */
+int mprt_grid_create_listing(const mprt_scene *scene, int nx, int ny, int nz, size_t max_bytes, int listing,
+                             mprt_grid **out);
 /* Destroy a grid; NULL is allowed. */
 void mprt_grid_destroy(mprt_grid *grid);
 /* Message of the last failed call on this grid ("" if none). */
@@ -199,6 +221,7 @@ typedef struct {
     long long jump_voxels;       /* empty voxels from which the 3DDDA jumps over empty space
                                   * (0 with the environment MPRT_NO_SKIP=1 when the grid was made) */
     double lo[3], hi[3];         /* box the grid covers */
+    int listing;                 /* mprt_listing */
 } mprt_grid_stats;
 
 /* Statistics of the grid. OUT: stats. */
@@ -226,6 +249,11 @@ typedef struct {
     long long os_visits;         /* OS stage visits */
     long long ic_visits;         /* IC stage visits */
     long long sc_visits;         /* SC stage visits */
+    long long tir;               /* SC visits on a transmitting surface where total
+                                  * internal reflection left no refraction ray, counted
+                                  * where the depth limit allowed a child (SPD's "refract
+                                  * rays" column is refract_rays + tir); not in the
+                                  * trace records */
 } mprt_counters;
 
 typedef struct {
@@ -239,14 +267,62 @@ typedef struct {
     int mailbox;         /* 1: IC skips primitives this ray already tested in an
                           * earlier voxel (fewer tests, same image); 0: test every
                           * listed primitive in every voxel, as the paper's IC does */
+    /* Workload conventions; 0 selects the rule set's choice (MPRT_CONV_*
+     * below).  Each is one way a tracer may do a thing the paper leaves
+     * open; paper and spd rules pick the first of each, paper1992 the
+     * combination that reproduces the paper's counts best. */
+    int offset;          /* where secondary and shadow rays start */
+    int accept;          /* which hit IC accepts in a voxel */
+    int behind;          /* a light behind the surface */
+    int candidates;      /* the secondary candidates SC counts at a hit */
+    int shadow_term;     /* what the threshold compares for a shadow ray */
+    int max_rays;        /* ray budget of one sample (its eye ray and every ray of its
+                          * tree); a sample that needs more fails the render or trace
+                          * with MPRT_ERR_LIMIT naming the sample, so no scene can
+                          * run away (0 = MPRT_DEFAULT_MAX_RAYS) */
 } mprt_render_desc;
+
+/* Default ray budget of a sample: SPD's scenes need at most about 120. */
+#define MPRT_DEFAULT_MAX_RAYS 65536
+
+/* The workload conventions' choices (fields of mprt_render_desc). */
+enum {
+    /* offset: off the surface by 512 ulps of the hit point's largest
+     * coordinate (paper, spd), or exactly on it (a ray may hit the surface
+     * it leaves at t ~ 1e-17) */
+    MPRT_OFFSET_SCALED = 1,
+    MPRT_OFFSET_NONE = 2,
+    /* accept: a hit within the voxel's stretch of the ray only (paper, spd:
+     * results do not depend on the grid), or the nearest hit among the
+     * voxel's primitives wherever it lies (results depend on the grid) */
+    MPRT_ACCEPT_IN_VOXEL = 1,
+    MPRT_ACCEPT_LISTED = 2,
+    /* behind (N.L <= 0): a shadow candidate carrying 0, cut by the threshold
+     * like any (paper), no candidate (spd), or a shadow ray cast whatever
+     * the threshold */
+    MPRT_BEHIND_CUTOFF = 1,
+    MPRT_BEHIND_SKIP = 2,
+    MPRT_BEHIND_CAST = 3,
+    /* candidates: a reflection candidate when Ks > 0 (spd: or T > 0) and a
+     * refraction one when T > 0 (paper, spd); both on every specular
+     * surface (Ks > 0 or T > 0); or both at every hit.  A candidate of
+     * weight 0 is suppressed by any threshold. */
+    MPRT_CANDIDATES_MATERIAL = 1,
+    MPRT_CANDIDATES_SPECULAR = 2,
+    MPRT_CANDIDATES_ALL = 3,
+    /* shadow_term: N.L x Kd x contribution times the light's mean intensity
+     * (paper), or without the light (the digest's luminance term) */
+    MPRT_SHADOW_LIGHT = 1,
+    MPRT_SHADOW_SURFACE = 2
+};
 
 /* Fill a render description with defaults. OUT: desc. */
 void mprt_render_desc_init(mprt_render_desc *desc);
 
 /* Resolve a render description's defaults against the grid's scene: width
  * and height 0 -> the view's resolution, max_depth 0 -> the rules' default
- * (paper 64, spd 5), threads 0 -> 1, tile <= 0 -> 16; and validate every
+ * (paper 64, spd 5), threads 0 -> 1, tile <= 0 -> 16, max_rays 0 ->
+ * MPRT_DEFAULT_MAX_RAYS; and validate every
  * field (the same checks, with the same messages, as mprt_grid_render).
  * OUT: out (may alias desc). */
 int mprt_grid_resolve_desc(mprt_grid *grid, const mprt_render_desc *desc, mprt_render_desc *out);
@@ -351,6 +427,148 @@ int mprt_grid_trace_tile(mprt_grid *grid, const mprt_render_desc *desc, int tile
 
 /* Write rgb (width*height*3 floats in [0,1], clamped) as an 8-bit PNG. */
 int mprt_image_write_png(const char *path, int width, int height, const float *rgb);
+
+/* ---- Replay ----------------------------------------------------------------
+ * A compiled replay of a trace on a machine of the fidelity ladder's level 1:
+ * PEs of 1 to 3 stages (each a processor, or several replicas of one,
+ * running one or more of the subtasks OS, IC, SC), send and receive FIFOs
+ * of any capacity, an ideal network (no latency, no bandwidth limit) and
+ * an ideal memory (every access hits), DIS admitting primary rays under a
+ * window.  It applies the same event rules as the SimPy machine model
+ * (python/mprt/machine, README.md there) and returns the same cycle counts
+ * to the cycle; python/mprt/fidelity binds it.
+ *
+ * In C:
+ *
+ *     mprt_replay_config c;  mprt_replay *r;  mprt_replay_info info;
+ *     mprt_replay_config_init(&c);            // model M: 3 stages, 1 PE
+ *     mprt_replay_create(&c, &r);
+ *     if (mprt_replay_load(r, rays, nrays, visits, nvisits, process, receive, send) != MPRT_OK ||
+ *         mprt_replay_run(r, NULL, 0) != MPRT_OK)
+ *         fprintf(stderr, "%s\n", mprt_replay_errmsg(r));   // bad input, or a deadlock
+ *     mprt_replay_get_info(r, &info);          // info.cycles
+ *     mprt_replay_destroy(r);
+ *
+ * Costs come from the caller (the cost model), one entry per visit:
+ * process, receive and send cycles; a visit lasts their sum (at least 1). */
+
+/* How DIS deals primary rays (trees) to PEs: static blocks of consecutive
+ * trees, interleaved (tree t to PE t mod pes), or one shared sequence each
+ * PE draws from when its window has room. */
+typedef enum { MPRT_DIS_BLOCKS = 0, MPRT_DIS_INTERLEAVED = 1, MPRT_DIS_DYNAMIC = 2 } mprt_dis;
+
+/* States of a processor (mprt_replay_proc.state). */
+typedef enum {
+    MPRT_PROC_IDLE = 0,     /* nothing to do: its receive FIFO and local queue are empty */
+    MPRT_PROC_BUSY = 1,     /* running a visit */
+    MPRT_PROC_BLOCKED = 2,  /* holding packets its full send FIFO cannot take */
+    MPRT_PROC_RESUMING = 3  /* its packets placed, resuming at this cycle */
+} mprt_proc_state;
+
+typedef struct {
+    int nstages;                        /* stages per PE, in ring order, 1..3 */
+    int stage_of[3];                    /* the stage running OS, IC and SC */
+    int replicas[3];                    /* processors of each stage (first nstages used), >= 1 */
+    int64_t receive_fifo[3];            /* capacity in packets; 0 = unbounded */
+    int64_t send_fifo[3];               /* capacity in packets; 0 = unbounded */
+    int pes;                            /* processing elements, >= 1 */
+    int dis;                            /* mprt_dis */
+    int64_t window;                     /* live rays a PE's DIS admits up to, >= 1 */
+    int64_t gen_cycles;                 /* cycles SC spends making a primary ray and sending
+                                         * it to OS; 0: DIS hands primaries to OS directly */
+} mprt_replay_config;
+
+typedef struct mprt_replay mprt_replay;
+
+/* Model M's configuration: 3 stages OS, IC, SC, one processor each,
+ * unbounded FIFOs, 1 PE, dynamic DIS, window 256, gen_cycles 0. OUT: cfg. */
+void mprt_replay_config_init(mprt_replay_config *cfg);
+/* Check a configuration and make a replay of it (an invalid field fails
+ * with a message naming it, readable from *out; destroy it). OUT: out. */
+int mprt_replay_create(const mprt_replay_config *cfg, mprt_replay **out);
+/* Destroy a replay; NULL is allowed. */
+void mprt_replay_destroy(mprt_replay *r);
+/* Message of the last failed call on this replay ("" if none). */
+const char *mprt_replay_errmsg(const mprt_replay *r);
+
+/* Change the configuration (the loaded trace stays). */
+int mprt_replay_set_config(mprt_replay *r, const mprt_replay_config *cfg);
+
+/* Load a trace (rays and visits as mprt_grid_trace_tile records them, tiles
+ * joined: ray ids 0..nrays-1, each primary ray's tree contiguous, parents
+ * before children) with its per-visit costs (nvisits entries each): checked
+ * and copied in the replay's own compact form (16 bytes per visit), so the
+ * caller's arrays may go, and one load serves runs of any configuration.  A
+ * malformed trace or cost fails with MPRT_ERR_INVALID_ARG naming it. */
+int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                     size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send);
+
+/* Replay the loaded trace on the configuration.  log (may be NULL)
+ * receives 4 int64 per event: cycle, 0 start / 1 end, processor, visit (~t:
+ * making primary ray t); log_cap (int64 entries) must hold 8 * (visits +
+ * primary rays).  A machine that stops with rays still in it (full FIFOs
+ * waiting on each other) fails with MPRT_ERR_STATE and info.deadlocked set,
+ * its final state readable by the getters below. */
+int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap);
+
+typedef struct {
+    int64_t cycles;         /* when the last ray retired; -1 after a deadlock or before a run */
+    int64_t deadlocked;     /* 1: the machine stopped with rays still in it */
+    int64_t rays, visits, trees;   /* of the trace; trees = primary rays */
+    int64_t retired;        /* rays retired */
+    int64_t max_leaves;     /* the most leaves (rays making none) of any tree */
+    int64_t events;         /* log entries written (4 int64 each) */
+    int64_t processors;     /* entries of mprt_replay_get_procs: pes x sum of replicas */
+    int64_t nodes;          /* entries of mprt_replay_get_nodes: pes x nstages */
+    int64_t pes;            /* entries of mprt_replay_get_pes */
+} mprt_replay_info;
+
+/* One processor, after the run (order: PE, stage, replica). */
+typedef struct {
+    int64_t busy;           /* cycles running visits (making primary rays included) */
+    int64_t blocked;        /* cycles blocked on a full send FIFO */
+    int64_t visits;         /* visits run (making primary rays included) */
+    int64_t state;          /* mprt_proc_state at the end */
+    int64_t visit;          /* busy or blocked: its visit (~t: making primary ray t); else -1 */
+    int64_t pending;        /* blocked: packets it still holds */
+} mprt_replay_proc;
+
+/* One stage of one PE (order: PE, stage): its FIFOs (area: occupancy
+ * integrated over the run, in packet-cycles), local queue and the primary
+ * rays it made. */
+typedef struct {
+    int64_t receive_occupancy, receive_max, receive_puts, receive_area;
+    int64_t send_occupancy, send_max, send_puts, send_area;
+    int64_t local_queue;
+    int64_t generated;
+} mprt_replay_node;
+
+/* One PE: its DIS and rays, and its visits' costs by subtask (OS, IC, SC). */
+typedef struct {
+    int64_t admitted;       /* primary rays its DIS admitted */
+    int64_t retired;        /* rays retired */
+    int64_t end;            /* when its last ray retired */
+    int64_t live, max_live; /* rays in the PE at the end, and at most */
+    int64_t dis_holding;    /* 1: its DIS holds a primary waiting for a FIFO slot */
+    int64_t processing[3];  /* process cycles of the visits run */
+    int64_t communication[3];      /* receive + send cycles of the visits run */
+    int64_t visits[3];      /* visits run */
+} mprt_replay_pe;
+
+/* Figures of the last run (also after a deadlock; info also after a load,
+ * with nothing run yet).  cap: entries. OUT: out. */
+int mprt_replay_get_info(const mprt_replay *r, mprt_replay_info *info);
+int mprt_replay_get_procs(const mprt_replay *r, mprt_replay_proc *out, size_t cap);
+int mprt_replay_get_nodes(const mprt_replay *r, mprt_replay_node *out, size_t cap);
+int mprt_replay_get_pes(const mprt_replay *r, mprt_replay_pe *out, size_t cap);
+/* Per primary ray (tree): the PE that admitted it and when (-1: never);
+ * either pointer may be NULL.  cap: entries of each. OUT: pe, admitted. */
+int mprt_replay_get_trees(const mprt_replay *r, int32_t *pe, int64_t *admitted, size_t cap);
+/* Who waits for a slot in stage's receive FIFO of PE pe (which 0: sending
+ * stages, -1 for the DIS), or in its send FIFO (which 1: replicas), in
+ * order.  OUT: out (cap entries), n (the number waiting). */
+int mprt_replay_get_waiters(const mprt_replay *r, int pe, int stage, int which, int64_t *out, size_t cap,
+                            size_t *n);
 
 #ifdef __cplusplus
 }

@@ -145,7 +145,8 @@ int mprt_grid_camera_rays(mprt_grid *g, const mprt_render_desc *desc, size_t fir
 int mprt_samples_to_image(int rules, int samples_w, int samples_h, const double *samples, float *rgb, size_t cap)
 {
     int corners = rules == MPRT_RULES_SPD;
-    if (rules != MPRT_RULES_PAPER && rules != MPRT_RULES_SPD) return MPRT_ERR_INVALID_ARG;
+    if (rules != MPRT_RULES_PAPER && rules != MPRT_RULES_SPD && rules != MPRT_RULES_PAPER1992)
+        return MPRT_ERR_INVALID_ARG;
     if (!samples || !rgb) return MPRT_ERR_INVALID_ARG;
     if (samples_w - corners < 1 || samples_h - corners < 1 || samples_w > 65537 || samples_h > 65537)
         return MPRT_ERR_INVALID_ARG;

@@ -5,7 +5,9 @@
  * ("holds primitives") is start[v+1] > start[v].  A primitive is listed in
  * every voxel its surface may touch, by the primitives' conservative box
  * tests against the voxel box grown by a small relative margin, so that
- * rounding in the 3DDDA's voxel boundaries can never hide a primitive.
+ * rounding in the 3DDDA's voxel boundaries can never hide a primitive; or,
+ * with MPRT_LIST_BOX, in every voxel its bounding box (so grown) touches,
+ * and with MPRT_LIST_BOX_OUTWARD one voxel more on each axis's high side.
  *
  * Empty space: the grid is also split into macro cells of whole voxels,
  * about cubic in space (one voxel each on a grid of cubic voxels), and each
@@ -295,6 +297,7 @@ static int build(mprt_grid *g, size_t max_bytes)
         for (a = 0; a < 3; a++) {
             a0[a] = axis_cell(g, a, vget(blo, a) - margin);
             a1[a] = axis_cell(g, a, vget(bhi, a) + margin);
+            if (g->listing == MPRT_LIST_BOX_OUTWARD && a1[a] < g->n[a] - 1) a1[a]++;
         }
         for (z = a0[2]; z <= a1[2]; z++)
             for (y = a0[1]; y <= a1[1]; y++)
@@ -303,7 +306,7 @@ static int build(mprt_grid *g, size_t max_bytes)
                     vec3 hi = mprt__grid_voxel_lo(g, x + 1, y + 1, z + 1);
                     lo = v3(lo.x - margin, lo.y - margin, lo.z - margin);
                     hi = v3(hi.x + margin, hi.y + margin, hi.z + margin);
-                    int touch = prim_box(s, i, lo, hi);
+                    int touch = g->listing != MPRT_LIST_EXACT ? 1 : prim_box(s, i, lo, hi);
                     if (touch < 0) {
                         st = grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
                         goto done;
@@ -379,6 +382,12 @@ static int jump_threshold(mprt_grid *g)
 
 int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, mprt_grid **out)
 {
+    return mprt_grid_create_listing(s, nx, ny, nz, max_bytes, MPRT_LIST_EXACT, out);
+}
+
+int mprt_grid_create_listing(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, int listing,
+                             mprt_grid **out)
+{
     mprt_grid *g;
     long long bad;
     int a, st;
@@ -394,8 +403,14 @@ int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_byt
     *out = g;
     g->scene = s;
     if (!s) return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: no scene");
+    if (listing != MPRT_LIST_EXACT && listing != MPRT_LIST_BOX && listing != MPRT_LIST_BOX_OUTWARD)
+        return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: unknown listing %d (0 exact, 1 box, 2 box_outward)", listing);
+    g->listing = listing;
     if (nx < 1 || ny < 1 || nz < 1 || nx > 1024 || ny > 1024 || nz > 1024)
         return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: subdivision %dx%dx%d is not in 1..1024 per axis", nx, ny, nz);
+    if (s->nprims == 0 && s->dropped > 0)
+        return grid_fail(g, MPRT_ERR_STATE, "grid: the scene has no primitives: %lld %s dropped while reading it (%s%s)",
+                         s->dropped, s->dropped == 1 ? "was" : "were", s->dropped == 1 ? "" : "the first: ", s->warning);
     if (s->nprims == 0) return grid_fail(g, MPRT_ERR_STATE, "grid: the scene has no primitives");
     g->n[0] = nx;
     g->n[1] = ny;
@@ -451,6 +466,7 @@ int mprt_grid_get_stats(const mprt_grid *g, mprt_grid_stats *st)
                             (g->macro_lo[0] ? (long long)(g->n[0] + g->n[1] + g->n[2]) * (long long)sizeof(int) : 0));
     st->lo[0] = g->lo.x; st->lo[1] = g->lo.y; st->lo[2] = g->lo.z;
     st->hi[0] = g->hi.x; st->hi[1] = g->hi.y; st->hi[2] = g->hi.z;
+    st->listing = g->listing;
     return MPRT_OK;
 }
 

@@ -25,6 +25,7 @@ struct mprt_grid {
                         * was made): never, voxel by voxel, and empty is never above 1 */
     int32_t *ids;      /* primitive ids, voxel by voxel */
     long long refs;
+    int listing;       /* mprt_listing */
     int failed;
     int counted;       /* 1 once counted among the scene's grids (see mprt__scene_count_grid) */
     pthread_mutex_t errlock; /* renders may fail in several threads at once */

@@ -172,6 +172,10 @@ void mprt__scene_warn(mprt_scene *scene, const char *fmt, ...)
 int mprt__scene_add_polygon(mprt_scene *scene, int n, const double *verts, const double *normals,
                             int *reason);
 
+/* A patch's vertex normal as the scene stores it: normalised unless it
+ * already is (so NFF round trips are exact). */
+vec3 mprt__unit_normal(const double *n);
+
 /* Intensity of each channel of a light given without a colour: the NFF
  * reader's rule, 1/sqrt(number of lights). */
 double mprt__light_default_rgb(const mprt_scene *scene);

@@ -24,9 +24,10 @@
  * be seen.  It is counted with mprt__scene_warn ("NAME:LINE: polygon with
  * zero area dropped") and parsing goes on; the scene's error message is
  * left as it was.  Before a polygon is added, consecutive vertices that are
- * exactly equal (position, and normal for a patch), the last and first
- * included, are merged into one; a polygon left with fewer than 3 vertices
- * has zero area.
+ * equal as the scene stores them (position, and the unit normal for a
+ * patch), the last and first included, are merged into one; a polygon left
+ * with fewer than 3 vertices has zero area.  So the text the writer makes
+ * reads back to the same polygon.
  *
  * The writer is in nff_write.c. */
 #include "nff.h"
@@ -37,6 +38,7 @@
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
+#include <sys/stat.h>
 
 /* ---- Entities ----------------------------------------------------------- */
 
@@ -195,11 +197,19 @@ static int nff_reserve(nff_reader *r, size_t n)
     return MPRT_OK;
 }
 
-/* Vertex i equals vertex j (and so do their normals for a patch). */
+/* Vertex i equals vertex j (and so do their normals for a patch) as the
+ * scene would store them: positions in the build's precision, normals made
+ * unit.  Two vertices written differently but stored alike would be written
+ * back alike and merged when read again, so they are merged now. */
 static int nff_same_vertex(const nff_reader *r, int patch, int i, int j)
 {
-    if (memcmp(r->verts + 3 * i, r->verts + 3 * j, 3 * sizeof(double)) != 0) return 0;
-    return !patch || memcmp(r->norms + 3 * i, r->norms + 3 * j, 3 * sizeof(double)) == 0;
+    const double *a = r->verts + 3 * i, *b = r->verts + 3 * j;
+    vec3 na, nb;
+    if ((real)a[0] != (real)b[0] || (real)a[1] != (real)b[1] || (real)a[2] != (real)b[2]) return 0;
+    if (!patch) return 1;
+    na = mprt__unit_normal(r->norms + 3 * i);
+    nb = mprt__unit_normal(r->norms + 3 * j);
+    return na.x == nb.x && na.y == nb.y && na.z == nb.z;
 }
 
 /* Merge runs of equal consecutive vertices (cyclically); returns the count left. */
@@ -311,31 +321,47 @@ int mprt_scene_parse_nff(mprt_scene *scene, const char *text, size_t len, const 
 int mprt_scene_load_nff(mprt_scene *s, const char *path)
 {
     FILE *f;
-    char *buf;
-    long len;
-    size_t got;
+    struct stat info;
+    char *buf = NULL;
+    size_t len = 0, cap = 0;
     int st;
     if (!s || !path) return MPRT_ERR_INVALID_ARG;
     if (mprt__scene_check_unshared(s, "load_nff") != MPRT_OK) return MPRT_ERR_STATE;
     f = fopen(path, "rb");
-    if (!f) return mprt__scene_fail(s, MPRT_ERR_IO, "%s: cannot open for reading", path);
-    if (fseek(f, 0, SEEK_END) != 0 || (len = ftell(f)) < 0 || fseek(f, 0, SEEK_SET) != 0) {
+    if (!f) return mprt__scene_fail(s, MPRT_ERR_IO, "%s: cannot open for reading (%s)", path, strerror(errno));
+    if (fstat(fileno(f), &info) == 0 && S_ISDIR(info.st_mode)) {
         fclose(f);
-        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: cannot determine the file size", path);
+        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: is a directory, not an NFF file", path);
     }
-    buf = malloc((size_t)len + 1);
-    if (!buf) {
-        fclose(f);
-        return mprt__scene_fail(s, MPRT_ERR_OUT_OF_MEMORY, "%s: out of memory reading %ld bytes", path, len);
+    /* Read to the end in growing blocks: the size of a pipe or a device is
+     * not known in advance */
+    for (;;) {
+        size_t got;
+        if (cap - len < 4096) {
+            size_t ncap = cap ? cap * 2 : 1 << 16;
+            char *nbuf = ncap > cap ? realloc(buf, ncap + 1) : NULL;
+            if (!nbuf) {
+                free(buf);
+                fclose(f);
+                return mprt__scene_fail(s, MPRT_ERR_OUT_OF_MEMORY, "%s: out of memory after reading %zu bytes", path,
+                                        len);
+            }
+            buf = nbuf;
+            cap = ncap;
+        }
+        got = fread(buf + len, 1, cap - len, f);
+        len += got;
+        if (got == 0) break;
     }
-    got = fread(buf, 1, (size_t)len, f);
-    fclose(f);
-    if (got != (size_t)len) {
+    if (ferror(f)) {
+        int err = errno;
         free(buf);
-        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: read failed", path);
+        fclose(f);
+        return mprt__scene_fail(s, MPRT_ERR_IO, "%s: read failed after %zu bytes (%s)", path, len, strerror(err));
     }
+    fclose(f);
     buf[len] = '\0';
-    st = mprt_scene_parse_nff(s, buf, (size_t)len, path);
+    st = mprt_scene_parse_nff(s, buf, len, path);
     free(buf);
     return st;
 }

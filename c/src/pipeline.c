@@ -59,9 +59,10 @@ static int test_prim(const mprt_scene *s, int32_t id, const mprt__ray *ray, real
 
 /* IC visit: test the voxel's list, counting into ic.  For a shadow ray
  * return 1 on any hit in (tmin, tmax].  Otherwise update the nearest hit
- * *best and return 1 when it lies within this voxel's stretch (accepted). */
+ * *best and return 1 when it lies within this voxel's stretch, or with
+ * accept_listed wherever it lies (accepted). */
 static int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt__ray *ray, real tmin, real tmax,
-                    int shadow, mprt__hit *best, mailbox *mb, mprt__visit *ic, mprt__sink *sink)
+                    int shadow, int accept_listed, mprt__hit *best, mailbox *mb, mprt__visit *ic, mprt__sink *sink)
 {
     const mprt_scene *s = g->scene;
     uint32_t k, end = g->start[voxel + 1];
@@ -84,7 +85,7 @@ static int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt
             best->prim = id;
         }
     }
-    return !shadow && best->prim >= 0 && best->t <= t_exit;
+    return !shadow && best->prim >= 0 && (accept_listed || best->t <= t_exit);
 }
 
 /* ---- OS + IC ----------------------------------------------------------------- */
@@ -103,6 +104,12 @@ static inline void emit_os(mprt__sink *sink, int64_t ray_id, int ray_kind, int o
 
 int mprt__os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
                 mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind)
+{
+    return mprt__os_ic_accept(g, ray, tmin, tmax, shadow, use_mailbox, 0, best, sink, ray_id, ray_kind);
+}
+
+int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
+                       int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind)
 {
     mprt__dda walk;
     mailbox mb, *pmb = NULL;
@@ -126,7 +133,7 @@ int mprt__os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, 
         emit_os(sink, ray_id, ray_kind, MPRT_OUT_TO_IC, steps, walk.voxel, -1);
         mprt__visit_init(&ic, ray_id, ray_kind, MPRT_STAGE_IC, MPRT_OUT_RETURN);
         ic.voxel_id = walk.voxel;
-        accepted = ic_visit(g, walk.voxel, walk.t_exit, ray, tmin, tmax, shadow, best, pmb, &ic, sink);
+        accepted = ic_visit(g, walk.voxel, walk.t_exit, ray, tmin, tmax, shadow, accept_listed, best, pmb, &ic, sink);
         if (accepted) {
             ic.outcome = shadow ? MPRT_OUT_BLOCKED : MPRT_OUT_HIT;
             ic.prim = best->prim;
@@ -156,6 +163,7 @@ void mprt__trace_sample(const mprt__render_setup *setup, mprt__tree_ray eye, int
 {
     const mprt_scene *s = setup->scene;
     int top = 0;
+    long long rays = 1; /* made for this sample, against the budget */
     eye.id = mprt__emit_ray(sink, -1, MPRT_RAY_PRIMARY, 1, sample, -1, 1.0);
     stack[top++] = eye;
     rgb[0] = rgb[1] = rgb[2] = 0;
@@ -165,10 +173,17 @@ void mprt__trace_sample(const mprt__render_setup *setup, mprt__tree_ray eye, int
         mprt__hit hit;
         int shadow = tree_ray.kind == MPRT_RAY_SHADOW;
         mprt__ray_prepare(&ray, tree_ray.origin, tree_ray.dir);
-        if (mprt__os_ic(setup->grid, &ray, tree_ray.tmin, tree_ray.tmax, shadow, setup->desc.mailbox, &hit, sink,
-                        tree_ray.id, tree_ray.kind)) {
+        if (mprt__os_ic_accept(setup->grid, &ray, tree_ray.tmin, tree_ray.tmax, shadow, setup->desc.mailbox,
+                               setup->desc.accept == MPRT_ACCEPT_LISTED, &hit, sink, tree_ray.id, tree_ray.kind)) {
+            int before = top;
             if (shadow) continue; /* blocked shadow ray dies at IC */
             mprt__sc_shade(setup, &tree_ray, hit, sample, rgb, stack, &top, sink);
+            rays += top - before;
+            if (rays > setup->desc.max_rays) {
+                /* The tree outgrew the budget: abandon the sample (an error) */
+                sink->over_budget = sample;
+                return;
+            }
         } else if (shadow) {
             /* unblocked shadow ray: OS -> SC, adds its light */
             mprt__visit sc;
@@ -196,9 +211,7 @@ int mprt_grid_intersect(mprt_grid *g, size_t n, const double *org, const double 
     if (!g) return MPRT_ERR_INVALID_ARG;
     if (g->failed) return MPRT_ERR_STATE;
     if (n && (!org || !dir || !t || !prim)) return MPRT_ERR_INVALID_ARG;
-    memset(&sink.counters, 0, sizeof sink.counters);
-    sink.recorder = NULL;
-    sink.bad_prim = -1;
+    mprt__sink_init(&sink, NULL);
     for (i = 0; i < n; i++) {
         mprt__ray ray;
         mprt__hit hit;

@@ -65,4 +65,5 @@ void mprt__counters_add(mprt_counters *counters, const mprt_counters *more)
     counters->os_visits += more->os_visits;
     counters->ic_visits += more->ic_visits;
     counters->sc_visits += more->sc_visits;
+    counters->tir += more->tir;
 }

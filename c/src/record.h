@@ -2,13 +2,14 @@
  * (internal).  mprt__emit_visit and mprt__emit_ray feed both the counters
  * of a render and, when tracing, the trace records, so the two cannot
  * disagree: every counter of mprt_counters is a sum over the emitted visits
- * and rays. */
+ * and rays, and all but tir can be rebuilt from the trace records. */
 #ifndef MPRT_RECORD_H
 #define MPRT_RECORD_H
 
 #include "mprt_internal.h"
 
 #include <stdint.h>
+#include <string.h>
 
 /* A ray that belongs to no ray tree (mprt_grid_intersect's rays). */
 #define MPRT__RAY_QUERY (-1)
@@ -26,6 +27,8 @@ typedef struct {
     int32_t prim;           /* IC/SC: primitive hit, or -1 */
     int made;               /* SC: rays made */
     int suppressed;         /* SC: rays not made (threshold or depth) */
+    int tir;                /* SC: 1 when total internal reflection left no refraction
+                             * ray (counted in mprt_counters.tir; not in trace records) */
 } mprt__visit;
 
 /* Fill a visit with its identity and no counts. */
@@ -43,6 +46,7 @@ static inline void mprt__visit_init(mprt__visit *v, int64_t ray, int ray_kind, i
     v->prim = -1;
     v->made = 0;
     v->suppressed = 0;
+    v->tir = 0;
 }
 
 /* The trace records of one tile (mprt_grid_trace_tile's buffers). */
@@ -59,7 +63,18 @@ typedef struct {
     mprt_counters counters;     /* in the sink itself: one pointer less on the hot path */
     mprt__recorder *recorder;   /* NULL unless tracing */
     int64_t bad_prim;           /* -1, or a primitive of unknown kind met (an error) */
+    int64_t over_budget;        /* -1, or the first sample whose tree needed more rays
+                                 * than the budget (an error; the sample was abandoned) */
 } mprt__sink;
+
+/* A sink with no counts and no error yet. */
+static inline void mprt__sink_init(mprt__sink *sink, mprt__recorder *recorder)
+{
+    memset(&sink->counters, 0, sizeof sink->counters);
+    sink->recorder = recorder;
+    sink->bad_prim = -1;
+    sink->over_budget = -1;
+}
 
 /* Append the records (record.c). */
 void mprt__record_visit(mprt__recorder *recorder, const mprt__visit *visit);
@@ -84,6 +99,7 @@ static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
     default: /* MPRT_STAGE_SC */
         counters->sc_visits++;
         counters->suppressed_rays += v->suppressed;
+        counters->tir += v->tir;
         break;
     }
     /* A hit ends the ray's search: IC accepts it (a shadow ray is blocked),

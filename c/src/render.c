@@ -22,8 +22,38 @@ void mprt_render_desc_init(mprt_render_desc *d)
     d->ambient = 0.1;
 }
 
+/* The workload conventions of each rule set (mprt_rules order), field by field. */
+enum { NCONV = 5 };
+static const char *const conv_name[NCONV] = {"offset", "accept", "behind", "candidates", "shadow_term"};
+static const int conv_max[NCONV] = {MPRT_OFFSET_NONE, MPRT_ACCEPT_LISTED, MPRT_BEHIND_CAST, MPRT_CANDIDATES_ALL,
+                                    MPRT_SHADOW_SURFACE};
+static const int conv_of_rules[3][NCONV] = {
+    {MPRT_OFFSET_SCALED, MPRT_ACCEPT_IN_VOXEL, MPRT_BEHIND_CUTOFF, MPRT_CANDIDATES_MATERIAL, MPRT_SHADOW_LIGHT},
+    {MPRT_OFFSET_SCALED, MPRT_ACCEPT_IN_VOXEL, MPRT_BEHIND_SKIP, MPRT_CANDIDATES_MATERIAL, MPRT_SHADOW_LIGHT},
+    {MPRT_OFFSET_SCALED, MPRT_ACCEPT_IN_VOXEL, MPRT_BEHIND_SKIP, MPRT_CANDIDATES_SPECULAR, MPRT_SHADOW_LIGHT},
+};
+
+/* Fill the conventions left 0 from the rule set; check the others. */
+static int resolve_conventions(mprt_grid *g, mprt_render_desc *rd)
+{
+    int *field[NCONV], k;
+    field[0] = &rd->offset;
+    field[1] = &rd->accept;
+    field[2] = &rd->behind;
+    field[3] = &rd->candidates;
+    field[4] = &rd->shadow_term;
+    for (k = 0; k < NCONV; k++) {
+        if (*field[k] < 0 || *field[k] > conv_max[k])
+            return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: %s %d is not in 0..%d (0: the rule set's choice)",
+                                   conv_name[k], *field[k], conv_max[k]);
+        if (*field[k] == 0) *field[k] = conv_of_rules[rd->rules][k];
+    }
+    return MPRT_OK;
+}
+
 int mprt_grid_resolve_desc(mprt_grid *g, const mprt_render_desc *desc, mprt_render_desc *out)
 {
+    int st;
     mprt_render_desc rd;
     if (!g || !desc || !out) return MPRT_ERR_INVALID_ARG;
     if (g->failed) return MPRT_ERR_STATE;
@@ -33,8 +63,10 @@ int mprt_grid_resolve_desc(mprt_grid *g, const mprt_render_desc *desc, mprt_rend
     if (rd.width < 1 || rd.height < 1 || rd.width > 65536 || rd.height > 65536)
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: resolution %dx%d is not in 1..65536", rd.width,
                                rd.height);
-    if (rd.rules != MPRT_RULES_PAPER && rd.rules != MPRT_RULES_SPD)
-        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: unknown rule set %d (0 paper, 1 spd)", rd.rules);
+    if (rd.rules != MPRT_RULES_PAPER && rd.rules != MPRT_RULES_SPD && rd.rules != MPRT_RULES_PAPER1992)
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: unknown rule set %d (0 paper, 1 spd, 2 paper1992)",
+                               rd.rules);
+    if ((st = resolve_conventions(g, &rd)) != MPRT_OK) return st;
     if (!(rd.threshold >= 0 && rd.threshold < 1))
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: threshold %g is not in [0, 1)", rd.threshold);
     if (!(rd.ambient >= 0 && rd.ambient <= 1))
@@ -46,6 +78,10 @@ int mprt_grid_resolve_desc(mprt_grid *g, const mprt_render_desc *desc, mprt_rend
     if (rd.threads < 0 || rd.threads > 64)
         return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: threads %d is not in 0..64", rd.threads);
     if (rd.threads == 0) rd.threads = 1;
+    if (rd.max_rays < 0)
+        return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "render: max_rays %d is negative (0 selects the default, %d)",
+                               rd.max_rays, MPRT_DEFAULT_MAX_RAYS);
+    if (rd.max_rays == 0) rd.max_rays = MPRT_DEFAULT_MAX_RAYS;
     *out = rd;
     return MPRT_OK;
 }
@@ -74,7 +110,8 @@ typedef struct {
     int x0, y0;             /* the sample rgb starts with */
 } sample_buffer;
 
-/* Trace the samples of one tile into out. */
+/* Trace the samples of one tile into out; stops at a sample over the ray
+ * budget (sink->over_budget). */
 static void render_tile(const mprt__render_setup *setup, int tile, const sample_buffer *out, mprt__tree_ray *stack,
                         mprt__sink *sink)
 {
@@ -93,7 +130,21 @@ static void render_tile(const mprt__render_setup *setup, int tile, const sample_
             eye.kind = MPRT_RAY_PRIMARY;
             eye.depth = 1;
             mprt__trace_sample(setup, eye, y * cam->samples_w + x, rgb, stack, sink);
+            if (sink->over_budget >= 0) return;
         }
+}
+
+/* The error of a sample over the ray budget. */
+static int budget_fail(mprt_grid *g, const mprt__render_setup *setup, const char *call, int64_t sample)
+{
+    const mprt_render_desc *d = &setup->desc;
+    int w = setup->camera.samples_w;
+    return mprt__grid_fail(g, MPRT_ERR_LIMIT,
+                           "%s: sample (%d, %d) needs more than %d rays (max_rays, the ray budget of a sample): its "
+                           "ray tree does not end (threshold %g, max_depth %d); raise the threshold or max_rays, or "
+                           "lower max_depth",
+                           call, (int)(sample % w), (int)(sample / w), d->max_rays,
+                           d->rules != MPRT_RULES_SPD ? d->threshold : 0.0, d->max_depth);
 }
 
 /* ---- Trace one tile ---------------------------------------------------------- */
@@ -127,9 +178,7 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     recorder.cap_rays = cap_rays;
     recorder.visits = visits;
     recorder.cap_visits = cap_visits;
-    memset(&sink.counters, 0, sizeof sink.counters);
-    sink.recorder = &recorder;
-    sink.bad_prim = -1;
+    mprt__sink_init(&sink, &recorder);
     out.rgb = samples;
     out.stride = rect[2] - rect[0];
     out.x0 = rect[0];
@@ -142,6 +191,7 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     if (sink.bad_prim >= 0)
         return mprt__grid_fail(g, MPRT_ERR_STATE, "trace: " MPRT__UNKNOWN_KIND, (long long)sink.bad_prim,
                                g->scene->prims[sink.bad_prim].kind);
+    if (sink.over_budget >= 0) return budget_fail(g, &setup, "trace", sink.over_budget);
     if (recorder.nrays > cap_rays || recorder.nvisits > cap_visits)
         return mprt__grid_fail(g, MPRT_ERR_CAPACITY, "trace: tile %d needs %zu rays and %zu visits", tile,
                                recorder.nrays, recorder.nvisits);
@@ -161,6 +211,7 @@ typedef struct {
     sample_buffer samples;
     int ntiles, next_tile;
     int out_of_memory;
+    int stop;               /* a sample went over the ray budget: take no more tiles */
     pthread_mutex_t lock;
 } tile_queue;
 
@@ -168,6 +219,7 @@ typedef struct {
 typedef struct {
     tile_queue *queue;
     mprt__sink sink;
+    int budget_tile;        /* the tile of sink.over_budget */
     pthread_t thread;
 } worker;
 
@@ -189,10 +241,20 @@ static void *work(void *arg)
     for (;;) {
         int tile;
         pthread_mutex_lock(&queue->lock);
-        tile = queue->out_of_memory ? queue->ntiles : queue->next_tile++;
+        tile = queue->out_of_memory || queue->stop ? queue->ntiles : queue->next_tile++;
         pthread_mutex_unlock(&queue->lock);
         if (tile >= queue->ntiles) break;
         render_tile(queue->setup, tile, &queue->samples, stack, &sink);
+        if (sink.over_budget >= 0) {
+            /* Tiles are handed out in order and the tiles being traced are
+             * finished, so the lowest failing tile is found whatever the
+             * thread count: the error names the same sample every time */
+            self->budget_tile = tile;
+            pthread_mutex_lock(&queue->lock);
+            queue->stop = 1;
+            pthread_mutex_unlock(&queue->lock);
+            break;
+        }
     }
     free(stack);
     self->sink = sink;
@@ -228,9 +290,8 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
     for (i = 0; i < setup.desc.threads; i++) {
         worker *w = &workers[i];
         w->queue = &queue;
-        memset(&w->sink.counters, 0, sizeof w->sink.counters);
-        w->sink.recorder = NULL;
-        w->sink.bad_prim = -1;
+        mprt__sink_init(&w->sink, NULL);
+        w->budget_tile = -1;
     }
     /* Workers 1.. in threads of their own, worker 0 in this one */
     for (started = 1; started < setup.desc.threads; started++)
@@ -248,6 +309,14 @@ int mprt_grid_render(mprt_grid *g, const mprt_render_desc *desc, float *rgb, siz
         free(queue.samples.rgb);
         return mprt__grid_fail(g, MPRT_ERR_STATE, "render: " MPRT__UNKNOWN_KIND, (long long)bad_prim,
                                g->scene->prims[bad_prim].kind);
+    }
+    if (queue.stop) {
+        const worker *first = NULL;
+        for (i = 0; i < started; i++)
+            if (workers[i].budget_tile >= 0 && (!first || workers[i].budget_tile < first->budget_tile))
+                first = &workers[i];
+        free(queue.samples.rgb);
+        return budget_fail(g, &setup, "render", first->sink.over_budget);
     }
     /* Pixels: samples as they are, or the mean of each pixel's four corners */
     mprt__samples_to_pixels(setup.camera.corners, setup.camera.samples_w, setup.camera.samples_h, queue.samples.rgb,

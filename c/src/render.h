@@ -46,6 +46,10 @@ size_t mprt__tree_stack_size(const mprt__render_setup *setup);
  * when a hit was accepted (a shadow ray: blocked), 0 when the ray left. */
 int mprt__os_ic(const mprt_grid *grid, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
                 mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind);
+/* The same with IC's acceptance convention: accept_listed 1 accepts the
+ * nearest hit of a voxel's list wherever it lies (MPRT_ACCEPT_LISTED). */
+int mprt__os_ic_accept(const mprt_grid *grid, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
+                       int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind);
 
 /* Trace the whole ray tree of the sample whose eye ray is eye; its colour
  * goes to rgb.  stack holds mprt__tree_stack_size rays. */

@@ -17,6 +17,7 @@ const char *mprt_status_str(int status)
     case MPRT_ERR_CAPACITY: return "buffer too small";
     case MPRT_ERR_PARSE: return "parse error";
     case MPRT_ERR_IO: return "input/output error";
+    case MPRT_ERR_LIMIT: return "work limit reached";
     default: return "unknown status";
     }
 }
@@ -114,13 +115,28 @@ static vec3 tovec(const double *p) { return v3((real)p[0], (real)p[1], (real)p[2
 static int finite1(double x) { return isfinite(x) && fabs(x) <= (double)REAL_MAX; }
 static int finite3(const double *p) { return finite1(p[0]) && finite1(p[1]) && finite1(p[2]); }
 
-/* A vertex normal, normalised unless it already is (so NFF round trips are exact). */
-static vec3 unit_normal(const double *p)
+/* A coordinate or length of geometry (positions, radii, the hither
+ * distance): finite and at most COORD_LIMIT in magnitude, so that the
+ * products intersection and shading form (squares of coordinates) stay
+ * finite.  A sphere of radius 1e301 would otherwise be hit at t = inf. */
+#ifdef MPRT_SINGLE
+#define COORD_LIMIT 1e18
+#define BAD_COORD "NaN, infinite or over 1e18 in magnitude"
+#else
+#define COORD_LIMIT 1e100
+#define BAD_COORD "NaN, infinite or over 1e100 in magnitude"
+#endif
+static int coord1(double x) { return isfinite(x) && fabs(x) <= COORD_LIMIT; }
+static int coord3(const double *p) { return coord1(p[0]) && coord1(p[1]) && coord1(p[2]); }
+
+vec3 mprt__unit_normal(const double *p)
 {
     vec3 n = tovec(p);
-    real l2 = vdot(n, n);
+    real l2 = vdot(n, n), big;
     if (fabs((double)l2 - 1) <= 4 * (double)REAL_EPS) return n;
-    return vnorm(n);
+    /* Scaled first, so that a very long or very short normal keeps its direction */
+    big = vmaxabs(n);
+    return big > 0 ? vnorm(v3(n.x / big, n.y / big, n.z / big)) : n;
 }
 
 int mprt_scene_set_view(mprt_scene *s, const double from[3], const double at[3],
@@ -129,8 +145,8 @@ int mprt_scene_set_view(mprt_scene *s, const double from[3], const double at[3],
     vec3 f, a, u, dir;
     if (!s || !from || !at || !up) return MPRT_ERR_INVALID_ARG;
     if (mprt__scene_check_unshared(s, "set_view") != MPRT_OK) return MPRT_ERR_STATE;
-    if (!finite3(from) || !finite3(at) || !finite3(up) || !isfinite(angle) || !finite1(hither))
-        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: NaN or infinite value");
+    if (!coord3(from) || !coord3(at) || !coord3(up) || !isfinite(angle) || !coord1(hither))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: a value is " BAD_COORD);
     if (!(angle > 0 && angle < 180))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "view: angle %g is not in (0, 180) degrees", angle);
     if (hither < 0)
@@ -170,8 +186,8 @@ int mprt_scene_add_light(mprt_scene *s, const double pos[3], const double *rgb)
     mprt__light *l;
     if (!s || !pos) return MPRT_ERR_INVALID_ARG;
     if (mprt__scene_check_unshared(s, "add_light") != MPRT_OK) return MPRT_ERR_STATE;
-    if (!finite3(pos) || (rgb && !finite3(rgb)))
-        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "light: NaN or infinite value");
+    if (!coord3(pos)) return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "light: a position value is " BAD_COORD);
+    if (rgb && !finite3(rgb)) return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "light: NaN or infinite colour");
     if ((st = GROW(s, lights, nlights, caplights, 1)) != MPRT_OK) return st;
     l = &s->lights[s->nlights++];
     l->pos = tovec(pos);
@@ -190,9 +206,19 @@ int mprt_scene_set_material(mprt_scene *s, const double rgb[3], double kd, doubl
     if (mprt__scene_check_unshared(s, "set_material") != MPRT_OK) return MPRT_ERR_STATE;
     if (!finite3(rgb) || !isfinite(kd) || !isfinite(ks) || !isfinite(shine) || !isfinite(t) || !isfinite(ior))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "material: NaN or infinite value");
-    if (kd < 0 || ks < 0 || t < 0 || shine < 0)
+    /* Weights are fractions of the light a ray carries, so a hit's reflection
+     * and refraction rays together never carry more than their parent (Ks + T
+     * <= 1): a ray tree cannot grow in weight, and the contribution cutoff
+     * ends it.  Colours and Shine are not fractions and may exceed 1. */
+    if (!(kd >= 0 && kd <= 1) || !(ks >= 0 && ks <= 1) || !(t >= 0 && t <= 1))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "material: Kd %g, Ks %g and T %g must each be in [0, 1]", kd,
+                                ks, t);
+    if (ks + t > 1 + 1e-12) /* (a margin for decimal text such as 0.3 and 0.7) */
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG,
-                                "material: Kd %g, Ks %g, Shine %g and T %g must not be negative", kd, ks, shine, t);
+                                "material: Ks %g + T %g = %g is over 1 (the reflection and refraction rays would "
+                                "carry more light than the ray that made them)",
+                                ks, t, ks + t);
+    if (shine < 0) return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "material: Shine %g is negative", shine);
     if (t > 0 && !(ior > 0))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG,
                                 "material: index of refraction %g must be positive for a transmissive surface", ior);
@@ -233,8 +259,8 @@ int mprt_scene_add_sphere(mprt_scene *s, const double center[3], double radius)
     int st;
     if (!s || !center) return MPRT_ERR_INVALID_ARG;
     if (mprt__scene_check_unshared(s, "add_sphere") != MPRT_OK) return MPRT_ERR_STATE;
-    if (!finite3(center) || !finite1(radius))
-        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "sphere: NaN or infinite value");
+    if (!coord3(center) || !coord1(radius))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "sphere: a value is " BAD_COORD);
     if (!(radius > 0))
         return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "sphere: radius %g is not positive", radius);
     if ((st = need_material(s)) != MPRT_OK) return st;
@@ -260,8 +286,10 @@ int mprt__scene_add_polygon(mprt_scene *s, int n, const double *verts, const dou
     if (mprt__scene_check_unshared(s, "add_polygon") != MPRT_OK) return MPRT_ERR_STATE;
     if (n < 3) return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "polygon: %d vertices, at least 3 needed", n);
     for (i = 0; i < n; i++) {
-        if (!finite3(verts + 3 * i) || (normals && !finite3(normals + 3 * i)))
-            return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "polygon: NaN or infinite value at vertex %d", i + 1);
+        if (!coord3(verts + 3 * i))
+            return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "polygon: a value of vertex %d is " BAD_COORD, i + 1);
+        if (normals && !finite3(normals + 3 * i))
+            return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "polygon: NaN or infinite normal at vertex %d", i + 1);
     }
     if ((st = need_material(s)) != MPRT_OK) return st;
     if ((st = GROW(s, verts, nverts, capverts, n)) != MPRT_OK) return st;
@@ -274,7 +302,7 @@ int mprt__scene_add_polygon(mprt_scene *s, int n, const double *verts, const dou
     }
     for (i = 0; i < n; i++) {
         s->verts[s->nverts + i] = tovec(verts + 3 * i);
-        if (s->vnormals) s->vnormals[s->nverts + i] = normals ? unit_normal(normals + 3 * i) : v3(0, 0, 0);
+        if (s->vnormals) s->vnormals[s->nverts + i] = normals ? mprt__unit_normal(normals + 3 * i) : v3(0, 0, 0);
     }
     memset(&p, 0, sizeof p);
     p.first = (int)s->nverts;
@@ -310,8 +338,8 @@ int mprt_scene_add_cone(mprt_scene *s, const double base[3], double base_r, cons
     char err[200];
     if (!s || !base || !apex) return MPRT_ERR_INVALID_ARG;
     if (mprt__scene_check_unshared(s, "add_cone") != MPRT_OK) return MPRT_ERR_STATE;
-    if (!finite3(base) || !finite3(apex) || !finite1(base_r) || !finite1(apex_r))
-        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "cone: NaN or infinite value");
+    if (!coord3(base) || !coord3(apex) || !coord1(base_r) || !coord1(apex_r))
+        return mprt__scene_fail(s, MPRT_ERR_INVALID_ARG, "cone: a value is " BAD_COORD);
     memset(&c, 0, sizeof c);
     c.base = tovec(base);
     c.apex = tovec(apex);

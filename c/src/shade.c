@@ -3,7 +3,10 @@
  * light to the sample and makes the ray's children: a shadow ray toward each
  * light (carrying the light it would add), a reflection ray and a refraction
  * ray.  Paper rules drop a child whose contribution falls under the
- * threshold; both rules drop children beyond the depth limit. */
+ * threshold; both rules drop children beyond the depth limit.  The two rule
+ * sets differ in which surfaces reflect (see the secondary rays below) and
+ * in the shadow rays (spd: none toward a light behind the surface, Phong
+ * highlights; paper: one per light, cut by the threshold). */
 #include "render.h"
 
 #include <string.h>
@@ -34,7 +37,7 @@ static vec3 shading_normal(const mprt_scene *s, int32_t id, vec3 p, mprt__sink *
 /* Whether a child ray of this contribution and depth is made. */
 static int keep_child(const mprt_render_desc *desc, double contribution, int depth)
 {
-    return !(depth > desc->max_depth || (desc->rules == MPRT_RULES_PAPER && contribution < desc->threshold));
+    return !(depth > desc->max_depth || (desc->rules != MPRT_RULES_SPD && contribution < desc->threshold));
 }
 
 /* The children of one SC visit, made in order. */
@@ -74,15 +77,19 @@ void mprt__sc_shade(const mprt__render_setup *setup, const mprt__tree_ray *ray, 
     const mprt__material *m = &s->materials[s->prims[hit.prim].material];
     vec3 p = vmadd(ray->origin, ray->dir, hit.t);
     vec3 n = shading_normal(s, hit.prim, p, sink);
-    int entering = 1, l, i, spd = desc->rules == MPRT_RULES_SPD;
+    int entering = 1, tir = 0, l, i, spd = desc->rules == MPRT_RULES_SPD, all;
+    vec3 refract = v3(0, 0, 0);
     double cosi;
     children ch;
     mprt__visit sc;
 
+    /* Whether SC counts both secondary candidates at this hit */
+    all = desc->candidates == MPRT_CANDIDATES_ALL ||
+          (desc->candidates == MPRT_CANDIDATES_SPECULAR && (m->ks > 0 || m->t > 0));
     ch.parent = ray;
     ch.sample = sample;
     ch.origin = p;
-    ch.offset = surface_offset(p);
+    ch.offset = desc->offset == MPRT_OFFSET_NONE ? 0 : surface_offset(p);
     ch.kids = stack + *top;
     ch.made = ch.suppressed = 0;
     ch.sink = sink;
@@ -106,15 +113,20 @@ void mprt__sc_shade(const mprt__render_setup *setup, const mprt__tree_ray *ray, 
         if (!(dist > ch.offset)) continue;
         to = vscale(to, 1 / dist);
         ndl = (double)vdot(n, to);
-        if (spd && ndl <= 0) continue; /* SPD: no shadow ray toward a light behind the surface */
+        /* A light behind the surface: no candidate (spd), a ray cast
+         * whatever the threshold, or a candidate carrying 0 (paper) */
+        if (ndl <= 0 && desc->behind == MPRT_BEHIND_SKIP) continue;
         lum = (ndl > 0 ? ndl : 0) * m->kd * ray->contribution;
         if (spd && m->ks > 0) {
             double rv = (double)vdot(reflect_dir(ray->dir, n), to);
             if (rv > 0) spec = m->ks * pow(rv, m->shine) * ray->contribution;
         }
-        if (!spd) {
-            double grey = light->has_rgb ? (light->rgb[0] + light->rgb[1] + light->rgb[2]) / 3
-                                         : setup->light_rgb_default;
+        if (!(ndl <= 0 && desc->behind == MPRT_BEHIND_CAST)) {
+            /* The threshold compares N.L Kd contribution, times the light's
+             * mean intensity unless the surface term alone */
+            double grey = desc->shadow_term == MPRT_SHADOW_SURFACE ? 1
+                          : light->has_rgb ? (light->rgb[0] + light->rgb[1] + light->rgb[2]) / 3
+                                           : setup->light_rgb_default;
             if (!keep_child(desc, lum * grey, ray->depth)) {
                 ch.suppressed++;
                 continue;
@@ -127,34 +139,43 @@ void mprt__sc_shade(const mprt__render_setup *setup, const mprt__tree_ray *ray, 
         kid = make_child(&ch, MPRT_RAY_SHADOW, to, dist, ray->contribution, ray->depth, l);
         memcpy(kid->light_rgb, carried, sizeof carried);
     }
-    /* Reflection */
-    if (m->ks > 0) {
-        if (keep_child(desc, ray->contribution * m->ks, ray->depth + 1))
-            make_child(&ch, MPRT_RAY_REFLECT, reflect_dir(ray->dir, n), INF_REAL, ray->contribution * m->ks,
-                       ray->depth + 1, -1);
+    /* Secondary rays.  Refraction follows Snell's law; at total internal
+     * reflection (TIR) there is no refraction ray and the transmitted share
+     * goes to the reflection ray instead, so one reflection ray carries
+     * Ks + T (never two rays along the same direction).  Paper rules make a
+     * reflection ray when Ks > 0 or at TIR.  SPD rules (its Readme, rules 8
+     * and 9) make one on every reflective or transmitting surface: on a
+     * transmitting surface with Ks = 0 it carries no weight (contribution
+     * 0), so it changes the ray counts but not the image. */
+    if (m->t > 0) {
+        double eta = entering ? 1 / m->ior : m->ior;
+        double k = 1 - eta * eta * (1 - cosi * cosi);
+        tir = k < 0;
+        if (!tir) refract = vnorm(vadd(vscale(ray->dir, (real)eta), vscale(n, (real)(eta * cosi - sqrt(k)))));
+    }
+    if (m->ks > 0 || tir || (spd && m->t > 0)) {
+        double w = ray->contribution * (m->ks + (tir ? m->t : 0));
+        if (keep_child(desc, w, ray->depth + 1))
+            make_child(&ch, MPRT_RAY_REFLECT, reflect_dir(ray->dir, n), INF_REAL, w, ray->depth + 1, -1);
         else
             ch.suppressed++;
+    } else if (all) {
+        ch.suppressed++; /* a reflection candidate of weight 0 */
     }
-    /* Refraction (Snell); total internal reflection makes a reflection ray */
-    if (m->t > 0) {
-        if (keep_child(desc, ray->contribution * m->t, ray->depth + 1)) {
-            double eta = entering ? 1 / m->ior : m->ior;
-            double k = 1 - eta * eta * (1 - cosi * cosi);
-            if (k < 0)
-                make_child(&ch, MPRT_RAY_REFLECT, reflect_dir(ray->dir, n), INF_REAL, ray->contribution * m->t,
-                           ray->depth + 1, -1);
-            else
-                make_child(&ch, MPRT_RAY_REFRACT,
-                           vnorm(vadd(vscale(ray->dir, (real)eta), vscale(n, (real)(eta * cosi - sqrt(k))))),
-                           INF_REAL, ray->contribution * m->t, ray->depth + 1, -1);
-        } else {
+    if (m->t > 0 && !tir) {
+        double w = ray->contribution * m->t;
+        if (keep_child(desc, w, ray->depth + 1))
+            make_child(&ch, MPRT_RAY_REFRACT, refract, INF_REAL, w, ray->depth + 1, -1);
+        else
             ch.suppressed++;
-        }
+    } else if (all && !(m->t > 0)) {
+        ch.suppressed++; /* a refraction candidate of weight 0 */
     }
     mprt__visit_init(&sc, ray->id, ray->kind, MPRT_STAGE_SC, MPRT_OUT_SHADED);
     sc.prim = hit.prim;
     sc.made = ch.made;
     sc.suppressed = ch.suppressed;
+    sc.tir = tir && ray->depth + 1 <= desc->max_depth;
     mprt__emit_visit(sink, &sc);
     /* Push in reverse so the children are traced in the order made */
     for (i = 0; i < ch.made / 2; i++) {

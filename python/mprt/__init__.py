@@ -22,7 +22,7 @@ from importlib.metadata import PackageNotFoundError, version as _dist_version
 
 from . import tracing
 from ._lowlevel import EXT_VERSION, KINDS, Kind, Outcome, RayKind, Rules, Stage
-from .errors import InvalidArgument, MprtError, SceneParseError, SceneStateError, TraceError
+from .errors import InvalidArgument, MprtError, SceneParseError, SceneStateError, TraceError, WorkLimitError
 from .grid import Grid, write_png
 from .scene import SPD_DEFAULT_SIZES, SPD_SCENES, Scene
 from .trace import Trace, load_trace
@@ -56,6 +56,7 @@ __all__ = [
     "Stage",
     "Trace",
     "TraceError",
+    "WorkLimitError",
     "load_trace",
     "tracing",
     "write_png",

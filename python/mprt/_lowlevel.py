@@ -22,7 +22,7 @@ import os
 import numpy as np
 
 from . import _mprt, _mprt32
-from .errors import CapacityError, InvalidArgument, MprtError, SceneParseError, SceneStateError
+from .errors import CapacityError, InvalidArgument, MprtError, SceneParseError, SceneStateError, WorkLimitError
 
 _FFI = _mprt.ffi
 
@@ -53,6 +53,7 @@ _ERRORS = {
     Status.ERR_CAPACITY: CapacityError,
     Status.ERR_OUT_OF_MEMORY: MemoryError,
     Status.ERR_IO: OSError,
+    Status.ERR_LIMIT: WorkLimitError,
 }
 
 
@@ -80,6 +81,9 @@ def _record_dtype(ffi, ctype: str) -> np.dtype:
 
 RAY_DTYPE = _record_dtype(_FFI, "mprt_trace_ray")
 VISIT_DTYPE = _record_dtype(_FFI, "mprt_trace_visit")
+REPLAY_PROC_DTYPE = _record_dtype(_FFI, "mprt_replay_proc")
+REPLAY_NODE_DTYPE = _record_dtype(_FFI, "mprt_replay_node")
+REPLAY_PE_DTYPE = _record_dtype(_FFI, "mprt_replay_pe")
 for _ctype, _dt in (("mprt_trace_ray", RAY_DTYPE), ("mprt_trace_visit", VISIT_DTYPE)):
     if _record_dtype(_mprt32.ffi, _ctype) != _dt:
         raise ImportError(f"{_ctype} differs between the double and the single build")
@@ -253,10 +257,10 @@ class Binding:
         return data
 
     # -- grid --------------------------------------------------------------------------
-    def grid_create(self, scene_h, dims, max_bytes: int):
+    def grid_create(self, scene_h, dims, max_bytes: int, listing: int = 0):
         ffi, lib = self.ffi, self.lib
         out = ffi.new("mprt_grid **")
-        rc = lib.mprt_grid_create(scene_h, dims[0], dims[1], dims[2], int(max_bytes), out)
+        rc = lib.mprt_grid_create_listing(scene_h, dims[0], dims[1], dims[2], int(max_bytes), int(listing), out)
         if out[0] == ffi.NULL:
             raise MemoryError("mprt_grid_create: out of memory")
         h = ffi.gc(out[0], lib.mprt_grid_destroy)
@@ -361,6 +365,106 @@ class Binding:
             return int(nr[0]), int(nv[0]), False
         self._grid(h, rc)
         return int(nr[0]), int(nv[0]), True
+
+    # -- replay ------------------------------------------------------------------------
+    def _replay_config(self, config: dict):
+        c = self.ffi.new("mprt_replay_config *")
+        self.lib.mprt_replay_config_init(c)
+        for k, v in config.items():
+            try:
+                setattr(c, k, v)
+            except AttributeError:
+                raise InvalidArgument(f"replay configuration has no field {k!r}") from None
+            except (TypeError, OverflowError, IndexError) as e:
+                raise InvalidArgument(f"replay configuration field {k!r}: {e}") from None
+        return c
+
+    def replay_create(self, config: dict):
+        """A compiled replay of a machine: ``config`` holds mprt_replay_config's fields by name
+        (the others keep mprt_replay_config_init's values); a bad field raises InvalidArgument
+        with the library's message naming it."""
+        ffi, lib = self.ffi, self.lib
+        c = self._replay_config(config)
+        out = ffi.new("mprt_replay **")
+        rc = lib.mprt_replay_create(c, out)
+        if out[0] == ffi.NULL:
+            raise MemoryError("mprt_replay_create: out of memory")
+        h = ffi.gc(out[0], lib.mprt_replay_destroy)
+        self._check(rc, lib.mprt_replay_errmsg, h)
+        return h
+
+    def replay_set_config(self, h, config: dict) -> None:
+        """Another configuration for the replay (the loaded trace stays)."""
+        self._check(self.lib.mprt_replay_set_config(h, self._replay_config(config)), self.lib.mprt_replay_errmsg, h)
+
+    def replay_load(self, h, rays: np.ndarray, visits: np.ndarray, process: np.ndarray, receive: np.ndarray,
+                    send: np.ndarray) -> None:
+        """Load the records (RAY_DTYPE, VISIT_DTYPE) with int64 costs per visit (copied)."""
+        costs = [np.ascontiguousarray(a, dtype=np.int64) for a in (process, receive, send)]
+        for name, a in zip(("process", "receive", "send"), costs):
+            if a.shape != (len(visits),):
+                raise InvalidArgument(f"costs.{name} has shape {a.shape}, the trace has {len(visits)} visits")
+        self._check(self.lib.mprt_replay_load(h, self._in("mprt_trace_ray", np.ascontiguousarray(rays)), len(rays),
+                                              self._in("mprt_trace_visit", np.ascontiguousarray(visits)),
+                                              len(visits), *(self._in("int64_t", a) for a in costs)),
+                    self.lib.mprt_replay_errmsg, h)
+
+    def replay_run(self, h, log: np.ndarray | None = None) -> bool:
+        """Replay the loaded trace; ``log`` (int64, 8 * (visits + primary rays) entries)
+        receives the events.  False when the machine deadlocked (its state stays readable
+        by the getters)."""
+        lib = self.lib
+        rc = lib.mprt_replay_run(h, self.ffi.NULL if log is None else self._out("int64_t", log),
+                                 0 if log is None else log.size)
+        if rc == Status.ERR_STATE and self.replay_get_info(h)["deadlocked"]:
+            return False
+        self._check(rc, lib.mprt_replay_errmsg, h)
+        return True
+
+    def replay_get_info(self, h) -> dict:
+        """mprt_replay_info of the last run, by field."""
+        i = self.ffi.new("mprt_replay_info *")
+        self._got(self.lib.mprt_replay_get_info(h, i), "info")
+        return _struct_dict(self.ffi, i, "mprt_replay_info")
+
+    def _got(self, rc: int, what: str) -> None:
+        """A getter's status (its failures are the caller's: a run missing, a buffer too small)."""
+        if rc != Status.OK:
+            raise error_class(rc)(f"mprt_replay_get_{what}: {self.status_str(rc)}")
+
+    def replay_get_procs(self, h, n: int) -> np.ndarray:
+        """mprt_replay_proc per processor (REPLAY_PROC_DTYPE[n])."""
+        out = np.zeros(n, dtype=REPLAY_PROC_DTYPE)
+        self._got(self.lib.mprt_replay_get_procs(h, self._out("mprt_replay_proc", out), n), "procs")
+        return out
+
+    def replay_get_nodes(self, h, n: int) -> np.ndarray:
+        """mprt_replay_node per stage of each PE (REPLAY_NODE_DTYPE[n])."""
+        out = np.zeros(n, dtype=REPLAY_NODE_DTYPE)
+        self._got(self.lib.mprt_replay_get_nodes(h, self._out("mprt_replay_node", out), n), "nodes")
+        return out
+
+    def replay_get_pes(self, h, n: int) -> np.ndarray:
+        """mprt_replay_pe per PE (REPLAY_PE_DTYPE[n])."""
+        out = np.zeros(n, dtype=REPLAY_PE_DTYPE)
+        self._got(self.lib.mprt_replay_get_pes(h, self._out("mprt_replay_pe", out), n), "pes")
+        return out
+
+    def replay_get_trees(self, h, n: int):
+        """Per primary ray (tree): (PE that admitted it int32[n], when int64[n]); -1: never."""
+        pe, when = np.zeros(n, dtype=np.int32), np.zeros(n, dtype=np.int64)
+        self._got(self.lib.mprt_replay_get_trees(h, self._out("int32_t", pe), self._out("int64_t", when), n), "trees")
+        return pe, when
+
+    def replay_get_waiters(self, h, pe: int, stage: int, which: int) -> list:
+        """Who waits for a slot in a stage's receive FIFO (which 0: sending stages, -1 the DIS)
+        or send FIFO (which 1: replicas), in order."""
+        n = self.ffi.new("size_t *")
+        self.lib.mprt_replay_get_waiters(h, pe, stage, which, self.ffi.NULL, 0, n)
+        out = np.zeros(max(n[0], 1), dtype=np.int64)
+        self._got(self.lib.mprt_replay_get_waiters(h, pe, stage, which, self._out("int64_t", out), out.size, n),
+                  "waiters")
+        return out[: n[0]].tolist()
 
     # -- images ------------------------------------------------------------------------
     def samples_to_image(self, rules: int, samples: np.ndarray) -> np.ndarray:

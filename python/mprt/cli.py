@@ -1,43 +1,63 @@
-"""The ``mprt`` command: scenes, renders (and later traces, models, studies)."""
+"""The ``mprt`` command: scenes, renders, traces and their statistics.
+
+Every subcommand follows the same rules (``mprt.options`` holds the shared
+parts): each option is validated once with its range in the message and in
+``--help``; nothing asked for is silently replaced; outputs are checked before
+any work, and messages name the user's paths; JSON outputs carry the settings
+that made them and the wall time.  Exit status: 0 done, 1 an error during the
+work (a malformed scene file, a damaged trace, ...), 2 a bad option, scene name
+or output path, found before any work.
+"""
 from __future__ import annotations
 
 import argparse
-import json
 import os
+import shutil
 import sys
+import tempfile
+import threading
 import time
+import zlib
 
-from ._lowlevel import binding
+from tqdm import tqdm
+
+from . import options
 from .errors import MprtError
-from .grid import write_png
-from .scene import SPD_SCENES, Scene
+from .grid import render_desc, write_png
+from .explore.cli import add_parsers as add_explore
+from .machine.cli import add_parser as add_simulate
+from .options import UsageError
+from .scene import SPD_SCENES
 from .trace import load_trace
-from .tracing import trace
+from .tracing import select_tiles, trace
+
+EPILOG = ("exit status: 0 done; 1 an error during the work (a malformed scene file, a damaged trace, ...); "
+          "2 a bad option, scene or output path, found before any work")
 
 
-def _grid_arg(text: str):
-    parts = text.split(",")
-    try:
-        vals = [int(p) for p in parts]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"grid must be N or NX,NY,NZ, not {text!r}") from None
-    if len(vals) == 1:
-        return vals[0]
-    if len(vals) == 3:
-        return tuple(vals)
-    raise argparse.ArgumentTypeError(f"grid must be N or NX,NY,NZ, not {text!r}")
+def _size(n: float) -> str:
+    """A byte count for people: 972 MB, 15.1 GB, 34 kB."""
+    for unit, scale in (("GB", 1e9), ("MB", 1e6), ("kB", 1e3)):
+        if n >= scale:
+            v = n / scale
+            return f"{v:.1f} {unit}" if v < 100 else f"{v:.0f} {unit}"
+    return f"{int(n)} bytes"
 
 
-def _res_arg(text: str):
-    try:
-        w, h = (int(v) for v in text.lower().split("x"))
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"resolution must be WxH, not {text!r}") from None
-    return w, h
+def _progress_wanted(a) -> bool:
+    return bool(a.progress) or sys.stderr.isatty()
 
 
+# -- mprt scene ---------------------------------------------------------------------------------
 def cmd_scene(a) -> int:
-    scene = Scene.spd(a.name, a.size)
+    name, colon, size = a.name.partition(":")
+    if name not in SPD_SCENES:
+        raise UsageError(f"unknown SPD scene {name!r}; choose one of {', '.join(SPD_SCENES)} (with an optional :SIZE)")
+    if colon and a.size is not None:
+        raise UsageError(f"give the size once: {a.name} or --size {a.size}, not both")
+    n = options.spd_size(name, size if colon else a.size)
+    options.check_outputs(("-o", a.output, "nff"))
+    scene, _ = options.load_scene(name if n is None else f"{name}:{n}")
     text = scene.to_nff()
     if a.output:
         with open(a.output, "w") as f:
@@ -47,83 +67,217 @@ def cmd_scene(a) -> int:
     return 0
 
 
-def cmd_render(a) -> int:
+# -- mprt render --------------------------------------------------------------------------------
+def _scene_and_grid(a):
+    """The scene, how it was chosen, its grid and the resolved render description; prints the
+    scene and grid lines."""
     t0 = time.perf_counter()
-    scene = Scene.load(a.scene)
+    scene, how = options.load_scene(a.scene)
     t1 = time.perf_counter()
     grid = scene.grid(a.grid)
     t2 = time.perf_counter()
-    w, h = a.res or (0, 0)
-    image, counters = grid.render(width=w, height=h, rules=a.rules, threshold=a.threshold, threads=a.threads)
-    t3 = time.perf_counter()
+    desc = grid.resolve(render_desc(**options.render_kwargs(a)))
     info, gs = scene.info(), grid.stats()
-    print(f"scene   {scene.name}: {info['prims']} primitives "
+    print(f"scene   {scene.name}, {how}: {info['prims']} primitives "
           + ", ".join(f"{v} {k}" for k, v in info["count"].items() if v)
           + f"; {info['lights']} lights" + (f"; {info['dropped']} dropped ({info['warning']})" if info["dropped"] else ""))
     print(f"grid    {'x'.join(map(str, gs['n']))}: {gs['nonempty']} of {gs['voxels']} voxels non-empty, "
           f"mean list {gs['mean_len']:.2f}, max {gs['max_len']}, {gs['bytes'] / 1e6:.1f} MB")
-    print(f"image   {image.shape[1]}x{image.shape[0]}, rules {a.rules}")
+    return scene, how, grid, desc, {"load": t1 - t0, "grid": t2 - t1}
+
+
+def _render(grid, kw: dict, desc: dict, show: bool, force: bool):
+    """Grid.render, with a progress bar when ``show``: the render is one library call, so its
+    time is estimated from a render at 1/8 of the size each way (about 1.6% more work) and the
+    bar follows the clock; shown when the estimate is over a second, or always when ``force``."""
+    if not show:
+        return grid.render(**kw)
+    w, h = desc["width"], desc["height"]
+    sw, sh = max(1, w // 8), max(1, h // 8)
+    t0 = time.perf_counter()
+    grid.render(**dict(kw, width=sw, height=sh))
+    estimate = (time.perf_counter() - t0) * (w * h) / (sw * sh)
+    if estimate < 1.0 and not force:
+        return grid.render(**kw)
+    out = {}
+
+    def work():
+        try:
+            out["result"] = grid.render(**kw)
+        except BaseException as e:  # handed to the caller's thread
+            out["error"] = e
+
+    worker = threading.Thread(target=work, daemon=True)
+    start = time.perf_counter()
+    worker.start()
+    with tqdm(total=max(round(estimate, 1), 0.1), unit="s", desc="render (time estimated)", leave=False,
+              bar_format="{desc}: {percentage:3.0f}% |{bar}| {n:.1f}/{total:.1f} s", file=sys.stderr) as bar:
+        while worker.is_alive():
+            worker.join(0.2)
+            bar.n = min(time.perf_counter() - start, bar.total * 0.99)
+            bar.refresh()
+        bar.n = bar.total
+        bar.refresh()
+    if "error" in out:
+        raise out["error"]
+    return out["result"]
+
+
+def cmd_render(a) -> int:
+    options.check_render_options(a)
+    options.check_outputs(("-o", a.output, "png"), ("--stats", a.stats, "json"))
+    t0 = time.perf_counter()
+    scene, how, grid, desc, times = _scene_and_grid(a)
+    t2 = time.perf_counter()
+    image, counters = _render(grid, options.render_kwargs(a), desc, _progress_wanted(a), a.progress)
+    times["render"] = time.perf_counter() - t2
+    print(f"image   {desc['width']}x{desc['height']}, rules {a.rules}"
+          + (f", threshold {options.fraction_text(desc['threshold'])}" if a.rules == "paper" else ""))
     for k, v in counters.items():
         print(f"  {k:18s} {v}")
-    print(f"time    load {t1 - t0:.3f} s, grid {t2 - t1:.3f} s, render {t3 - t2:.3f} s ({a.threads} thread(s))")
+    print(f"time    load {times['load']:.3f} s, grid {times['grid']:.3f} s, render {times['render']:.3f} s "
+          f"({desc['threads']} thread(s))")
     if a.output:
         write_png(a.output, image)
         print(f"wrote   {a.output}")
     if a.stats:
-        with open(a.stats, "w") as f:
-            json.dump(counters, f, indent=2)
+        info, gs = scene.info(), grid.stats()
+        options.write_json(a.stats, {
+            **counters,
+            "scene_stats": {"primitives": info["prims"], "by_kind": info["count"], "lights": info["lights"],
+                            "dropped": info["dropped"]},
+            "grid_stats": gs,
+            "settings": options.run_settings(scene, grid, desc, how, argv=a.argv),
+            "seconds": times,
+            "wall_seconds": time.perf_counter() - t0,
+        })
         print(f"wrote   {a.stats}")
     return 0
 
 
-def _tiles_arg(text: str):
-    try:
-        return [int(v) for v in text.split(",") if v]
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"tiles must be a comma-separated list of tile numbers, not {text!r}") from None
+# -- mprt trace ---------------------------------------------------------------------------------
+def _check_selection(a, tiling, tile: int) -> None:
+    """--tiles and --sample against the image's tiles: refuse what cannot be done as asked."""
+    sw, sh, tx, ty = tiling
+    ntiles = tx * ty
+    what = f"{sw}x{sh} samples make {tx}x{ty} = {ntiles} tiles of {tile}x{tile}"
+    if a.tiles is not None and max(a.tiles) >= ntiles:
+        raise UsageError(f"--tiles {','.join(map(str, a.tiles))}: tile {max(a.tiles)} does not exist ({what}: "
+                         f"tiles 0..{ntiles - 1})")
+    if a.sample and a.sample.startswith("random:") and int(a.sample.split(":")[1]) > ntiles:
+        raise UsageError(f"--sample {a.sample} asks for {a.sample.split(':')[1]} tiles but {what}; ask for at most "
+                         f"{ntiles}, or leave --sample out to trace them all")
+
+
+ESTIMATE_TILES = 16    # tiles traced to estimate a trace's size: this many, or 1% of the run if more
+ESTIMATE_FROM = 64     # estimate only runs of at least this many tiles
+
+
+def _estimate(grid, kw: dict, sel, static: int):
+    """(bytes, bytes with --compress, tiles used): the size of a trace of the tiles ``sel``
+    from ESTIMATE_TILES of them (or 1%) spread evenly, traced in memory first; ``static`` is the
+    size of what does not depend on the tiles (voxel lists, primitive table, samples)."""
+    k = max(ESTIMATE_TILES, len(sel) // 100)
+    pick = sorted({int(sel[round(i * (len(sel) - 1) / (k - 1))]) for i in range(k)})
+    _, sample = trace(grid, **kw, tiles=pick)
+    raw = sample.rays.nbytes + sample.visits.nbytes
+    packed = len(zlib.compress(sample.rays.tobytes(), 6)) + len(zlib.compress(sample.visits.tobytes(), 6))
+    per_tile = raw / len(pick)
+    return static + per_tile * len(sel), static + packed / len(pick) * len(sel), len(pick)
 
 
 def cmd_trace(a) -> int:
-    scene = Scene.load(a.scene)
-    grid = scene.grid(a.grid)
-    w, h = a.res or (0, 0)
+    options.check_render_options(a)
+    options.check_outputs(("-o", a.output, "npz"))
+    scene, how, grid, desc, _ = _scene_and_grid(a)
+    tiling = grid.tiling(desc)
+    _check_selection(a, tiling, desc["tile"])
+    sel = select_tiles(tiling[2] * tiling[3], a.tiles, a.sample)
+    kw = options.render_kwargs(a)
+    start, ids = grid.lists()
+    static = start.nbytes + ids.nbytes + 12 * scene.info()["prims"] + tiling[0] * tiling[1] * 24
+    if len(sel) >= ESTIMATE_FROM:
+        est, est_c, k = _estimate(grid, kw, sel, static)
+        print(f"size    about {_size(est)} (about {_size(est_c)} with --compress, which is slower to write and "
+              f"loads into memory instead of being memory-mapped); estimated from {k} of the {len(sel)} tiles")
+        d = os.path.dirname(a.output) or "."
+        need = est + (est_c if a.compress else 0)
+        free = shutil.disk_usage(d).free
+        if need > free:
+            raise UsageError(f"-o {a.output}: the trace needs about {_size(need)} but {d} has {_size(free)} free; "
+                             "use --sample, a smaller --res or --compress")
     t0 = time.perf_counter()
-    _, tr = trace(grid, w, h, rules=a.rules, threshold=a.threshold, threads=a.threads, tiles=a.tiles,
-                  sample=a.sample, tile=a.tile, path=a.output, progress=sys.stderr.isatty() or a.progress,
-                  mailbox=a.mailbox)
+    target = a.output
+    if a.compress:   # stream uncompressed beside the output, then deflate into it
+        fd, target = tempfile.mkstemp(prefix=os.path.basename(a.output) + ".", suffix=".npz",
+                                      dir=os.path.dirname(a.output) or ".")
+        os.close(fd)
+    try:
+        _, tr = trace(grid, **kw, tiles=a.tiles, sample=a.sample, path=target, progress=_progress_wanted(a))
+        if a.compress:
+            tr.save(a.output, compress=True)
+    except OSError as e:   # (disk full, ...) name the user's file, not the temporary ones beside it
+        raise OSError(f"-o {a.output}: {e.strerror or e}") from None
+    finally:
+        if a.compress:
+            os.unlink(target)
     t1 = time.perf_counter()
     size = os.path.getsize(a.output)
     nr, nv = len(tr.rays), len(tr.visits)  # memory-mapped: not read here
-    print(f"trace   {scene.name}, grid {'x'.join(map(str, grid.n))}, {tr.meta['width']}x{tr.meta['height']} "
-          f"{a.rules}, {len(tr.meta['tiles'])} of {tr.meta['tiles_total']} tiles: "
-          f"{nr} rays, {nv} visits in {t1 - t0:.2f} s")
-    print(f"wrote   {a.output}: {size} bytes ({size / max(nv, 1):.1f} bytes per visit, rays included); "
+    records = tr.rays.nbytes + tr.visits.nbytes
+    print(f"trace   {scene.name}, grid {'x'.join(map(str, grid.n))}, {desc['width']}x{desc['height']} "
+          f"{a.rules}, {len(sel)} of {tiling[2] * tiling[3]} tiles: {nr} rays, {nv} visits in {t1 - t0:.2f} s")
+    if records >= size - records:
+        detail = (f"records {_size(records)}{' before compression' if a.compress else ''}, "
+                  f"{records / max(nv, 1):.1f} bytes per visit with the rays")
+    else:   # the static tables dominate: a per-visit figure would mislead
+        detail = f"mostly voxel lists, primitive table and samples; records {_size(records)}"
+    print(f"wrote   {a.output}: {_size(size)}{' compressed' if a.compress else ''} ({detail}); "
           f"'mprt stats {a.output}' gives the statistics")
     return 0
 
 
+# -- mprt stats ---------------------------------------------------------------------------------
+STATS_ROWS = (
+    ("OS input rays", "os_input"), ("  of which primary", "os_input_primary"),
+    ("  of which returns from IC", "os_input_returns"), ("  of which new rays from SC", "os_input_new"),
+    ("OS kills (ray left the space)", "os_kills"), ("OS -> IC", "os_to_ic"),
+    ("OS -> SC (unblocked shadow rays)", "os_to_sc"), ("IC input", "ic_input"),
+    ("IC kills (blocked shadow rays)", "ic_kills"), ("IC -> OS (returns)", "ic_to_os"),
+    ("IC -> SC (hits)", "ic_to_sc"), ("SC input", "sc_input"),
+    ("SC makes: secondary rays", "sc_made_secondary"), ("SC makes: shadow rays", "sc_made_shadow"),
+    ("rays suppressed", "suppressed"), ("voxels traversed", "voxels_traversed"),
+    ("intersection tests", "tests"),
+)
+
+
+def trace_settings(meta: dict, path: str, argv) -> dict:
+    """The settings a trace was made with (from its metadata), for a JSON computed from it."""
+    paper = meta.get("rules") == "paper"
+    return {**options.base_settings(argv), "trace": path,
+            **{k: meta.get(k) for k in ("scene", "scene_sha256", "precision", "grid")},
+            "resolution": [meta.get("width"), meta.get("height")], "rules": meta.get("rules"),
+            "threshold": meta.get("threshold") if paper else None,
+            **{k: meta.get(k) for k in ("max_depth", "mailbox", "tile", "tiles_total", "subset")},
+            "tiles": len(meta.get("tiles", []))}
+
+
 def cmd_stats(a) -> int:
-    tr = load_trace(a.trace)
+    options.check_input("TRACE", a.trace)
+    t0 = time.perf_counter()
+    tr = load_trace(a.trace, mmap=True)     # memory-mapped and read in chunks: bounded memory
     st = tr.check() if a.check else tr.stats()
     if a.json:
-        print(json.dumps(st, indent=2))
+        options.write_json(sys.stdout, {**st, "invariants_checked": bool(a.check),
+                                        "settings": trace_settings(tr.meta, a.trace, a.argv),
+                                        "wall_seconds": time.perf_counter() - t0})
         return 0
     m = tr.meta
     print(f"{m['scene']}  grid {'x'.join(map(str, m['grid']))}  {m['width']}x{m['height']}  rules {m['rules']}"
           f"  threshold {m['threshold']:g}  tiles {len(m['tiles'])}/{m['tiles_total']}")
-    rows = [
-        ("OS input rays", st["os_input"]), ("  of which primary", st["os_input_primary"]),
-        ("  of which returns from IC", st["os_input_returns"]), ("  of which new rays from SC", st["os_input_new"]),
-        ("OS kills (ray left the space)", st["os_kills"]), ("OS -> IC", st["os_to_ic"]),
-        ("OS -> SC (unblocked shadow rays)", st["os_to_sc"]), ("IC input", st["ic_input"]),
-        ("IC kills (blocked shadow rays)", st["ic_kills"]), ("IC -> OS (returns)", st["ic_to_os"]),
-        ("IC -> SC (hits)", st["ic_to_sc"]), ("SC input", st["sc_input"]),
-        ("SC makes: secondary rays", st["sc_made_secondary"]), ("SC makes: shadow rays", st["sc_made_shadow"]),
-        ("rays suppressed", st["suppressed"]), ("voxels traversed", st["voxels_traversed"]),
-        ("intersection tests", st["tests"]),
-    ] + [(f"  {k} tests", v) for k, v in st["tests_by_kind"].items() if v] + [
-        ("returns per ray entering OS from outside", f"{st['returns_per_ray']:.2f}"),
-    ]
+    rows = [(name, st[key]) for name, key in STATS_ROWS]
+    rows += [(f"  {k} tests", v) for k, v in st["tests_by_kind"].items() if v]
+    rows += [("returns per ray entering OS from outside", f"{st['returns_per_ray']:.2f}")]
     for name, val in rows:
         print(f"  {name:42s} {val}")
     for key, title in (("hist_voxels_per_os_visit", "voxels per OS visit"),
@@ -139,57 +293,75 @@ def cmd_stats(a) -> int:
     return 0
 
 
+# -- the parser ---------------------------------------------------------------------------------
 def build_parser() -> argparse.ArgumentParser:
-    p = argparse.ArgumentParser(prog="mprt", description="3MPRT ray-tracing machine explorer")
-    sub = p.add_subparsers(dest="cmd", required=True)
+    p = argparse.ArgumentParser(prog="mprt", description="3MPRT ray-tracing machine explorer", epilog=EPILOG)
+    p.add_argument("--version", action="version", version=f"mprt {options.version()}")
+    sub = p.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
 
-    s = sub.add_parser("scene", help="write an SPD scene as NFF")
-    s.add_argument("name", choices=SPD_SCENES)
-    s.add_argument("--size", type=int, default=None, help="SPD size factor (default: the SPD default)")
-    s.add_argument("-o", "--output", help="output file (default: stdout)")
+    s = sub.add_parser("scene", help="write an SPD scene as NFF", epilog=EPILOG,
+                       description="Write an SPD scene as NFF text.")
+    s.add_argument("name", metavar="NAME[:SIZE]", help=f"SPD scene: {', '.join(SPD_SCENES)}, with an optional size")
+    s.add_argument("--size", type=options.spd_size_arg, default=None,
+                   help="SPD size factor (or NAME:SIZE); its range depends on the scene: "
+                        + ", ".join(f"{k} 1..{v}" for k, v in options.SPD_MAX_SIZES.items())
+                        + " (default: the SPD default, " + ", ".join(f"{k} {v}" for k, v in
+                                                                     options.SPD_DEFAULT_SIZES.items()) + ")")
+    s.add_argument("-o", "--output", help="NFF file to write (default: stdout)")
     s.set_defaults(func=cmd_scene)
 
-    r = sub.add_parser("render", help="render a scene to PNG and print its statistics")
-    r.add_argument("scene", help="NFF path, or SPD name with optional size (balls, balls:2)")
-    r.add_argument("--grid", type=_grid_arg, default=None,
-                   help="N or NX,NY,NZ (default: Scene.default_grid)")
-    r.add_argument("--res", type=_res_arg, default=None, help="WxH (default: the scene's view resolution)")
-    r.add_argument("--rules", choices=("paper", "spd"), default="paper")
-    r.add_argument("--threshold", type=float, default=None, help="contribution cutoff (paper rules)")
-    r.add_argument("--threads", type=int, default=1)
-    r.add_argument("-o", "--output", help="PNG image to write")
-    r.add_argument("--stats", help="JSON file for the counters")
+    r = sub.add_parser("render", help="render a scene to PNG and print its statistics", epilog=EPILOG,
+                       description="Render a scene, print its counters, and write the image and a JSON record.")
+    options.add_scene_argument(r)
+    options.add_render_options(r)
+    r.add_argument("--progress", action="store_true",
+                   help="show a progress bar (time estimated) even when stderr is not a terminal or the render is short")
+    r.add_argument("-o", "--output", metavar="OUT.png", help=options.OUTPUT_HELP["png"])
+    r.add_argument("--stats", metavar="OUT.json", help=options.OUTPUT_HELP["json"])
     r.set_defaults(func=cmd_render)
 
-    t = sub.add_parser("trace", help="record every stage visit of every ray (a per-ray cost trace)")
-    t.add_argument("scene", help="NFF path, or SPD name with optional size (balls, balls:2)")
-    t.add_argument("--grid", type=_grid_arg, default=None, help="N or NX,NY,NZ (default: Scene.default_grid)")
-    t.add_argument("--res", type=_res_arg, default=None, help="WxH (default: the scene's view resolution)")
-    t.add_argument("--rules", choices=("paper", "spd"), default="paper")
-    t.add_argument("--threshold", type=float, default=None, help="contribution cutoff (paper rules)")
-    t.add_argument("--threads", type=int, default=1)
-    t.add_argument("--tile", type=int, default=None, help="tile edge in samples, the unit of subsets "
-                   f"(default {binding().render_desc_init()['tile']})")
+    t = sub.add_parser("trace", help="record every stage visit of every ray (a per-ray cost trace)", epilog=EPILOG,
+                       description="Trace a scene, recording every stage visit of every ray, to an .npz file "
+                                   "(streamed to disk: bounded memory).  Before a run of many tiles, the file's size "
+                                   f"is estimated from {ESTIMATE_TILES} of them (or 1%) and printed.")
+    options.add_scene_argument(t)
+    options.add_render_options(t, trace=True)
     sel = t.add_mutually_exclusive_group()
-    sel.add_argument("--tiles", type=_tiles_arg, default=None, help="only these tiles, e.g. 0,5,9")
-    sel.add_argument("--sample", default=None, help="regular:K (every K-th tile) or random:N:SEED")
-    t.add_argument("--mailbox", action="store_true", help="IC skips primitives the ray already tested")
-    t.add_argument("--progress", action="store_true", help="show a progress bar even when not on a terminal")
-    t.add_argument("-o", "--output", required=True, help="trace file (.npz)")
+    sel.add_argument("--tiles", type=options.tiles_arg, default=None,
+                     help="only these tiles, e.g. 0,5,9 (numbered row by row from 0)")
+    sel.add_argument("--sample", type=options.sample_arg, default=None,
+                     help="regular:K (every K-th tile) or random:N:SEED (N distinct tiles, at most the image's)")
+    t.add_argument("--progress", action="store_true", help="show a progress bar even when stderr is not a terminal")
+    t.add_argument("--compress", action="store_true",
+                   help="deflate the trace (several times smaller, slower to write; loads into memory whole "
+                        "instead of memory-mapped)")
+    t.add_argument("-o", "--output", metavar="OUT.npz", required=True, help=options.OUTPUT_HELP["npz"])
     t.set_defaults(func=cmd_trace)
 
-    st = sub.add_parser("stats", help="the paper's statistics of a trace")
-    st.add_argument("trace")
+    st = sub.add_parser("stats", help="the paper's statistics of a trace", epilog=EPILOG,
+                        description="Print the paper's statistics of a trace (bounded memory, any size).")
+    st.add_argument("trace", metavar="TRACE.npz")
     st.add_argument("--check", action="store_true", help="validate the trace's invariants first")
-    st.add_argument("--json", action="store_true", help="print the statistics as JSON")
+    st.add_argument("--json", action="store_true",
+                    help="print the statistics as JSON, with the trace's settings and the wall time")
     st.set_defaults(func=cmd_stats)
+    add_simulate(sub)
+    add_explore(sub)
     return p
 
 
 def main(argv=None) -> int:
+    argv = sys.argv[1:] if argv is None else [str(v) for v in argv]
     args = build_parser().parse_args(argv)
+    args.argv = argv
     try:
         return args.func(args)
+    except UsageError as e:
+        print(f"mprt {args.cmd}: error: {e}", file=sys.stderr)
+        return 2
+    except BrokenPipeError:   # the reader went away (mprt scene balls | head): not an error of ours
+        sys.stdout = open(os.devnull, "w")
+        return 0
     except (MprtError, MemoryError, OSError, ValueError) as e:
-        print(f"mprt: error: {e}", file=sys.stderr)
+        print(f"mprt {args.cmd}: error: {e}", file=sys.stderr)
         return 1

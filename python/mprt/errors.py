@@ -23,6 +23,10 @@ class SceneStateError(MprtError, RuntimeError):
     """The call is not allowed in the object's current state."""
 
 
+class WorkLimitError(MprtError, RuntimeError):
+    """A work limit was reached: a sample's ray tree needed more rays than its budget."""
+
+
 class CapacityError(MprtError, RuntimeError):
     """A buffer was too small (internal; callers should not see it)."""
 

@@ -17,16 +17,41 @@ from .errors import InvalidArgument
 from .scene import Scene
 
 
+# How a grid lists primitives in voxels (mprt_listing).
+LISTINGS = {"exact": 0, "box": 1, "box_outward": 2}
+# The workload conventions of a render description and their choices, in the order of their
+# MPRT_* values (1, 2, ...; 0 leaves the rule set's choice): see mprt.h and docs/workload.md.
+CONVENTIONS = {
+    "offset": ("scaled", "none"),
+    "accept": ("in_voxel", "listed"),
+    "behind": ("cutoff", "skip", "cast"),
+    "candidates": ("material", "specular", "all"),
+    "shadow_term": ("light", "surface"),
+}
+
+
+def convention_fields(conventions: dict | None) -> dict:
+    """Render description fields of conventions given by name ({'offset': 'none', ...})."""
+    out = {}
+    for key, choice in (conventions or {}).items():
+        if key not in CONVENTIONS:
+            raise InvalidArgument(f"unknown workload convention {key!r}; choose from {', '.join(CONVENTIONS)}")
+        if choice not in CONVENTIONS[key]:
+            raise InvalidArgument(f"convention {key} must be one of {', '.join(CONVENTIONS[key])}, not {choice!r}")
+        out[key] = CONVENTIONS[key].index(choice) + 1
+    return out
+
+
 def render_desc(width: int = 0, height: int = 0, rules: str = "paper", threshold: float | None = None,
                 max_depth: int = 0, threads: int = 1, tile: int | None = None, ambient: float | None = None,
-                mailbox: bool = False) -> dict:
+                mailbox: bool = False, conventions: dict | None = None) -> dict:
     """A render description from keyword options: the fields of ``mprt_render_desc`` to set
     (None leaves the library's default; width/height/max_depth 0 mean the scene's or the rules'
-    default, resolved by the library)."""
+    default, resolved by the library; ``conventions`` sets workload conventions by name)."""
     if rules not in RULES:
         raise InvalidArgument(f"rules must be {' or '.join(repr(r) for r in RULES)}, not {rules!r}")
     desc = {"width": int(width), "height": int(height), "rules": RULES[rules], "max_depth": int(max_depth),
-            "threads": int(threads), "mailbox": 1 if mailbox else 0}
+            "threads": int(threads), "mailbox": 1 if mailbox else 0, **convention_fields(conventions)}
     for key, value, kind in (("threshold", threshold, float), ("ambient", ambient, float), ("tile", tile, int)):
         if value is not None:
             desc[key] = kind(value)
@@ -36,17 +61,20 @@ def render_desc(width: int = 0, height: int = 0, rules: str = "paper", threshold
 class Grid:
     """The voxel grid over a scene: renders images and intersects rays."""
 
-    def __init__(self, scene: Scene, n, max_bytes: int = 0):
+    def __init__(self, scene: Scene, n, max_bytes: int = 0, listing: str = "exact"):
         if isinstance(n, (int, np.integer)):
             dims = (int(n),) * 3
         else:
             dims = tuple(int(v) for v in n)
             if len(dims) != 3:
                 raise InvalidArgument(f"grid subdivision must be one number or three, not {n!r}")
+        if listing not in LISTINGS:
+            raise InvalidArgument(f"listing must be {' or '.join(repr(k) for k in LISTINGS)}, not {listing!r}")
         self.scene = scene
         self.n = dims
+        self.listing = listing
         self._ll = scene._ll
-        self._h = self._ll.grid_create(scene._h, dims, max_bytes)
+        self._h = self._ll.grid_create(scene._h, dims, max_bytes, LISTINGS[listing])
         scene._add_grid(self)
 
     def stats(self) -> dict:
@@ -97,13 +125,15 @@ class Grid:
     # -- rendering and intersection ----------------------------------------------------------
     def render(self, width: int = 0, height: int = 0, rules: str = "paper", threshold: float | None = None,
                threads: int = 1, max_depth: int = 0, ambient: float | None = None, tile: int | None = None,
-               mailbox: bool = False):
+               mailbox: bool = False, conventions: dict | None = None):
         """Render; returns (image as float32 array (H, W, 3), counters dict).
 
         width/height 0 use the scene's view resolution.  rules is 'paper'
         (pixel centres, contribution cutoff at ``threshold``) or 'spd' (SPD's
-        procedure: pixel corners averaged, depth 5, no cutoff)."""
-        desc = render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox)
+        procedure: pixel corners averaged, depth 5, no cutoff) or 'paper1992' (paper rules with
+        the workload conventions that reproduce the paper's counts); ``conventions`` overrides
+        single conventions by name (``CONVENTIONS``)."""
+        desc = render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox, conventions)
         full = self.resolve(desc)
         img = np.zeros((full["height"], full["width"], 3), dtype=np.float32)
         return img, self._ll.grid_render(self._h, desc, img)
@@ -117,10 +147,13 @@ class Grid:
         return (t, prim, counters) if return_counters else (t, prim)
 
 
-def _scene_grid(scene: Scene, n: int | Sequence[int] | None = None, max_bytes: int = 0) -> Grid:
+def _scene_grid(scene: Scene, n: int | Sequence[int] | None = None, max_bytes: int = 0,
+                listing: str = "exact") -> Grid:
     """Build a uniform grid of n per axis (or (nx, ny, nz)) voxels over the scene;
-    None picks ``default_grid()``.  max_bytes bounds its memory (0: the library's default)."""
-    return Grid(scene, scene.default_grid() if n is None else n, max_bytes)
+    None picks ``default_grid()``.  max_bytes bounds its memory (0: the library's default);
+    listing 'exact' lists a primitive in the voxels its surface touches, 'box' in those its
+    bounding box touches."""
+    return Grid(scene, scene.default_grid() if n is None else n, max_bytes, listing)
 
 
 _scene_grid.__name__, _scene_grid.__qualname__ = "grid", "Scene.grid"

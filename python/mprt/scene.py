@@ -66,12 +66,15 @@ class Scene:
 
     @classmethod
     def load(cls, spec: str, precision: str = "double") -> "Scene":
-        """An NFF path, or an SPD name with an optional size: ``balls``, ``balls:2``."""
-        base, _, size = spec.partition(":")
-        if base in SPD_SCENES and not os.path.exists(spec):
-            if size and not size.isdigit():
+        """An SPD name with an optional size (``balls``, ``balls:2``: always the generator, even
+        when a file of that name exists; ``./balls`` names the file), or an NFF path."""
+        base, colon, size = spec.partition(":")
+        if base in SPD_SCENES:
+            if colon and not size.isdigit():
                 raise InvalidArgument(f"SPD size in {spec!r} must be a positive integer")
             return cls.spd(base, int(size) if size else None, precision)
+        if os.path.isdir(spec):
+            raise InvalidArgument(f"scene {spec!r} is a directory, not an NFF file")
         if not os.path.exists(spec):
             raise InvalidArgument(
                 f"scene {spec!r} is neither a file nor an SPD scene ({', '.join(SPD_SCENES)}[:size])"

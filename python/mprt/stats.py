@@ -1,13 +1,14 @@
 """The paper's statistics of a trace: its table rows, tests by kind and per-ray histograms.
 
-Computed over the visits in chunks, so a memory-mapped trace of any size is
-summarised in bounded memory.  Pure numpy over the record arrays.
+Computed over the rays and visits in chunks (``tracefile.chunks``), so a
+memory-mapped trace of any size is summarised in bounded memory.  Pure numpy over the record arrays.
 """
 from __future__ import annotations
 
 import numpy as np
 
 from ._lowlevel import KINDS, Outcome, RayKind, Stage
+from .tracefile import chunks
 
 OS, IC, SC = Stage.OS, Stage.IC, Stage.SC
 O = Outcome
@@ -27,8 +28,7 @@ def _visit_sums(visits, chunk: int) -> dict:
     sums = {"suppressed": 0, "steps": 0, "vertices": 0}
     h_vox, h_tests, h_ret = [], [], []
     carry_ray, carry_ret = -1, 0                # a ray's returns may straddle chunks
-    for a in range(0, len(visits), chunk):
-        v = np.asarray(visits[a:a + chunk])
+    for _, v in chunks(visits, chunk):
         stage, out = v["stage"].astype(np.int64), v["outcome"].astype(np.int64)
         cnt += np.bincount(stage * 16 + out, minlength=cnt.size).reshape(cnt.shape)
         tests_by_kind += v["tests"].sum(axis=0, dtype=np.int64)
@@ -51,12 +51,14 @@ def _visit_sums(visits, chunk: int) -> dict:
     return {"cnt": cnt, "tests_by_kind": tests_by_kind, "sums": sums, "hist": (h_vox, h_tests, h_ret)}
 
 
-def trace_stats(trace, chunk: int = 1 << 22) -> dict:
+def trace_stats(trace, chunk: int = 1 << 18) -> dict:
     """The statistics of a trace (anything with ``rays`` and ``visits``): the paper's table
     rows, tests by kind, and histograms of voxels per OS visit, tests per IC visit and returns
     per ray."""
     rays, visits = trace.rays, trace.visits
-    kinds = np.bincount(np.asarray(rays["kind"]), minlength=len(RayKind)) if len(rays) else np.zeros(len(RayKind))
+    kinds = np.zeros(len(RayKind), dtype=np.int64)
+    for _, r in chunks(rays, chunk):
+        kinds += np.bincount(r["kind"], minlength=len(RayKind))
     n_primary = int(kinds[RayKind.PRIMARY])
     n_new = int(len(rays) - n_primary)
     s = _visit_sums(visits, chunk)

@@ -86,9 +86,10 @@ class Trace:
         return binding(self.meta.get("precision", "double")).samples_to_image(RULES[self.meta["rules"]],
                                                                               self.samples)
 
-    def save(self, path, compress: bool = False) -> None:
-        """Write the trace as .npz with its format version and checksums
-        (deflate-compressed when ``compress``)."""
+    def save(self, path, compress: bool | None = None) -> None:
+        """Write the trace as .npz with its format version and checksums.  The records are
+        deflate-compressed when ``compress``, stored (to be memory-mapped) when False, and by
+        default compressed unless large (``tracefile.AUTO_COMPRESS_BYTES``)."""
         self.meta = tracefile.write(path, self.meta, self.arrays(), compress)
         self.path = os.fspath(path)
 

@@ -1,17 +1,25 @@
 """The trace file format: an .npz (zip) of ``meta.json`` and one ``.npy`` per array.
 
-``meta`` carries the format name and version and a CRC-32 of every array, so
+``meta`` carries the format name and version and a CRC-32 of every member, so
 an unknown version, a truncated file or edited data are each a clear
-``TraceError``.  Uncompressed members are memory-mapped on request (a trace of
-any size opens in bounded memory), and a trace can be written from record
-files streamed to disk without holding them in memory.  This module knows the
-format only: it reads and writes (meta, arrays) pairs; ``mprt.trace`` makes
-them a ``Trace``.
+``TraceError``.  The records (``rays``, ``visits``) are stored as they are in
+memory, uncompressed unless asked, so that they are memory-mapped on request
+(a trace of any size opens in bounded memory), and a trace can be written from
+record files streamed to disk without holding them in memory.  Everything else
+is small once stored compactly and is always deflated: version 3 keeps the
+voxel lists of the non-empty voxels only (the ids of those voxels as gaps, the
+length of each list in the narrowest unsigned type, and the lists), where
+versions 1 and 2 kept a list start for every voxel of the grid (a 128^3 grid
+cost 8 MB whatever the trace).  This module knows the format only: it reads
+and writes (meta, arrays) pairs whose arrays are those of ``ARRAYS``;
+``mprt.trace`` makes them a ``Trace``.
 """
 from __future__ import annotations
 
+import ctypes
 import io
 import json
+import mmap
 import os
 import shutil
 import zipfile
@@ -23,12 +31,81 @@ from ._lowlevel import RAY_DTYPE, VISIT_DTYPE
 from .errors import TraceError
 
 FORMAT = "mprt-trace"
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
+# The arrays of a trace in memory (and the members of version 1 and 2 files).
 ARRAYS = ("rays", "visits", "voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material", "samples")
-# Version 1 had the same layout with the visit fields 'voxel' (now 'voxel_id')
-# and 'voxels' (now 'steps'); it is read by renaming them.
+# The members of a version 3 file: voxel_start becomes voxel_gaps and voxel_count.
+MEMBERS = ("rays", "visits", "voxel_gaps", "voxel_count", "voxel_ids", "prim_kind", "prim_words", "prim_material",
+           "samples")
+RECORDS = ("rays", "visits")   # deflated unless large (or when asked): stored ones can be memory-mapped
+# write(compress=None) deflates the records when they hold less than this many bytes; larger
+# ones are stored, to be memory-mapped (deflate runs at about 130 MB/s at level 3 and shrinks
+# records about 10 times).
+AUTO_COMPRESS_BYTES = 256 << 20
+DEFLATE_LEVEL = 3
+# Version 1 had the same layout as version 2 with the visit fields 'voxel' (now
+# 'voxel_id') and 'voxels' (now 'steps'); it is read by renaming them.
 _V1_VISIT_NAMES = {"voxel": "voxel_id", "voxels": "steps"}
 REGENERATE = "regenerate it with 'mprt trace SCENE --grid N --res WxH -o FILE'"
+
+
+def narrowest_uint(values: np.ndarray) -> np.dtype:
+    """The narrowest unsigned integer type holding every value (all >= 0)."""
+    top = int(values.max()) if values.size else 0
+    for dtype in (np.uint8, np.uint16, np.uint32):
+        if top <= np.iinfo(dtype).max:
+            return np.dtype(dtype)
+    return np.dtype(np.uint64)
+
+
+def compact_voxels(start: np.ndarray) -> dict:
+    """The file form of CSR list starts over every voxel: ``voxel_gaps`` (uint32: the first
+    non-empty voxel's id, then the differences between consecutive non-empty ids) and
+    ``voxel_count`` (the length of each non-empty voxel's list, narrowest unsigned type)."""
+    count = np.diff(start.astype(np.int64))
+    nonempty = np.flatnonzero(count)
+    gaps = np.diff(nonempty, prepend=0).astype(np.uint32)
+    return {"voxel_gaps": gaps, "voxel_count": count[nonempty].astype(narrowest_uint(count))}
+
+
+def expand_voxels(gaps: np.ndarray, count: np.ndarray, voxels: int) -> np.ndarray:
+    """The CSR list starts (uint32, voxels + 1) of the file form; TraceError when it does not
+    fit the grid."""
+    nonempty = np.cumsum(gaps, dtype=np.int64)
+    if len(gaps) != len(count) or (nonempty.size and (nonempty[-1] >= voxels or np.any(gaps[1:] == 0))):
+        raise TraceError(f"the voxel lists do not fit a grid of {voxels} voxels")
+    start = np.zeros(voxels + 1, dtype=np.int64)
+    start[nonempty + 1] = count
+    return np.cumsum(start).astype(np.uint32)
+
+
+def grid_voxels(meta: dict) -> int:
+    """Voxels of the trace's grid, from its metadata."""
+    grid = meta.get("grid")
+    if not (isinstance(grid, list) and len(grid) == 3 and all(isinstance(n, int) and n >= 1 for n in grid)):
+        raise TraceError(f"meta 'grid' must be three positive integers, not {grid!r}")
+    return grid[0] * grid[1] * grid[2]
+
+
+def file_members(meta: dict, arrays: dict) -> dict:
+    """The members of a version 3 file from a trace's arrays (those of ``ARRAYS``; the records
+    may be absent, when streamed)."""
+    start = np.asarray(arrays["voxel_start"])
+    if len(start) != grid_voxels(meta) + 1:
+        raise TraceError(f"voxel_start has {len(start)} entries for a grid of {grid_voxels(meta)} voxels")
+    out = {k: v for k, v in arrays.items() if k != "voxel_start"}
+    out.update(compact_voxels(start))
+    return out
+
+
+def _stored(name: str, compress: bool) -> zipfile.ZipInfo:
+    """The zip entry of a member: records deflated only when compress, others always."""
+    info = zipfile.ZipInfo(name + ".npy")
+    if compress or name not in RECORDS:
+        info.compress_type = zipfile.ZIP_DEFLATED
+        # the level's attribute is compress_level from Python 3.13, _compresslevel before
+        setattr(info, "compress_level" if hasattr(info, "compress_level") else "_compresslevel", DEFLATE_LEVEL)
+    return info
 
 
 def as_bytes(a: np.ndarray) -> np.ndarray:
@@ -36,48 +113,93 @@ def as_bytes(a: np.ndarray) -> np.ndarray:
     return a.view(np.uint8).reshape(-1)
 
 
-def crc(a: np.ndarray, chunk: int = 1 << 26) -> int:
+try:
+    _madvise = ctypes.CDLL(None, use_errno=True).madvise
+    _madvise.argtypes = (ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int)
+    _DONTNEED = mmap.MADV_DONTNEED
+except (AttributeError, OSError):   # no madvise: pages simply stay until the kernel wants them
+    _madvise = None
+
+
+_AROUND = 1 << 21   # the kernel may map pages beyond a fault (fault-around, large folios): up to 2 MiB
+
+
+def release(a: np.ndarray) -> None:
+    """Let the kernel drop the pages of a read-only memory-mapped array from its start to the
+    end of the slice ``a`` (and a little beyond, where the kernel maps ahead) from this
+    process's resident set: they stay in the page cache and are read again if touched.  Called
+    on each slice once it is processed, reading a file of any size through (in order, or with
+    look-ups behind) keeps memory bounded.  Anything but a read-only memory map is left alone."""
+    if _madvise is None or not isinstance(a, np.memmap) or a.mode != "r" or a.nbytes == 0 \
+            or not a.flags.c_contiguous:
+        return
+    root = a
+    while isinstance(root.base, np.ndarray):
+        root = root.base
+    start = root.ctypes.data - root.ctypes.data % mmap.PAGESIZE
+    _madvise(start, min(a.ctypes.data + a.nbytes + _AROUND, root.ctypes.data + root.nbytes) - start, _DONTNEED)
+
+
+def chunks(a: np.ndarray, size: int):
+    """(offset, in-memory copy of a[offset:offset + size]) over the whole array; a memory-mapped
+    array's pages are released after each copy (``release``)."""
+    for i in range(0, len(a), size):
+        part = a[i:i + size]
+        yield i, np.array(part)
+        release(part)
+
+
+def crc(a: np.ndarray, chunk: int = 1 << 24) -> int:
     """CRC-32 of an array's bytes, read in chunks (a memory-mapped array is
-    not read whole): detects damaged or edited data."""
-    b = as_bytes(np.ascontiguousarray(a)) if a.size else np.zeros(0, np.uint8)
+    not read whole, nor kept resident): detects damaged or edited data."""
+    if not a.size:
+        return 0
+    b = as_bytes(a if a.flags.c_contiguous else np.ascontiguousarray(a))
     value = 0
     for i in range(0, b.size, chunk):
         value = zlib.crc32(memoryview(np.ascontiguousarray(b[i:i + chunk])), value)
+        release(b[i:i + chunk])
     return value
 
 
-def _write_array(z, name, a):
-    with z.open(name + ".npy", "w", force_zip64=True) as f:
+def _write_array(z, name, a, compress):
+    with z.open(_stored(name, compress), "w", force_zip64=True) as f:
         np.lib.format.write_array(f, np.ascontiguousarray(a), allow_pickle=False)
 
 
-def write(path, meta: dict, arrays: dict, compress: bool = False) -> dict:
-    """Write every array of ``ARRAYS`` with the metadata and checksums (deflate-compressed when
-    ``compress``); returns the metadata as written."""
-    meta = dict(meta, format=FORMAT, version=FORMAT_VERSION, crc32={k: crc(arrays[k]) for k in ARRAYS})
-    mode = zipfile.ZIP_DEFLATED if compress else zipfile.ZIP_STORED
-    with zipfile.ZipFile(path, "w", compression=mode, allowZip64=True) as z:
+def write(path, meta: dict, arrays: dict, compress: bool | None = None) -> dict:
+    """Write a trace (every array of ``ARRAYS``) with its metadata and checksums.  The records
+    are deflate-compressed when ``compress``, stored when False, and when None (the default)
+    compressed unless they hold ``AUTO_COMPRESS_BYTES`` or more; the other members always.
+    Returns the metadata as written."""
+    if compress is None:
+        compress = sum(np.asarray(arrays[k]).nbytes for k in RECORDS) < AUTO_COMPRESS_BYTES
+    members = file_members(meta, arrays)
+    meta = dict(meta, format=FORMAT, version=FORMAT_VERSION, crc32={k: crc(members[k]) for k in MEMBERS})
+    with zipfile.ZipFile(path, "w", allowZip64=True) as z:
         z.writestr("meta.json", json.dumps(meta, sort_keys=True))
-        for k in ARRAYS:
-            _write_array(z, k, arrays[k])
+        for k in MEMBERS:
+            _write_array(z, k, members[k], compress)
     return meta
 
 
 def write_streamed(path, meta: dict, streamed: dict, arrays: dict) -> dict:
     """Write a trace whose record arrays are raw files on disk: ``streamed`` maps an array name
     to (file, dtype, count, crc32 of the file); ``arrays`` holds the others.  The raw files are
-    copied in blocks, never read whole.  Returns the metadata as written."""
+    copied in blocks, never read whole, and stored uncompressed.  Returns the metadata as
+    written."""
+    members = file_members(meta, arrays)
     sums = {k: s[3] for k, s in streamed.items()}
-    sums.update({k: crc(v) for k, v in arrays.items()})
+    sums.update({k: crc(v) for k, v in members.items()})
     meta = dict(meta, format=FORMAT, version=FORMAT_VERSION, crc32=sums)
-    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_STORED, allowZip64=True) as z:
+    with zipfile.ZipFile(path, "w", allowZip64=True) as z:
         z.writestr("meta.json", json.dumps(meta, sort_keys=True))
-        for k in ARRAYS:
+        for k in MEMBERS:
             if k not in streamed:
-                _write_array(z, k, arrays[k])
+                _write_array(z, k, members[k], False)
                 continue
             src, dtype, count, _ = streamed[k]
-            with z.open(k + ".npy", "w", force_zip64=True) as f:
+            with z.open(_stored(k, False), "w", force_zip64=True) as f:
                 header = {"descr": np.lib.format.dtype_to_descr(dtype), "fortran_order": False, "shape": (count,)}
                 np.lib.format.write_array_header_2_0(f, header)
                 with open(src, "rb") as s:
@@ -124,9 +246,9 @@ def _read_meta(path, z, names) -> dict:
         raise TraceError(f"{path}: meta.json is unreadable ({e})") from None
     if meta.get("format") != FORMAT:
         raise TraceError(f"{path}: not an mprt trace (format {meta.get('format')!r})")
-    if meta.get("version") not in (1, FORMAT_VERSION):
+    if meta.get("version") not in (1, 2, FORMAT_VERSION):
         raise TraceError(f"{path}: trace format version {meta.get('version')!r} is not supported "
-                         f"(this mprt reads versions 1 and {FORMAT_VERSION}); {REGENERATE}")
+                         f"(this mprt reads versions 1 to {FORMAT_VERSION}); {REGENERATE}")
     return meta
 
 
@@ -142,10 +264,10 @@ def _rename_v1(visits: np.ndarray) -> np.ndarray:
 
 
 def read(path, mmap: bool | None = None, verify: bool = True):
-    """Read a trace file: (meta, arrays).  Checks the format version, that every array is
-    present and whole, and (``verify``) the checksums.  Uncompressed members are memory-mapped
-    when ``mmap`` (default: when the file is over 256 MB).  A version-1 file is returned with
-    today's field names and version."""
+    """Read a trace file: (meta, arrays), the arrays those of ``ARRAYS``.  Checks the format
+    version, that every member is present and whole, and (``verify``) the checksums.
+    Uncompressed members are memory-mapped when ``mmap`` (default: when the file is over
+    256 MB).  A version 1 or 2 file is returned with today's field names and version."""
     path = os.fspath(path)
     try:
         z = zipfile.ZipFile(path)
@@ -157,7 +279,7 @@ def read(path, mmap: bool | None = None, verify: bool = True):
         names = set(z.namelist())
         meta = _read_meta(path, z, names)
         arrays = {}
-        for k in ARRAYS:
+        for k in MEMBERS if meta["version"] == FORMAT_VERSION else ARRAYS:
             if k + ".npy" not in names:
                 raise TraceError(f"{path}: array {k!r} is missing")
             info = z.getinfo(k + ".npy")
@@ -172,9 +294,18 @@ def read(path, mmap: bool | None = None, verify: bool = True):
                 raise TraceError(f"{path}: array {k!r} is truncated or corrupt ({e})") from None
             if verify and meta.get("crc32", {}).get(k) != crc(arrays[k]):
                 raise TraceError(f"{path}: array {k!r} does not match its checksum (tampered or damaged)")
+    if meta["version"] == FORMAT_VERSION:
+        try:
+            arrays["voxel_start"] = expand_voxels(arrays.pop("voxel_gaps"), arrays.pop("voxel_count"),
+                                                  grid_voxels(meta))
+        except TraceError as e:
+            raise TraceError(f"{path}: {e}") from None
+        if arrays["voxel_start"][-1] != len(arrays["voxel_ids"]):
+            raise TraceError(f"{path}: the voxel lists hold {arrays['voxel_start'][-1]} entries, "
+                             f"voxel_ids {len(arrays['voxel_ids'])}")
     if meta["version"] == 1:
         arrays["visits"] = _rename_v1(arrays["visits"])
-        meta["version"] = FORMAT_VERSION
+    meta["version"] = FORMAT_VERSION
     if arrays["rays"].dtype != RAY_DTYPE or arrays["visits"].dtype != VISIT_DTYPE:
         raise TraceError(f"{path}: rays/visits have an unexpected layout; {REGENERATE}")
     return meta, arrays

@@ -24,7 +24,7 @@ from tqdm import tqdm
 from . import tracefile
 from ._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Rules
 from .errors import InvalidArgument
-from .grid import Grid, render_desc
+from .grid import CONVENTIONS, Grid, render_desc
 from .trace import OUTCOMES, RAY_KINDS, STAGES, Trace, load_trace
 
 
@@ -168,7 +168,7 @@ def _run_tiles(grid, desc, sel, rects, sink, samples, covered, bar):
 
 
 def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_depth=0, mailbox=False, ambient=None,
-          tile=None, threads=1, tiles=None, sample=None, path=None, progress=False):
+          tile=None, threads=1, tiles=None, sample=None, path=None, progress=False, conventions=None):
     """Trace (a subset of) the image recording every stage visit; returns (image, Trace).
 
     The render options are those of ``Grid.render``; ``tile`` is the tile edge in samples (the
@@ -176,7 +176,8 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
     'random:N:SEED' traces a subset (other samples are NaN).  With ``path`` the records stream
     to disk tile batch by tile batch and the trace is saved there (memory stays bounded by the
     batch and the image); ``progress`` shows a progress bar."""
-    desc = grid.resolve(render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox))
+    desc = grid.resolve(render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox,
+                                    conventions))
     tiling = grid.tiling(desc)
     sw, sh, tx, ty = tiling
     sel = select_tiles(tx * ty, tiles, sample)
@@ -237,6 +238,8 @@ def _meta(grid: Grid, desc: dict, tiling, sel, tiles, sample) -> dict:
         "max_depth": desc["max_depth"],
         "ambient": desc["ambient"],
         "mailbox": bool(desc["mailbox"]),
+        "listing": grid.listing,
+        "conventions": {k: CONVENTIONS[k][desc[k] - 1] for k in CONVENTIONS},
         "tile": desc["tile"],
         "tiles_total": int(tx * ty),
         "tiles": [int(t) for t in sel],

@@ -65,7 +65,7 @@ static void test_resolve_desc_rejects_what_render_rejects(void)
         char msg[512];
         desc_for(&d, MPRT_RULES_PAPER, 4, 4, 16);
         if (k == 0) d.width = -1;
-        if (k == 1) d.rules = MPRT_RULES_SPD + 1;
+        if (k == 1) d.rules = MPRT_RULES_PAPER1992 + 1;
         if (k == 2) d.threshold = 1;
         if (k == 3) d.ambient = -0.5;
         if (k == 4) d.max_depth = 256;
@@ -286,7 +286,7 @@ static void test_samples_to_image_means_four_corners_under_spd_rules(void)
     for (i = 0; i < 18; i++) CHECK(big[i] == (float)s[i]);
     CHECK(mprt_samples_to_image(MPRT_RULES_SPD, 3, 2, s, rgb, 5) == MPRT_ERR_CAPACITY);
     CHECK(mprt_samples_to_image(MPRT_RULES_PAPER, 3, 2, s, big, 17) == MPRT_ERR_CAPACITY);
-    CHECK(mprt_samples_to_image(MPRT_RULES_SPD + 1, 3, 2, s, rgb, 6) == MPRT_ERR_INVALID_ARG);
+    CHECK(mprt_samples_to_image(MPRT_RULES_PAPER1992 + 1, 3, 2, s, rgb, 6) == MPRT_ERR_INVALID_ARG);
     CHECK(mprt_samples_to_image(MPRT_RULES_SPD, 1, 2, s, rgb, 6) == MPRT_ERR_INVALID_ARG);
     CHECK(mprt_samples_to_image(MPRT_RULES_PAPER, 0, 2, s, rgb, 6) == MPRT_ERR_INVALID_ARG);
 }

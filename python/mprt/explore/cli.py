@@ -1,0 +1,251 @@
+"""The ``explore``, ``prepass`` and ``sweep`` subcommands.
+
+``mprt/cli.py`` wires them with::
+
+    from .explore import cli as explore_cli
+    explore_cli.add_parsers(sub)        # after the other sub.add_parser calls
+
+Each parser's ``func`` is its ``run_*`` function, which returns the exit status.
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+from .. import options as opt
+
+
+def _positive(kind):
+    def parse(text):
+        try:
+            v = kind(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{text!r} is not a {kind.__name__}") from None
+        if not v > 0:
+            raise argparse.ArgumentTypeError(f"{text!r} must be positive")
+        return v
+    return parse
+
+
+def _percent(text: str) -> float:
+    t = text.strip()
+    try:
+        v = float(t[:-1]) / 100 if t.endswith("%") else float(t)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"tolerance must be like 1% or 0.01, not {text!r}") from None
+    if not 0 < v < 1:
+        raise argparse.ArgumentTypeError(f"tolerance {text!r} must be between 0 and 100%")
+    return v
+
+
+def _candidates(text: str):
+    out = []
+    for part in text.replace("/", ",").split(","):
+        try:
+            vals = tuple(int(v) for v in part.lower().split("x"))
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"candidate {part!r} is not N or NXxNYxNZ") from None
+        if len(vals) not in (1, 3) or min(vals) < 1:
+            raise argparse.ArgumentTypeError(f"candidate {part!r} is not N or NXxNYxNZ of positive integers")
+        out.append(vals)
+    return out
+
+
+def _range(text: str):
+    try:
+        lo, hi = (int(v) for v in text.split(":"))
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"range must be LO:HI, not {text!r}") from None
+    if not 1 <= lo <= hi:
+        raise argparse.ArgumentTypeError(f"range {text!r} must have 1 <= LO <= HI")
+    return lo, hi
+
+
+def check_output(path) -> None:
+    """Fail before any work if an output file cannot be written."""
+    if path is None:
+        return
+    d = os.path.dirname(os.path.abspath(path))
+    if not os.path.isdir(d):
+        raise OSError(f"{path}: directory {d} does not exist")
+    if not os.access(d, os.W_OK):
+        raise OSError(f"{path}: directory {d} is not writable")
+
+
+def _common(p, res_default: str):
+    p.add_argument("scene", help="NFF path, or SPD name with optional size (balls, balls:2)")
+    p.add_argument("--res", type=opt.resolution_arg, default=opt.resolution_arg(res_default), metavar="WxH", help=f"WxH (default {res_default})")
+    p.add_argument("--json", metavar="OUT.json", help="write the report as JSON")
+    p.add_argument("--threads", type=opt.threads_arg, default=opt.default_threads(),
+                   help=f"tracing threads, 1..{opt.THREADS_MAX} (default: {opt.default_threads()}, the machine's cores)")
+
+
+def add_parsers(sub) -> None:
+    from .search import GLOBAL_ALGORITHMS, OBJECTIVES, POLISHES
+
+    e = sub.add_parser("explore", help="search the design space for the fastest machine (and subdivision)",
+                       description="Search a design space (--space, or the built-in one) with NLopt for the "
+                                   "machine that renders SCENE fastest under a hardware budget.")
+    _common(e, "48x48")
+    e.add_argument("--space", metavar="FILE.toml", help="design space (default: the built-in space)")
+    e.add_argument("--objective", choices=OBJECTIVES, default="time",
+                   help="time: cycles (under --budget); time*cost; pareto: the front by a sweep of budgets")
+    e.add_argument("--budget", type=_positive(float), default=None, help="hardware budget in kGE")
+    e.add_argument("--tolerance", type=_percent, default=0.01,
+                   help="error the fidelity level may have (default 1%%; recorded; level 0 until the ladder)")
+    e.add_argument("--level", type=int, choices=(0, 1, 2, 3), default=0, help="fidelity level (default 0)")
+    e.add_argument("--algorithm", choices=[a for a in GLOBAL_ALGORITHMS if a != "none"], default="direct-l")
+    e.add_argument("--polish", choices=POLISHES, default="lattice")
+    e.add_argument("--max-evals", type=_positive(int), default=1000,
+                   help="most distinct designs in the global phase (default 1000)")
+    e.add_argument("--seed", type=int, default=1)
+    e.add_argument("--fraction", type=_positive(int), default=None,
+                   help="search on traces at 1/FRACTION of --res, then polish the best at --res "
+                        "(default: about 64 pixels across; 1: search at --res)")
+    e.add_argument("--scheduler", metavar="ADDRESS", help="run the search on this Dask scheduler")
+    e.add_argument("--plot", metavar="OUT.png", help="history, cost against cycles, utilisation")
+    e.set_defaults(func=run_explore)
+
+    p = sub.add_parser("prepass", help="choose the voxel subdivision from low-resolution traces",
+                       description="Trace SCENE at a fraction of --res over candidate subdivisions (searched over "
+                                   "--range, or the --candidates given), predict each one's full-resolution "
+                                   "cycles on the paper's 3MPPE, and print the best.")
+    _common(p, "512x512")
+    p.add_argument("--candidates", type=_candidates, default=None,
+                   help="subdivisions to try, e.g. 20,50,100 or 20,50,100/8x8x2 (default: searched)")
+    p.add_argument("--range", type=_range, default=None, dest="n_range",
+                   help="voxels along the longest axis to search, LO:HI (default: 1 to 32 times the cube root "
+                        "of the primitive count)")
+    p.add_argument("--shape", choices=("proportional", "cube"), default="proportional",
+                   help="one n as n along the longest axis, others in proportion (default), or n per axis")
+    p.add_argument("--fraction", type=_positive(int), default=16, help="trace at 1/FRACTION of --res (default 16)")
+    p.set_defaults(func=run_prepass)
+
+    w = sub.add_parser("sweep", help="scenes x subdivisions x designs on Dask, to a CSV and plots")
+    w.add_argument("spec", metavar="SPEC.toml")
+    w.add_argument("--out", required=True, metavar="DIR", help="directory for sweep.csv, sweep.png and the cache")
+    w.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (default: a LocalCluster)")
+    w.add_argument("--workers", type=int, default=None,
+                   help="LocalCluster worker processes (default: one per core; 0: run in this process)")
+    w.set_defaults(func=run_sweep)
+
+
+def _progress_printer(every: int = 25):
+    start = time.perf_counter()
+    tty = sys.stderr.isatty()
+
+    def show(problem):
+        n = len(problem.memo)
+        if n % every and not tty:
+            return
+        b = problem.best()
+        msg = (f"\r  {n:5d} evaluations, best {b.cycles:,.0f} cycles at cost {b.cost:.0f} kGE, "
+               f"{time.perf_counter() - start:.1f} s")
+        print(msg if tty else msg[1:], end="" if tty else "\n", file=sys.stderr, flush=True)
+    return show
+
+
+def run_explore(a) -> int:
+    from .explorer import explore, plot
+    from .space import default_space, load_space
+
+    from .machine_adapter import check_level
+
+    opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"))
+    check_level(a.level)
+    space = load_space(a.space) if a.space else default_space()
+    scene = opt.load_scene(a.scene)[0]
+    w, h = a.res
+    kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget, level=a.level,
+              algorithm=a.algorithm, polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads,
+              fraction=a.fraction)
+    if a.scheduler:
+        from .distributed import run_remote
+        rep = run_remote(a.scheduler, explore_spec, a.scene, kw)
+    else:
+        rep = explore(scene, progress=_progress_printer(), **kw)
+        if sys.stderr.isatty():
+            print(file=sys.stderr)
+    rep["tolerance"] = a.tolerance
+    print_report(rep)
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(rep, f, indent=1)
+        print(f"wrote   {a.json}")
+    if a.plot:
+        plot(rep, a.plot)
+        print(f"wrote   {a.plot}")
+    return 0
+
+
+def explore_spec(scene_spec, kw):
+    """Runs on a Dask worker: load the scene there and explore."""
+    from .explorer import explore
+    return explore(opt.load_scene(scene_spec)[0], **kw)
+
+
+def print_report(rep: dict) -> None:
+    b = rep["best"]
+    refs = rep["references"]
+    print(f"explore {rep['scene']} at {rep['width']}x{rep['height']}, objective {rep['objective']}"
+          + (f", budget {rep['budget']:g} kGE" if rep.get("budget") else "")
+          + f": {rep['evaluations']} designs evaluated at level {rep['level']} in {rep['seconds']:.1f} s"
+          + f" ({rep['costs']} costs)")
+    print(f"best    {b['described']}")
+    print(f"        subdivision {'x'.join(map(str, b['subdivision']))}; {b['cycles']:,.0f} cycles; "
+          f"cost {b['cost']:.0f} kGE; {b['speedup_over_S']:.2f}x model S; bottleneck {b['bottleneck']}")
+    print("        utilisation " + ", ".join(f"{k} {v:.0%}" for k, v in b["utilisation"].items()))
+    for name, title in (("3mppe", "paper 3MPPE"), ("M", "model M"), ("S", "model S")):
+        r = refs[name]
+        print(f"        {title:12s} {r['cycles']:14,.0f} cycles, cost {r['cost']:5.0f} kGE, "
+              + ", ".join(f"{k} {v:.0%}" for k, v in r["utilisation"].items()))
+    if "front" in rep:
+        print(f"front   {len(rep['front'])} designs:")
+        for f in rep["front"]:
+            print(f"        {f['cost']:7.0f} kGE {f['cycles']:14,.0f} cycles  {f['design']['mapping']}, "
+                  f"{f['design']['pes']} PE(s), subdivision {'x'.join(map(str, f['subdivision']))}")
+
+
+def run_prepass(a) -> int:
+    from .prepass import prepass
+
+    opt.check_outputs(("--json", a.json, "json"))
+    scene = opt.load_scene(a.scene)[0]
+    w, h = a.res
+    r = prepass(scene, w, h, candidates=a.candidates, n_range=a.n_range, fraction=a.fraction, shape=a.shape,
+                threads=a.threads)
+    lw, lh = r["low_resolution"]
+    print(f"prepass {scene.name}: {len(r['candidates'])} subdivisions traced at {lw}x{lh} in {r['seconds']:.2f} s; "
+          f"cycles predicted for {w}x{h} on the paper's 3MPPE (level {r['level']})")
+    best = r["subdivision"]
+    for c in r["candidates"]:
+        mark = "  <- best" if c["subdivision"] == best else ""
+        print(f"  {'x'.join(map(str, c['subdivision'])):>12s} {c['predicted_cycles']:16,.0f}{mark}")
+    print(f"best    subdivision {'x'.join(map(str, best))}")
+    if a.json:
+        with open(a.json, "w") as f:
+            json.dump(r, f, indent=1)
+        print(f"wrote   {a.json}")
+    return 0
+
+
+def run_sweep(a) -> int:
+    from .sweep import load_spec, run_sweep as sweep
+
+    spec = load_spec(a.spec)
+    check_output(os.path.join(a.out, "x"))  if os.path.isdir(a.out) else check_output(a.out)
+    n = [0]
+
+    def tick():
+        n[0] += 1
+        print(f"\r  {n[0]} tasks done", end="", file=sys.stderr, flush=True)
+
+    r = sweep(spec, a.out, scheduler=a.scheduler, workers=a.workers, progress=tick)
+    if n[0]:
+        print(file=sys.stderr)
+    print(f"sweep   {r['rows']} rows from {r['tasks']} tasks ({r['cached']} from the cache) in {r['seconds']:.1f} s")
+    print(f"wrote   {r['csv']}\nwrote   {r['png']}")
+    return 0

@@ -1,0 +1,87 @@
+"""The hardware cost of a design, from per-part unit costs.
+
+Costs are in kGE (thousands of two-input NAND gate equivalents), the usual
+size measure of standard-cell logic, so "budget" and "time x cost" have a unit.
+The defaults are order-of-magnitude figures for 32-bit single-precision
+datapaths of the paper's period; the reasoning for each is beside it.  A space
+file's ``[cost]`` table overrides any of them.
+"""
+from __future__ import annotations
+
+from dataclasses import asdict, dataclass, fields
+
+from .space import Design, SpaceError, processors
+
+
+@dataclass(frozen=True)
+class UnitCosts:
+    # Control, decoder, 128 x 32-bit register file (4096 bits at ~6 GE each
+    # with ports) and the packet interface: the part every processor has.
+    processor: float = 30.0
+    # A 32-bit integer ALU with shifter and address adder: ~2 kGE.
+    int_unit: float = 2.0
+    # A single-precision FP adder plus multiplier (pipelined): ~20 kGE,
+    # ten integer units, as in the FP chips of the time.
+    fp_unit: float = 20.0
+    # The sequential processor's one unit runs integer and FP work:
+    # an integer ALU plus an FP datapath.
+    general_unit: float = 22.0
+    # One 32-bit word (one flit) of a two-port FIFO: 32 bits of register
+    # file at ~6 GE per bit.
+    fifo_word: float = 0.2
+    # One KiB of cache: 8192 SRAM bits at ~1.5 GE per bit plus tags, valid
+    # bits and comparators (~10%).
+    cache_kib: float = 13.0
+    # One KiB of resident memory: SRAM without tags.
+    resident_kib: float = 12.0
+    # One ring node per processor: nine flit buffers (three classes, as the
+    # paper's structured buffer pool) and the routing switch.
+    ring_node: float = 3.0
+
+    @classmethod
+    def fields(cls) -> list[str]:
+        return [f.name for f in fields(cls)]
+
+    @classmethod
+    def from_table(cls, table: dict | None, where: str = "cost") -> "UnitCosts":
+        table = table or {}
+        known = cls.fields()
+        for k, v in table.items():
+            if k not in known:
+                raise SpaceError(f"{where}.{k}: unknown unit cost (known: {', '.join(known)})")
+            if isinstance(v, bool) or not isinstance(v, (int, float)) or not v >= 0 or v == float("inf"):
+                raise SpaceError(f"{where}.{k}: {v!r} is not a finite non-negative number")
+        return cls(**{k: float(v) for k, v in table.items()})
+
+    def to_dict(self) -> dict:
+        return asdict(self)
+
+
+def hardware_cost(design: Design, costs: UnitCosts | None = None) -> float:
+    """Total cost of the design in kGE (all PEs)."""
+    return sum(cost_breakdown(design, costs).values())
+
+
+def cost_breakdown(design: Design, costs: UnitCosts | None = None) -> dict:
+    """Cost by part (kGE, all PEs): processors, units, FIFOs, ring, caches, resident memory."""
+    c = costs or UnitCosts()
+    out = {"processors": 0.0, "units": 0.0, "fifos": 0.0, "ring": 0.0, "caches": 0.0, "resident": 0.0}
+    per_kind = {"int": c.int_unit, "fp": c.fp_unit, "general": c.general_unit}
+    groups = processors(design.mapping)
+    for g in groups:
+        k = design.processor_copies(g)
+        out["processors"] += k * c.processor
+        out["units"] += k * sum(per_kind[u] * n for u, n in design.processor_units(g).items())
+        out["fifos"] += k * 2 * design.fifo * c.fifo_word          # one send and one receive FIFO each
+        if len(groups) > 1:
+            out["ring"] += k * c.ring_node
+    for s in ("IC", "SC"):         # each copy of the processor running s has its own memories
+        k = design.processor_copies(next(g for g in groups if s in g))
+        out["caches"] += k * design.cache[s] * c.cache_kib
+        out["resident"] += k * design.resident[s] * c.resident_kib
+    if len(groups) == 1:          # model S: no packets, so no FIFOs
+        out["fifos"] = 0.0
+    return {k: v * design.pes for k, v in out.items()}
+
+
+__all__ = ["UnitCosts", "hardware_cost", "cost_breakdown"]

@@ -1,0 +1,122 @@
+"""The coarse prepass: choose the voxel subdivision from low-resolution traces.
+
+The paper proposes tracing at a fraction of the resolution for a few
+subdivisions and keeping the best.  Here the candidates are searched: the
+subdivision n (voxels along the scene box's longest axis, the other axes in
+proportion, or n per axis with ``shape="cube"``) is tried up a geometric
+ladder over the range until the time has risen on two rungs past the best
+(large grids cost the most to build), then the bracket around the best rung
+is narrowed by golden-section steps until its ends are within ``ratio`` (the
+time is close to unimodal in n, fewer tests as voxels shrink, more steps and
+set-up, and flat near its minimum).  Each candidate's
+full-resolution time is predicted as its low-resolution cycles times the
+ratio of pixel counts; the design replayed is the paper's 3MPPE unless given.
+"""
+from __future__ import annotations
+
+import math
+import time
+
+import numpy as np
+
+from .evaluate import Level0, grid_dims
+from .hwcost import UnitCosts
+from .space import Design, paper_3mppe
+
+FIXED_RULES = ("pbrt", "density8", "paper-best")
+
+
+def low_resolution(width: int, height: int, fraction: int) -> tuple[int, int]:
+    return max(int(round(width / fraction)), 8), max(int(round(height / fraction)), 8)
+
+
+def fixed_rule(scene, rule: str) -> tuple:
+    """The subdivision a fixed rule picks: pbrt's 3 * N^(1/3) along the longest
+    axis, ours (density 8, Scene.default_grid), or (for 'paper-best') None:
+    the best of 20, 50, 100 per axis needs evaluating."""
+    if rule == "pbrt":
+        return tuple(scene.default_grid(density=3.0))
+    if rule == "density8":
+        return tuple(scene.default_grid())
+    raise ValueError(rule)
+
+
+class _Cands:
+    def __init__(self, scene, w, h, design, shape, unit_costs, threads, level):
+        self.scene, self.w, self.h, self.design, self.shape = scene, w, h, design, shape
+        self.unit_costs, self.threads, self.level = unit_costs, threads, level
+        self.seen: dict = {}          # dims -> cycles at low resolution
+
+    def __call__(self, n) -> float:
+        dims = grid_dims(self.scene, (n,) if np.isscalar(n) else n, self.shape)
+        if dims not in self.seen:
+            _, tr = self.scene.grid(dims).trace(self.w, self.h, threads=self.threads)
+            if self.level == 0:
+                self.seen[dims] = Level0(tr, self.unit_costs).run(self.design).cycles
+            else:
+                from .evaluate import evaluate
+                self.seen[dims] = evaluate(tr, self.design, self.level, self.unit_costs).cycles
+        return self.seen[dims]
+
+
+def default_range(scene, density=(1.0, 32.0), limit: int = 768) -> tuple[int, int]:
+    """The n searched by default: density x N^(1/3) along the longest axis for
+    density 1 to 32 (pbrt's rule is 3, ours 8; tree's best at 512x512 is 26),
+    within 2..``limit``.  The walk up the ladder stops once the time rises, so
+    the large end is only built for scenes that need it."""
+    c = max(scene.info()["prims"], 1) ** (1.0 / 3.0)
+    return (int(min(max(round(density[0] * c), 2), limit)), int(min(max(round(density[1] * c), 2), limit)))
+
+
+def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 16,
+            design: Design | None = None, shape: str = "proportional", rungs: int = 7, level: int = 0,
+            unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15) -> dict:
+    """Predict the full-resolution cycles of candidate subdivisions from traces
+    at width/fraction x height/fraction, and return the best.  ``candidates``:
+    explicit subdivisions (n or (nx, ny, nz)), all evaluated; otherwise n is
+    searched over ``n_range`` (default: ``default_range(scene)``)."""
+    t0 = time.perf_counter()
+    w, h = low_resolution(width, height, fraction)
+    scale = (width * height) / (w * h)
+    f = _Cands(scene, w, h, design or paper_3mppe(), shape, unit_costs or UnitCosts(), threads, level)
+    if candidates:
+        for c in candidates:
+            f(c)
+    else:
+        lo, hi = (int(v) for v in (n_range or default_range(scene)))
+        if not 1 <= lo <= hi:
+            raise ValueError(f"prepass: subdivision range {lo}..{hi} is empty")
+        ladder = sorted({int(round(x)) for x in np.geomspace(lo, hi, min(rungs, hi - lo + 1))})
+        # up the ladder until the time has risen on two rungs past the best (the large grids cost most)
+        vals = []
+        for n in ladder:
+            vals.append(f(n))
+            i = int(np.argmin(vals))
+            if len(vals) - 1 - i >= 2:
+                break
+        a, b = ladder[max(i - 1, 0)], ladder[min(i + 1, len(ladder) - 1)]
+        _golden(f, a, b, ratio)
+    cands = sorted(f.seen.items(), key=lambda kv: kv[0])
+    best = min(cands, key=lambda kv: (kv[1], kv[0]))
+    from .explorer import settings
+    return {"subdivision": list(best[0]), "predicted_cycles": best[1] * scale,
+            "settings": settings(scene, width, height, threads),
+            "candidates": [{"subdivision": list(d), "predicted_cycles": c * scale} for d, c in cands],
+            "low_resolution": [w, h], "full_resolution": [width, height], "design": f.design.to_dict(),
+            "level": level, "seconds": time.perf_counter() - t0}
+
+
+def _golden(f, a: int, b: int, ratio: float) -> None:
+    """Narrow [a, b] around the minimum of f over the integers (golden
+    section) until b / a is at most ``ratio``: near its minimum the time is
+    flat in n, so a few percent in n changes it little."""
+    g = (math.sqrt(5) - 1) / 2
+    while b - a > 2 and b > a * ratio:
+        c = int(round(b - g * (b - a)))
+        d = int(round(a + g * (b - a)))
+        if c == d:
+            d = c + 1
+        if f(c) <= f(d):
+            b = d
+        else:
+            a = c

@@ -1,0 +1,371 @@
+"""Searching a design space with NLopt.
+
+Every variable of a space is an index into its list of values.  NLopt sees
+one continuous variable per free index, x_i in [0, size_i), and the point is
+``floor(x_i)`` (clamped): a fixed, deterministic map, so equal x give equal
+designs on any machine.  Evaluations are memoised on the canonical index
+vector (variables that cannot change the machine set to their first value),
+so NLopt may revisit a cell at no cost; only distinct designs count as
+evaluations.  ``nlopt.srand(seed)`` is set before every run, so a search with
+the same seed repeats exactly.
+
+The method: a global, derivative-free NLopt algorithm (DIRECT-L by default,
+see the README for the measured comparison), then a polish of the best point
+on the integer lattice: compass search, which tries +-1 on each index in turn
+and moves while anything improves.  NLopt's local methods (Subplex,
+Nelder-Mead, BOBYQA, COBYLA) assume a smooth function; on the flat steps that
+``floor`` makes they see zero change inside a cell and stop, which the
+comparison measures.
+"""
+from __future__ import annotations
+
+import itertools
+import math
+import time
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .space import Point, Space
+
+OBJECTIVES = ("time", "time*cost", "pareto")
+GLOBAL_ALGORITHMS = {
+    "direct-l": "GN_DIRECT_L",
+    "direct-l-rand": "GN_DIRECT_L_RAND",
+    "direct": "GN_DIRECT",
+    "crs2": "GN_CRS2_LM",
+    "isres": "GN_ISRES",
+    "esch": "GN_ESCH",
+    "random": None,            # uniform random points (a baseline)
+    "none": None,
+}
+POLISHES = ("lattice", "sbplx", "neldermead", "bobyqa", "cobyla", "none")
+INFEASIBLE = 1e3                # objective floor of a design over the budget (log-cycles are < 60)
+
+
+@dataclass
+class Evaluation:
+    index: tuple
+    point: Point
+    cycles: float
+    cost: float
+    serial: int                 # 1 for the first design evaluated
+    result: object = None
+
+
+@dataclass
+class SearchResult:
+    best: Evaluation | None
+    evaluations: int
+    calls: int
+    seconds: float
+    history: list = field(default_factory=list)
+    front: list = field(default_factory=list)
+    phases: dict = field(default_factory=dict)      # evaluations spent in each phase
+
+
+class Problem:
+    """A space, an evaluator and an objective; memoises evaluations.
+
+    ``evaluate_points(points) -> list of results`` (each with ``cycles`` and
+    ``cost``) is called with batches; the search itself asks one at a time.
+    """
+
+    def __init__(self, space: Space, evaluate_points, objective: str = "time", budget: float | None = None,
+                 progress=None):
+        if objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, not {objective!r}")
+        self.space = space
+        self.evaluate_points = evaluate_points
+        self.objective = objective
+        self.budget = budget
+        self.memo: dict[tuple, Evaluation] = {}
+        self.order: list[tuple] = []            # canonical keys in evaluation order
+        self.calls = 0
+        self.cap = None
+        self.opt = None
+        self.progress = progress
+        self.free = [i for i, v in enumerate(space.variables) if v.size > 1]
+
+    def value(self, cycles: float, cost: float, budget=None) -> float:
+        budget = self.budget if budget is None else budget
+        if budget is not None and cost > budget:
+            return INFEASIBLE + math.log1p((cost - budget) / budget)
+        v = math.log(max(cycles, 1.0))
+        return v + math.log(max(cost, 1e-9)) if self.objective == "time*cost" else v
+
+    def evaluate_many(self, idxs) -> list[Evaluation]:
+        """Evaluate index vectors (memoised), new ones in one batch."""
+        keys = [self.space.canonical(i) for i in idxs]
+        new = list(dict.fromkeys(k for k in keys if k not in self.memo))
+        if self.cap is not None and len(self.memo) + len(new) > self.cap:
+            new = new[:max(self.cap - len(self.memo), 0)]
+        if new:
+            results = self.evaluate_points([self.space.point(k) for k in new])
+            for k, r in zip(new, results):
+                e = Evaluation(k, self.space.point(k), float(r.cycles), float(r.cost), len(self.memo) + 1, r)
+                self.memo[k] = e
+                self.order.append(k)
+                if self.progress:
+                    self.progress(self)
+        return [self.memo[k] for k in keys if k in self.memo]
+
+    def __call__(self, idx) -> float:
+        self.calls += 1
+        k = self.space.canonical(idx)
+        if k not in self.memo:
+            if self.cap is not None and len(self.memo) >= self.cap:
+                if self.opt is not None:          # NLopt: ask it to stop (exceptions in callbacks misbehave)
+                    self.opt.force_stop()
+                return INFEASIBLE * 10
+            self.evaluate_many([k])
+        return self.f(self.memo[k])
+
+    def f(self, e: Evaluation, budget=None) -> float:
+        """The objective of an evaluation (under the current budget)."""
+        return self.value(e.cycles, e.cost, budget)
+
+    def best(self, budget=None) -> Evaluation | None:
+        if not self.memo:
+            return None
+        return min(self.memo.values(), key=lambda e: self.rank(e, budget))
+
+    def rank(self, e: Evaluation, budget=None) -> tuple:
+        """Order of preference: objective, then cost (a tie in time goes to the cheaper design)."""
+        return (self.f(e, budget), e.cost, e.serial)
+
+    def x_to_index(self, x) -> tuple:
+        idx = [0] * len(self.space.variables)
+        for j, i in enumerate(self.free):
+            n = self.space.variables[i].size
+            idx[i] = min(max(int(math.floor(x[j])), 0), n - 1)
+        return tuple(idx)
+
+    def index_to_x(self, idx) -> np.ndarray:
+        return np.array([idx[i] + 0.5 for i in self.free], dtype=float)
+
+    def history(self) -> list[dict]:
+        rows, best = [], math.inf
+        for n, k in enumerate(self.order, 1):
+            e = self.memo[k]
+            v = self.f(e)
+            best = min(best, v)
+            rows.append({"evaluation": n, "subdivision": list(e.point.subdivision), "design": e.point.design.to_dict(),
+                         "cycles": e.cycles, "cost": e.cost, "objective": v, "best_objective": best,
+                         "feasible": v < INFEASIBLE})
+        return rows
+
+    def front(self) -> list[Evaluation]:
+        """The designs no other evaluated design beats in both cycles and cost."""
+        pts = sorted(self.memo.values(), key=lambda e: (e.cost, e.cycles, e.index))
+        out, best_cycles = [], math.inf
+        for e in pts:
+            if e.cycles < best_cycles:
+                out.append(e)
+                best_cycles = e.cycles
+        return out
+
+
+def _nlopt_run(problem: Problem, algorithm: str, x0, max_evals: int, seed: int, step=None):
+    import nlopt
+
+    n = len(problem.free)
+    if n == 0:
+        problem(tuple([0] * len(problem.space.variables)))
+        return
+    opt = nlopt.opt(getattr(nlopt, algorithm), n)
+    sizes = [problem.space.variables[i].size for i in problem.free]
+    opt.set_lower_bounds([0.0] * n)
+    opt.set_upper_bounds([float(s) - 1e-9 for s in sizes])
+    start = len(problem.memo)
+    problem.cap = start + max_evals
+
+    def f(x, grad):
+        return problem(problem.x_to_index(x))
+
+    opt.set_min_objective(f)
+    problem.opt = opt
+    opt.set_maxeval(max(200 * max_evals, 1000))     # calls; most land in memoised cells
+    if step is not None:
+        opt.set_initial_step([step] * n)
+    if algorithm in ("GN_CRS2_LM", "GN_ISRES", "GN_ESCH"):
+        opt.set_population(max(10 * (n + 1), 20))
+    nlopt.srand(seed)
+    try:
+        opt.optimize(list(x0))
+    except (nlopt.ForcedStop, nlopt.RoundoffLimited):
+        pass
+    finally:
+        problem.cap = None
+        problem.opt = None
+
+
+def _random_run(problem: Problem, max_evals: int, seed: int):
+    rng = np.random.default_rng(seed)
+    sizes = [v.size for v in problem.space.variables]
+    start = len(problem.memo)
+    tries = 0
+    while len(problem.memo) - start < max_evals and tries < 50 * max_evals:
+        tries += 1
+        problem(tuple(int(rng.integers(s)) for s in sizes))
+
+
+def _neighbours(problem: Problem, cur, pairs: bool) -> list[tuple]:
+    """Lattice neighbours: +-1 on a numeric index, any other value of a named
+    one (mapping, feed: their order means nothing); with ``pairs``, also +1 on
+    one numeric index and -1 on another (a trade under a budget)."""
+    sizes = [v.size for v in problem.space.variables]
+    named = [isinstance(problem.space.variables[i].values[0], str) for i in range(len(sizes))]
+    out = []
+
+    def add(nb):
+        out.append(problem.space.canonical(nb))
+
+    for i in problem.free:
+        steps = [j for j in range(sizes[i]) if j != cur[i]] if named[i] else \
+            [cur[i] + d for d in (-1, 1) if 0 <= cur[i] + d < sizes[i]]
+        for j in steps:
+            nb = list(cur)
+            nb[i] = j
+            add(nb)
+    if pairs:
+        num = [i for i in problem.free if not named[i]]
+        for i in num:
+            for j in num:
+                if i != j and cur[i] + 1 < sizes[i] and cur[j] >= 1:
+                    nb = list(cur)
+                    nb[i] += 1
+                    nb[j] -= 1
+                    add(nb)
+    return list(dict.fromkeys(out))
+
+
+def compass(problem: Problem, idx, max_evals: int) -> tuple:
+    """Polish on the integer lattice: move to the best neighbour while one
+    improves; when none does, widen the neighbourhood to pair trades once
+    (a budget makes single steps up infeasible and single steps down
+    slower).  Stops at a local optimum or after ``max_evals`` new designs."""
+    cur = problem.space.canonical(idx)
+    start = len(problem.memo)
+    pairs = False
+    while True:
+        nbrs = _neighbours(problem, cur, pairs)
+        room = max_evals - (len(problem.memo) - start)
+        fresh = [k for k in nbrs if k not in problem.memo][:max(room, 0)]
+        problem.evaluate_many(fresh)
+        cand = [problem.memo[k] for k in nbrs if k in problem.memo]
+        here = problem.rank(problem.memo[cur])[:2]
+        better = min(cand, key=problem.rank, default=None)
+        if better is None or problem.rank(better)[:2] >= here:
+            if pairs or len(problem.memo) - start >= max_evals:
+                return cur
+            pairs = True
+            continue
+        cur = better.index
+        pairs = False
+        if len(problem.memo) - start >= max_evals:
+            return cur
+
+
+def _polish_starts(problem: Problem) -> list[tuple]:
+    """Where the polish starts: the stage mappings are separate landscapes, so
+    from the best design found of each mapping; where every design found of a
+    mapping is over the budget, from that mapping's cheapest design (every
+    numeric index at its smallest value) instead, which the polish then grows."""
+    space = problem.space
+    pos = space.names.index("mapping")
+    starts = {}
+    for e in sorted(problem.memo.values(), key=problem.rank):
+        m = e.index[pos]
+        if m not in starts and problem.f(e) < INFEASIBLE:
+            starts[m] = e.index
+    if space.variables[pos].size > 1:
+        for m in range(space.variables[pos].size):
+            if m not in starts:
+                idx = [0] * len(space.variables)
+                idx[pos] = m
+                k = space.canonical(idx)
+                problem.evaluate_many([k])
+                if k in problem.memo and problem.f(problem.memo[k]) < INFEASIBLE:
+                    starts[m] = k
+    if not starts:
+        starts[-1] = problem.best().index
+    return list(starts.values())
+
+
+def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice", max_evals: int = 1000,
+           seed: int = 1, polish_evals: int | None = None) -> SearchResult:
+    """Global search then polish; ``max_evals`` distinct designs for the global phase."""
+    if algorithm not in GLOBAL_ALGORITHMS:
+        raise ValueError(f"algorithm must be one of {', '.join(GLOBAL_ALGORITHMS)}, not {algorithm!r}")
+    if polish not in POLISHES:
+        raise ValueError(f"polish must be one of {', '.join(POLISHES)}, not {polish!r}")
+    t0 = time.perf_counter()
+    sizes = [problem.space.variables[i].size for i in problem.free]
+    x0 = [s / 2.0 for s in sizes]
+    n0 = len(problem.memo)
+    if algorithm == "random":
+        _random_run(problem, max_evals, seed)
+    elif algorithm != "none":
+        _nlopt_run(problem, GLOBAL_ALGORITHMS[algorithm], x0, max_evals, seed)
+    else:
+        problem(problem.x_to_index(x0))
+    n1 = len(problem.memo)
+    best = problem.best()
+    if polish_evals is None:
+        polish_evals = max(max_evals, 32 * len(problem.free))        # as many again, at least 32 a variable
+    if polish == "lattice":
+        starts = _polish_starts(problem)
+        for idx in starts:                # each start its share, then the best found gets what is left
+            compass(problem, idx, polish_evals // (len(starts) + 1))
+        compass(problem, problem.best().index, polish_evals - (len(problem.memo) - n1))
+    elif polish != "none":
+        name = {"sbplx": "LN_SBPLX", "neldermead": "LN_NELDERMEAD", "bobyqa": "LN_BOBYQA", "cobyla": "LN_COBYLA"}
+        _nlopt_run(problem, name[polish], problem.index_to_x(best.index), polish_evals, seed, step=1.0)
+    n2 = len(problem.memo)
+    return SearchResult(problem.best(), len(problem.memo), problem.calls, time.perf_counter() - t0,
+                        phases={"global": n1 - n0, "polish": n2 - n1})
+
+
+def exhaustive(problem: Problem, batch: int = 4096) -> SearchResult:
+    """Every distinct design of the space (for checking a search on small spaces)."""
+    t0 = time.perf_counter()
+    seen = set()
+    todo = []
+    for idx in itertools.product(*(range(v.size) for v in problem.space.variables)):
+        k = problem.space.canonical(idx)
+        if k not in seen:
+            seen.add(k)
+            todo.append(k)
+        if len(todo) >= batch:
+            problem.evaluate_many(todo)
+            todo = []
+    problem.evaluate_many(todo)
+    return SearchResult(problem.best(), len(problem.memo), problem.calls, time.perf_counter() - t0)
+
+
+def cost_range(space: Space, unit_costs) -> tuple[float, float]:
+    """The cheapest and dearest design of a space (costs need no trace)."""
+    from .hwcost import hardware_cost
+
+    lo, hi = math.inf, 0.0
+    pos = {v.name: i for i, v in enumerate(space.variables)}
+    for m in range(space.variables[pos["mapping"]].size):
+        for end in (0, -1):
+            idx = [(v.size - 1 if end else 0) for v in space.variables]
+            idx[pos["mapping"]] = m
+            c = hardware_cost(space.point(space.canonical(idx)).design, unit_costs)
+            lo, hi = min(lo, c), max(hi, c)
+    return lo, hi
+
+
+def pareto(problem: Problem, budgets, algorithm="direct-l", polish="lattice", max_evals=200, seed=1) -> SearchResult:
+    """The front of cycles against cost: a time search under each budget, sharing evaluations."""
+    t0 = time.perf_counter()
+    for b in budgets:
+        problem.budget = float(b)
+        search(problem, algorithm, polish, max_evals, seed)
+    problem.budget = None
+    front = problem.front()
+    return SearchResult(front[0] if front else None, len(problem.memo), problem.calls, time.perf_counter() - t0,
+                        front=front)

@@ -1,0 +1,176 @@
+"""``mprt sweep SPEC.toml --out DIR``: scenes x subdivisions x designs on Dask.
+
+The spec file::
+
+    scenes = ["balls", "tetra:2"]        # SPD names (with size) or NFF paths
+    res = "32x32"
+    subdivisions = [4, 8, [6, 6, 2]]     # n, or [nx, ny, nz]
+    shape = "proportional"               # how one n becomes a grid: cube | proportional
+    level = 0
+    batch = 64                           # designs per task
+    [designs]
+    paper = "3mppe"                      # a reference: 3mppe, M, S
+    wide = { mapping = "OS|IC|SC", pes = 2 }   # or a design's fields (the rest as the 3MPPE)
+
+writes DIR/sweep.csv (one row per scene, subdivision and design) and
+DIR/sweep.png (cycles against subdivision).
+"""
+from __future__ import annotations
+
+import csv
+import os
+import time
+import tomllib
+
+from .distributed import DiskCache, cache_key, client, map_cached
+from .space import REFERENCE_DESIGNS, SHAPES, Design, SpaceError
+
+_KEYS = {"scenes", "res", "subdivisions", "shape", "level", "batch", "designs", "rules"}
+
+
+def load_spec(path) -> dict:
+    try:
+        with open(path, "rb") as f:
+            doc = tomllib.load(f)
+    except OSError as e:
+        raise SpaceError(f"{path}: cannot read the sweep spec ({e.strerror})") from None
+    except tomllib.TOMLDecodeError as e:
+        raise SpaceError(f"{path}: {e}") from None
+    w = lambda k: f"{path}: {k}"  # noqa: E731
+    extra = set(doc) - _KEYS
+    if extra:
+        raise SpaceError(f"{w(sorted(extra)[0])}: unknown field (known: {', '.join(sorted(_KEYS))})")
+    for k in ("scenes", "subdivisions", "designs"):
+        if k not in doc:
+            raise SpaceError(f"{w(k)}: missing")
+    scenes = doc["scenes"]
+    if not isinstance(scenes, list) or not scenes or not all(isinstance(s, str) for s in scenes):
+        raise SpaceError(f"{w('scenes')}: must be a non-empty list of scene names or paths")
+    res = doc.get("res", "32x32")
+    try:
+        width, height = (int(v) for v in str(res).lower().split("x"))
+        assert 1 <= width <= 65536 and 1 <= height <= 65536
+    except (ValueError, AssertionError):
+        raise SpaceError(f"{w('res')}: {res!r} is not WxH with sides in 1..65536") from None
+    subs = []
+    if not isinstance(doc["subdivisions"], list) or not doc["subdivisions"]:
+        raise SpaceError(f"{w('subdivisions')}: must be a non-empty list")
+    for i, s in enumerate(doc["subdivisions"]):
+        t = s if isinstance(s, list) else [s]
+        if len(t) not in (1, 3) or not all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in t):
+            raise SpaceError(f"{w(f'subdivisions[{i}]')}: {s!r} is not n or [nx, ny, nz] of positive integers")
+        subs.append(tuple(t))
+    shape = doc.get("shape", "cube")
+    if shape not in SHAPES:
+        raise SpaceError(f"{w('shape')}: {shape!r} is not one of {', '.join(SHAPES)}")
+    level = doc.get("level", 0)
+    if level not in (0, 1, 2, 3):
+        raise SpaceError(f"{w('level')}: {level!r} is not 0, 1, 2 or 3")
+    batch = doc.get("batch", 64)
+    if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
+        raise SpaceError(f"{w('batch')}: {batch!r} is not a positive integer")
+    rules = doc.get("rules", "paper")
+    if rules not in ("paper", "spd"):
+        raise SpaceError(f"{w('rules')}: {rules!r} is not paper or spd")
+    designs = {}
+    if not isinstance(doc["designs"], dict) or not doc["designs"]:
+        raise SpaceError(f"{w('designs')}: must be a table of named designs")
+    for name, d in doc["designs"].items():
+        if isinstance(d, str):
+            if d not in REFERENCE_DESIGNS:
+                raise SpaceError(f"{w(f'designs.{name}')}: {d!r} is not one of {', '.join(REFERENCE_DESIGNS)}")
+            designs[name] = REFERENCE_DESIGNS[d]()
+        elif isinstance(d, dict):
+            designs[name] = Design.from_dict(d, w(f"designs.{name}"))
+        else:
+            raise SpaceError(f"{w(f'designs.{name}')}: a reference name or a table of design fields")
+    return {"scenes": scenes, "width": width, "height": height, "subdivisions": subs, "shape": shape,
+            "level": level, "batch": batch, "designs": designs, "rules": rules}
+
+
+_TRACES: dict = {}
+
+
+def _batch_task(scene_spec, dims, width, height, rules, level, designs):
+    """One task: trace the scene at this grid (kept per worker process for
+    the next batch) and evaluate the designs; returns rows of plain values."""
+    from ..scene import Scene
+    from .evaluate import Level0, evaluate
+
+    key = (scene_spec, tuple(dims), width, height, rules)
+    ev = _TRACES.get(key)
+    if ev is None:
+        _TRACES.clear()
+        _, tr = Scene.load(scene_spec).grid(tuple(dims)).trace(width, height, rules=rules)
+        ev = _TRACES[key] = Level0(tr)
+    out = []
+    for d in designs:
+        design = Design.from_dict(d)
+        r = ev.run(design) if level == 0 else evaluate(ev.trace, design, level)
+        out.append(r.to_dict())
+    return out
+
+
+def run_sweep(spec: dict, out_dir, scheduler=None, workers=None, progress=None) -> dict:
+    from ..scene import Scene
+    from .evaluate import grid_dims
+
+    t0 = time.perf_counter()
+    os.makedirs(out_dir, exist_ok=True)
+    cache = DiskCache(os.path.join(out_dir, "cache"))
+    names = list(spec["designs"])
+    tasks, where = [], []
+    for sc in spec["scenes"]:
+        scene = Scene.load(sc)
+        h = scene.content_hash()
+        for sub in spec["subdivisions"]:
+            dims = grid_dims(scene, sub, spec["shape"])
+            for a in range(0, len(names), spec["batch"]):
+                part = names[a:a + spec["batch"]]
+                ds = [spec["designs"][n].to_dict() for n in part]
+                key = cache_key("sweep", h, dims, spec["width"], spec["height"], spec["rules"], spec["level"], ds)
+                tasks.append((key, (sc, list(dims), spec["width"], spec["height"], spec["rules"], spec["level"],
+                                    ds)))
+                where.append((sc, sub, dims, part))
+    everything_cached = all(cache.get(k) is not None for k, _ in tasks)
+    with client(scheduler, 0 if everything_cached else workers) as c:
+        results, cached = map_cached(tasks, _batch_task, cache, c, progress)
+    rows = []
+    for (sc, sub, dims, part), res in zip(where, results):
+        for name, r in zip(part, res):
+            row = {"scene": sc, "subdivision": "x".join(map(str, dims)), "n": sub[0] if len(sub) == 1 else "",
+                   "design": name, "cycles": r["cycles"], "cost": r["cost"], "bottleneck": r["bottleneck"],
+                   "level": r["level"], "costs": r["costs"]}
+            for p, u in r["utilisation"].items():
+                row[f"util_{p}"] = round(u, 6)
+            rows.append(row)
+    fields = list(dict.fromkeys(k for r in rows for k in r))
+    path = os.path.join(out_dir, "sweep.csv")
+    with open(path, "w", newline="") as f:
+        wr = csv.DictWriter(f, fieldnames=fields, restval="")
+        wr.writeheader()
+        wr.writerows(rows)
+    png = os.path.join(out_dir, "sweep.png")
+    _plot(rows, spec, png)
+    return {"csv": path, "png": png, "rows": len(rows), "tasks": len(tasks), "cached": cached,
+            "seconds": time.perf_counter() - t0}
+
+
+def _plot(rows, spec, path):
+    import matplotlib
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+
+    scenes = spec["scenes"]
+    fig, axes = plt.subplots(1, len(scenes), figsize=(4.5 * len(scenes), 3.6), squeeze=False)
+    for ax, sc in zip(axes[0], scenes):
+        for name in spec["designs"]:
+            pts = [(i, r["cycles"]) for i, r in enumerate(x for x in rows if x["scene"] == sc and x["design"] == name)]
+            labels = [r["subdivision"] for r in rows if r["scene"] == sc and r["design"] == name]
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=name)
+            ax.set_xticks(range(len(labels)), labels, rotation=30, fontsize=7)
+        ax.set(yscale="log", title=sc, xlabel="subdivision", ylabel="cycles")
+        ax.legend(fontsize=7)
+    fig.tight_layout()
+    fig.savefig(path, dpi=90)
+    plt.close(fig)

@@ -1,0 +1,154 @@
+"""``mprt simulate`` with the fidelity ladder's options.
+
+    mprt simulate TRACE.npz|SCENE [machine and tracing options as mprt.machine.cli]
+                  [--level 0|1|2|3|auto] [--engine auto|simpy|compiled|analytical]
+                  [--sample random:N:SEED|stratified:K:SEED|regular:K] [--tolerance X]
+
+``--level`` (default: the configuration's own, the level that models all of it)
+evaluates the machine as that level models it; ``auto`` measures the levels on
+a sample of the frame and takes the cheapest within ``--tolerance`` (default
+1%).  ``--engine`` picks the replay (default: the compiled one wherever it is
+exact; naming ``compiled`` for a machine it cannot replay is an error, exit 2).
+``--sample`` replays only a sample of the tiles (a trace file's own tiles, or a
+scene's ``--tile`` tiles, only those traced) and scales up with a 95% interval.  ``--json`` gains ``level``,
+``engine``, ``sampled`` (fraction of the frame's samples replayed) and
+``cycles_interval``.
+
+Wire into the main parser with ``add_parser(subparsers)`` in place of
+``mprt.machine.cli.add_parser`` (this one adds to that one).
+"""
+from __future__ import annotations
+
+import argparse
+import os
+import sys
+import time
+
+from ..errors import InvalidArgument
+from ..machine import cli as machine_cli
+from ..machine.errors import ConfigError
+from .analytical import Analytical
+from .ladder import measure
+from .levels import ENGINES, Evaluator, native_level
+from .sampled import Sampling, estimate, sample_trace, scaled_result, trace_sample
+
+AUTO_SAMPLE = "stratified:16:1"      # what --level auto measures on (a sixteenth of the frame)
+AUTO_TILES = 32                      # frames of fewer tiles are measured whole
+
+
+def _sampling(text: str) -> Sampling:
+    try:
+        return Sampling.parse(text)
+    except InvalidArgument as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
+def _tolerance(text: str) -> float:
+    t = text.strip()
+    try:
+        v = float(t[:-1]) / 100 if t.endswith("%") else float(t)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"tolerance must be a fraction (0.01) or a percentage (1%), not {text!r}") \
+            from None
+    if not 0 <= v < 1:
+        raise argparse.ArgumentTypeError(f"tolerance must be in [0, 1) (or 0% to 100%), not {text!r}")
+    return v
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    s = machine_cli.add_parser(subparsers)
+    f = s.add_argument_group("fidelity")
+    f.add_argument("--level", choices=("0", "1", "2", "3", "auto"), default=None,
+                   help="0 analytical, 1 ideal network and memory, 2 the ring, 3 the memories; auto: the cheapest "
+                        "within --tolerance (default: the configuration's own level)")
+    f.add_argument("--engine", choices=ENGINES, default="auto",
+                   help="auto (default): the compiled replay where exact, else SimPy")
+    f.add_argument("--sample", type=_sampling, default=None, metavar="random:N:SEED|stratified:K:SEED|regular:K",
+                   help="replay only these tiles (of --tile samples) and scale up, with a 95%% interval")
+    f.add_argument("--tolerance", type=_tolerance, default=None,
+                   help="error allowed by --level auto, e.g. 0.01 or 1%% (default 1%%)")
+    s.set_defaults(func=run)
+    return s
+
+
+def _load(a):
+    """The trace to replay: a sample of the tiles when --sample is given."""
+    if a.sample is None:
+        a.sampled_trace = None
+        return machine_cli._load_source(a)
+    if a.source.endswith(".npz"):
+        trace, _, how = machine_cli._load_source(a)
+        st = sample_trace(trace, a.sample)          # in the trace's own tiles
+    else:
+        from ..scene import Scene
+
+        scene = Scene.load(a.source)
+        grid = scene.grid(a.grid)
+        w, h = a.res or (0, 0)
+        t0 = time.perf_counter()
+        st = trace_sample(grid, a.sample, w, h, a.tile or 16, rules=a.rules or "paper", threshold=a.threshold,
+                          threads=a.threads or os.cpu_count() or 1, progress=sys.stderr.isatty())
+        how = (f"traced  {scene.name}, grid {'x'.join(map(str, grid.n))}, {st.trace.meta['width']}x"
+               f"{st.trace.meta['height']} {st.trace.meta['rules']}, {len(st.tiles)} of {st.tiles_total} tiles in "
+               f"{time.perf_counter() - t0:.2f} s")
+    a.sampled_trace = st
+    how += f"\nsample  {a.sample}: {len(st.tiles)} of {st.tiles_total} tiles ({100 * st.fraction:.2f}% of samples)"
+    return st.trace, machine_cli.source_settings(a, st.trace), how
+
+
+def _auto_level(trace, cfg, tolerance, sampled: bool) -> tuple:
+    """(level, table) chosen by measuring levels 0..cfg's own on (a sample of) the trace."""
+    levels = list(range(0, native_level(cfg) + 1))
+    tiles = trace.meta.get("tiles_total") or 0
+    sample = None if sampled or tiles < AUTO_TILES else AUTO_SAMPLE
+    table = measure(trace, [cfg], levels=levels, sample=sample)
+    return table.choose(tolerance), table
+
+
+def _replay(trace, cfg, a):
+    tolerance = 0.01 if a.tolerance is None else a.tolerance
+    st = getattr(a, "sampled_trace", None)
+    if a.level == "auto" or (a.level is None and a.tolerance is not None):
+        level, table = _auto_level(trace, cfg, tolerance, st is not None)
+        print(f"levels  measured on {100 * table.sampled:.1f}% of the samples:\n" + table.text())
+        print(f"level   {level}: the cheapest within {100 * tolerance:g}%")
+    else:
+        level = native_level(cfg) if a.level is None else int(a.level)
+    ev = Evaluator(trace)
+    e = ev.evaluate(cfg, level, a.engine, timeline=bool(a.plot) and a.engine == "simpy",
+                    progress=sys.stderr.isatty())
+    res = e.result
+    extra = {"level": level, "engine": e.engine, "sampled": 1.0, "cycles_interval": [res.cycles, res.cycles]}
+    line = f"level {level} on the {e.engine} engine"
+    if st is not None:
+        from .levels import at_level
+
+        c = ev.costed(at_level(cfg, level))
+        an = c.get("analytical") or Analytical(trace, c["costs"])
+        sc = estimate(st, e, an, at_level(cfg, 1))
+        res = scaled_result(res, sc)
+        extra.update(sampled=sc.fraction, cycles_interval=list(sc.interval), sample_cycles=sc.sample_cycles,
+                     sample=str(st.sampling), tiles=[len(st.tiles), st.tiles_total])
+        line += (f"; the sample took {sc.sample_cycles:,} cycles, the frame an estimated {sc.cycles:,} "
+                 f"(95%: {sc.interval[0]:,} to {sc.interval[1]:,})")
+    print(line)
+    return res, extra
+
+
+def run(a) -> int:
+    try:
+        if a.engine != "auto" and a.level == "auto":
+            raise ConfigError("--level auto chooses the engine with the level; leave --engine out")
+    except ConfigError as e:
+        print(f"mprt simulate: invalid configuration: {e}", file=sys.stderr)
+        return 2
+    return machine_cli.run(a, load=_load, replay=_replay)
+
+
+def main(argv=None) -> int:
+    """Run ``simulate`` alone (until it is wired into the ``mprt`` command)."""
+    return machine_cli.main(argv, add_parser)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,171 @@
+"""The compiled engine: the C replay (``mprt_replay_*`` in mprt.h) of the
+machine model's ideal-network configurations, with the SimPy model's result.
+
+``replay(trace, config)`` takes what ``mprt.machine.simulate`` takes and
+returns the same ``SimResult`` (same cycles, same per-stage processing,
+communication and waiting, same FIFO, processor and PE figures), or raises
+the same ``DeadlockError``.  It supports every configuration without a ring
+(level 2) and without modelled memories (level 3): any stages, mapping,
+replicas, FIFO capacities, PEs, DIS policy and window.  ``unsupported(config)``
+says why a configuration is not one of those.
+
+The costs per visit are the cost model's (``visit_costs`` on the
+configuration's processors) or the arrays given, exactly as the SimPy model
+takes them.  The figures are assembled by the machine model's own
+``System._result`` and ``System._deadlock`` over views of the C replay's
+counters, so a result cannot differ from SimPy's in how it is summed.
+"""
+from __future__ import annotations
+
+import time
+
+import numpy as np
+
+from .._lowlevel import binding
+from ..errors import InvalidArgument
+from ..machine.config import DIS_POLICIES, SUBTASKS, SystemConfig, builtin
+from ..machine.errors import ConfigError
+from ..trace import TraceError
+from .views import SystemView
+
+_LIB = binding("double")
+_DIS = {name: i for i, name in enumerate(DIS_POLICIES)}     # blocks, interleaved, dynamic: mprt_dis order
+
+
+def unsupported(config: SystemConfig) -> str | None:
+    """Why the compiled engine cannot replay a configuration (None: it can)."""
+    parts = []
+    if config.ring is not None:
+        parts.append("a ring network (level 2)")
+    if config.ic_memory is not None or config.sc_memory is not None:
+        parts.append("modelled memories (level 3)")
+    if not parts:
+        return None
+    return (f"configuration {config.name!r} has {' and '.join(parts)}; the compiled engine replays ideal-network, "
+            "ideal-memory machines only (use the SimPy engine, or --level 1)")
+
+
+def _cost_arrays(trace, costs):
+    """(process, receive, send, inject_process, inject_send) as the SimPy model takes them."""
+    arrays = tuple(np.asarray(getattr(costs, k)) for k in ("process", "receive", "send"))
+    n = len(trace.visits)
+    for k, a in zip(("process", "receive", "send"), arrays):
+        if a.shape != (n,):
+            raise ValueError(f"costs.{k} has shape {a.shape}, the trace has {n} visits")
+    return arrays + (int(getattr(costs, "inject_process", 0)), int(getattr(costs, "inject_send", 0)))
+
+
+def c_config(config: SystemConfig, gen_cycles: int) -> dict:
+    """mprt_replay_config's fields for a machine configuration."""
+    n = len(config.stages)
+    pad = [0] * (3 - n)
+    return {"nstages": n, "stage_of": [config.stage_of(t) for t in SUBTASKS],
+            "replicas": [s.replicas for s in config.stages] + [1] * (3 - n),
+            "receive_fifo": [s.receive_fifo or 0 for s in config.stages] + pad,
+            "send_fifo": [s.send_fifo or 0 for s in config.stages] + pad,
+            "pes": config.pes, "dis": _DIS[config.dis], "window": config.window, "gen_cycles": gen_cycles}
+
+
+def _log(view, log, events):
+    """The C replay's events as the SimPy model's log: (cycle, 'start'|'end', stage name, replica, visit)."""
+    ev = log[:4 * events].reshape(-1, 4)
+    names = view.names
+    return [(int(t), "end" if w else "start", names[i][0], names[i][1], int(j)) for t, w, i, j in ev.tolist()]
+
+
+class Compiled:
+    """A costed trace loaded into the C replay (8 or 16 bytes per visit), ready to
+    run any ideal-network configuration whose processors the costs are for.
+
+    ``costs``: per-visit ``process``, ``receive``, ``send`` arrays (and
+    ``inject_process``, ``inject_send`` for SC's making of primary rays), as
+    the cost model's ``visit_costs`` gives them."""
+
+    def __init__(self, trace, costs):
+        process, receive, send, self.gen_process, self.gen_send = _cost_arrays(trace, costs)
+        self.trace = trace
+        self.h = _LIB.replay_create({})
+        try:
+            _LIB.replay_load(self.h, np.asarray(trace.rays), np.asarray(trace.visits), process, receive, send)
+        except InvalidArgument as e:
+            msg = str(e)
+            raise (TraceError(msg) if msg.startswith("cannot replay this trace:") else ValueError(msg)) from None
+        self.info = _LIB.replay_get_info(self.h)
+
+    def _configure(self, config: SystemConfig) -> None:
+        why = unsupported(config)
+        if why:
+            raise ConfigError(why)
+        where = f"{config.source}: " if config.source else ""
+        try:
+            _LIB.replay_set_config(self.h, c_config(config, self.gen_process + self.gen_send))
+        except InvalidArgument as e:
+            raise ConfigError(f"{where}{e}") from None
+
+    def _run(self, config, log=None) -> bool:
+        self._configure(config)
+        try:
+            return _LIB.replay_run(self.h, log)
+        except InvalidArgument as e:
+            where = f"{config.source}: " if config.source else ""
+            raise ConfigError(f"{where}{e}") from None
+
+    def _view(self, config: SystemConfig) -> SystemView:
+        info = _LIB.replay_get_info(self.h)
+        return SystemView(self.trace, config, max(int(info["cycles"]), 0), info["retired"],
+                          _LIB.replay_get_pes(self.h, int(info["pes"])),
+                          _LIB.replay_get_procs(self.h, int(info["processors"])),
+                          _LIB.replay_get_nodes(self.h, int(info["nodes"])), self.gen_process, self.gen_send,
+                          int(info["visits"]), int(info["rays"]), int(info["max_leaves"]),
+                          lambda p, s, which: _LIB.replay_get_waiters(self.h, p, s, which))
+
+    def cycles(self, config: SystemConfig) -> int:
+        """The run's cycles (nothing else assembled); DeadlockError if it deadlocks."""
+        if not self._run(config):
+            raise self._view(config).deadlock()
+        return int(_LIB.replay_get_info(self.h)["cycles"])
+
+    def admissions(self) -> np.ndarray:
+        """When each tree was admitted in the last run (int64 per tree, -1: never)."""
+        return _LIB.replay_get_trees(self.h, int(self.info["trees"]))[1]
+
+    def result(self, config: SystemConfig, record: bool = False):
+        """The SimPy model's SimResult for the configuration (``record``: with its event log),
+        or its DeadlockError."""
+        t0 = time.perf_counter()
+        log = np.zeros(8 * (int(self.info["visits"]) + int(self.info["trees"])), np.int64) if record else None
+        finished = self._run(config, log)
+        view = self._view(config)
+        if record:
+            view.log = _log(view, log, int(_LIB.replay_get_info(self.h)["events"]))
+        if not finished:
+            raise view.deadlock()
+        res = view.result()
+        res.wall_seconds = time.perf_counter() - t0
+        return res
+
+
+def costs_for(trace, config: SystemConfig, cost_model=None):
+    """The cost model's visit costs for a configuration's processors (default model)."""
+    if cost_model is None:
+        from ..cost import CostModel
+
+        cost_model = CostModel.default()
+    return cost_model.visit_costs(trace, config.processors())
+
+
+def replay(trace, config: SystemConfig | str = "M", cost_model=None, costs=None, record: bool = False):
+    """Replay a trace on an ideal-network configuration with the compiled
+    engine: what ``mprt.machine.simulate`` returns (``record``: with its event
+    log), or raises (DeadlockError, ConfigError for a configuration the
+    compiled engine does not support, see ``unsupported``)."""
+    if isinstance(config, str):
+        config = builtin(config)
+    why = unsupported(config)
+    if why:
+        raise ConfigError(why)
+    t0 = time.perf_counter()
+    res = Compiled(trace, costs if costs is not None else costs_for(trace, config, cost_model)).result(config, record)
+    res.wall_seconds = time.perf_counter() - t0
+    return res
+

@@ -1,0 +1,139 @@
+"""The fidelity ladder's levels and engines: ``evaluate(trace, config, level)``.
+
+    level 0  analytical (numpy): stage loads, critical paths (analytical.py)
+    level 1  the machine with an ideal network and ideal memory (ring and
+             memories taken out), replayed exactly
+    level 2  with its ring network (finite FIFOs as configured)
+    level 3  with its caches, resident memories and global memories: the
+             configuration as written
+
+A configuration without a ring is the same machine at levels 1 and 2, and one
+without memories the same at 2 and 3; ``at_level`` gives the machine a level
+models, and a level above the configuration's own (``native_level``) changes
+nothing.  Engines: ``analytical`` (level 0), ``compiled`` (the C replay: every
+machine without ring and memories, so level 1 always, and levels 2 and 3 of
+such machines) and ``simpy`` (the machine model, any level from 1).  ``auto``
+takes the compiled replay wherever it is exact and SimPy elsewhere.
+"""
+from __future__ import annotations
+
+import time
+from dataclasses import dataclass
+
+from ..machine.config import SystemConfig, builtin
+from ..machine.errors import ConfigError
+from .analytical import Analytical
+from .compiled import Compiled, costs_for, unsupported
+
+LEVELS = (0, 1, 2, 3)
+ENGINES = ("auto", "analytical", "compiled", "simpy")
+
+
+def at_level(config: SystemConfig, level: int) -> SystemConfig:
+    """The machine as a level models it (level 0 and 1: no ring, no memories; 2: no memories)."""
+    if level not in LEVELS:
+        raise ConfigError(f"level must be one of {', '.join(map(str, LEVELS))}, not {level!r}")
+    changes = {}
+    if level <= 2 and (config.ic_memory or config.sc_memory or config.icgm or config.scgm):
+        changes.update(ic_memory=None, sc_memory=None, icgm=None, scgm=None)
+    if level <= 1 and config.ring is not None:
+        changes["ring"] = None
+    return config.replace(**changes) if changes else config
+
+
+def native_level(config: SystemConfig) -> int:
+    """The lowest level that models all of the configuration (1, 2 or 3)."""
+    if config.ic_memory or config.sc_memory:
+        return 3
+    return 2 if config.ring is not None else 1
+
+
+def engine_for(config: SystemConfig, level: int, engine: str = "auto") -> str:
+    """The engine that evaluates a configuration at a level; ConfigError naming the reason
+    when the engine asked for cannot."""
+    if engine not in ENGINES:
+        raise ConfigError(f"engine must be one of {', '.join(ENGINES)}, not {engine!r}")
+    if level == 0:
+        if engine not in ("auto", "analytical"):
+            raise ConfigError(f"level 0 is analytical; the {engine} engine replays (levels 1 to 3)")
+        return "analytical"
+    if engine == "analytical":
+        raise ConfigError(f"the analytical engine is level 0, not level {level}")
+    why = unsupported(at_level(config, level))
+    if engine == "compiled" and why:
+        raise ConfigError(f"level {level}: {why}")
+    if engine == "auto":
+        return "simpy" if why else "compiled"
+    return engine
+
+
+@dataclass
+class Evaluation:
+    """One configuration evaluated at one level: the machine model's SimResult (cycles,
+    per-stage processing, communication, waiting, ...), the engine and the seconds taken."""
+
+    result: object
+    level: int
+    engine: str
+    seconds: float
+
+    @property
+    def cycles(self) -> int:
+        return self.result.cycles
+
+
+class Evaluator:
+    """Evaluates configurations on one trace, costing it once per set of processors (the
+    cost model is the expensive part) and keeping each costed trace's level-0 and compiled
+    forms.  ``costs``: per-visit costs to use for every configuration instead."""
+
+    def __init__(self, trace, cost_model=None, costs=None):
+        self.trace = trace
+        self.cost_model = cost_model
+        self.costs = costs
+        self._costed = {}
+
+    def _key(self, config):
+        return tuple((t, repr(p)) for t, p in sorted(config.processors().items()))
+
+    def costed(self, config: SystemConfig) -> dict:
+        key = self._key(config)
+        if key not in self._costed:
+            vc = self.costs if self.costs is not None else costs_for(self.trace, config, self.cost_model)
+            self._costed[key] = {"costs": vc}
+        return self._costed[key]
+
+    def evaluate(self, config: SystemConfig | str, level: int | None = None, engine: str = "auto",
+                 record: bool = False, timeline: bool = False, progress: bool = False) -> Evaluation:
+        """The configuration at a level (default: its native level) on an engine; raises
+        DeadlockError when the machine deadlocks, ConfigError for an impossible choice."""
+        if isinstance(config, str):
+            config = builtin(config)
+        level = native_level(config) if level is None else level
+        cfg = at_level(config, level)
+        eng = engine_for(config, level, engine)
+        c = self.costed(cfg)
+        t0 = time.perf_counter()
+        if eng == "analytical":
+            if "analytical" not in c:
+                c["analytical"] = Analytical(self.trace, c["costs"])
+            res = c["analytical"].result(cfg)
+        elif eng == "compiled":
+            if "compiled" not in c:
+                c["compiled"] = Compiled(self.trace, c["costs"])
+            res = c["compiled"].result(cfg, record=record)
+        else:
+            from ..machine.system import System
+
+            res = System(self.trace, cfg, costs=c["costs"], cost_model=self.cost_model, record=record,
+                         timeline=timeline).run(progress=progress)
+        seconds = time.perf_counter() - t0
+        res.level = level
+        res.wall_seconds = seconds
+        return Evaluation(res, level, eng, seconds)
+
+
+def evaluate(trace, config: SystemConfig | str, level: int | None = None, engine: str = "auto", cost_model=None,
+             costs=None, **kw) -> Evaluation:
+    """``Evaluator(trace, cost_model, costs).evaluate(config, level, engine, ...)``."""
+    return Evaluator(trace, cost_model, costs).evaluate(config, level, engine, **kw)

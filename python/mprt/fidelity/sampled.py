@@ -1,0 +1,257 @@
+"""Sampled replay: trace and replay a subset of the frame's tiles, scale up,
+and give a 95% confidence interval from the spread between tiles.
+
+Tiles are squares of ``tile`` x ``tile`` samples, numbered row by row as the
+tracer numbers them.  A sample specification is one of
+
+    random:N:SEED       N tiles drawn without replacement (simple random sampling)
+    stratified:K:SEED   the frame cut into blocks of about K tiles (as square as
+                        the tiling allows), one tile drawn at random in each
+    regular:K           the same blocks, the tile nearest each block's centre
+
+so ``stratified:16:SEED`` replays about a sixteenth of the frame.
+
+Estimator.  Each sampled tile t gets a size y_t: its level-0 time (the
+analytical estimate of its trees alone, see ``analytical.py``).  The frame's
+total size Y is estimated from the sample (each tile standing for its block, or
+for N/n tiles under random sampling), the sample is replayed (its own time
+T_s), and the frame's time is T = T_s x Y / y_s, y_s being the sample's size:
+the ratio estimator, which keeps the replay's pipeline effects and lets the
+tiles' spread set the uncertainty.  The interval is T +- 1.96 x (T / Y) x
+sqrt(v), v the estimated variance of Y: for random sampling the usual one, for one tile per block the successive differences of
+neighbouring blocks (blocks taken in a serpentine order), both with the
+finite-population correction (a sample of every tile has no uncertainty).
+"""
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..errors import InvalidArgument
+from ..trace import PRIMARY, Trace
+
+_EXTRA = ("voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material", "samples")
+
+
+@dataclass(frozen=True)
+class Sampling:
+    """A parsed sample specification."""
+
+    method: str          # "random", "stratified" or "regular"
+    k: int               # random: tiles drawn; otherwise: tiles per block
+    seed: int | None
+
+    @classmethod
+    def parse(cls, text: str) -> "Sampling":
+        parts = str(text).split(":")
+        try:
+            if parts[0] in ("random", "stratified") and len(parts) == 3 and int(parts[1]) >= 1:
+                return cls(parts[0], int(parts[1]), int(parts[2]))
+            if parts[0] == "regular" and len(parts) == 2 and int(parts[1]) >= 1:
+                return cls("regular", int(parts[1]), None)
+        except ValueError:
+            pass
+        raise InvalidArgument(f"sample must be 'random:N:SEED', 'stratified:K:SEED' or 'regular:K' "
+                              f"(N, K whole numbers >= 1), not {text!r}")
+
+    def __str__(self) -> str:
+        return f"{self.method}:{self.k}" + (f":{self.seed}" if self.seed is not None else "")
+
+
+def block_shape(tiles_x: int, tiles_y: int, k: int) -> tuple:
+    """(bx, by): blocks of bx x by tiles, bx * by about k, as square as the tiling allows."""
+    by = max(1, min(tiles_y, int(round(math.sqrt(k)))))
+    bx = max(1, min(tiles_x, int(round(k / by))))
+    return bx, by
+
+
+def blocks(tiles_x: int, tiles_y: int, k: int) -> list:
+    """The blocks of about k tiles, in serpentine order (neighbours adjacent), each a list
+    of tile numbers."""
+    bx, by = block_shape(tiles_x, tiles_y, k)
+    out = []
+    for j, y0 in enumerate(range(0, tiles_y, by)):
+        xs = list(range(0, tiles_x, bx))
+        for x0 in (xs if j % 2 == 0 else xs[::-1]):
+            out.append([y * tiles_x + x for y in range(y0, min(y0 + by, tiles_y))
+                        for x in range(x0, min(x0 + bx, tiles_x))])
+    return out
+
+
+def choose(sampling: Sampling, tiles_x: int, tiles_y: int) -> tuple:
+    """(tiles chosen, sorted; weights: the tiles each stands for; strata: block index per
+    chosen tile, or None under random sampling)."""
+    n = tiles_x * tiles_y
+    if sampling.method == "random":
+        m = min(sampling.k, n)
+        rng = np.random.default_rng(sampling.seed)
+        sel = np.sort(rng.choice(n, size=m, replace=False)).astype(np.int64)
+        return sel, np.full(m, n / m), None
+    bl = blocks(tiles_x, tiles_y, sampling.k)
+    rng = np.random.default_rng(sampling.seed) if sampling.method == "stratified" else None
+    pick = []
+    for b in bl:
+        pick.append(b[int(rng.integers(len(b)))] if rng is not None else b[(len(b) - 1) // 2])
+    pick = np.asarray(pick, np.int64)
+    order = np.argsort(pick, kind="stable")
+    return pick[order], np.asarray([len(bl[i]) for i in order], float), order
+
+
+def tree_tiles(trace, tile: int) -> np.ndarray:
+    """The tile (edge ``tile`` samples) of each tree of a trace, by its primary's sample."""
+    rays = trace.rays
+    kind = np.asarray(rays["kind"])
+    pix = np.asarray(rays["pixel"])[kind == PRIMARY].astype(np.int64)
+    w = int(trace.meta["samples_w"])
+    tiles_x = -(-w // tile)
+    return (pix // w) // tile * tiles_x + (pix % w) // tile
+
+
+def subset(trace, keep_trees: np.ndarray) -> Trace:
+    """The trace of the trees where ``keep_trees`` (bool per tree) is true, renumbered (ray
+    ids 0..n-1, parents and visits following), in the same order."""
+    rays, visits = np.asarray(trace.rays), np.asarray(trace.visits)
+    kind = rays["kind"]
+    prim = np.flatnonzero(kind == PRIMARY)
+    tree = np.cumsum(kind == PRIMARY) - 1
+    keep_ray = np.asarray(keep_trees, bool)[tree]
+    new_id = np.cumsum(keep_ray) - 1
+    r = rays[keep_ray].copy()
+    r["id"] = np.arange(len(r))
+    par = r["parent"]
+    r["parent"] = np.where(par >= 0, new_id[np.maximum(par, 0)], -1)
+    vr = visits["ray"]
+    keep_v = keep_ray[vr]
+    v = visits[keep_v].copy()
+    v["ray"] = new_id[v["ray"]]
+    del prim
+    arrays = {k: getattr(trace, k) for k in _EXTRA}
+    arrays["rays"], arrays["visits"] = r, v
+    meta = dict(trace.meta)
+    return Trace.from_arrays(meta, arrays)
+
+
+@dataclass
+class Scaled:
+    """A sampled replay's estimate of the whole frame's time."""
+
+    cycles: int                 # estimated cycles of the whole frame
+    interval: tuple             # (low, high) at 95%
+    sample_cycles: int          # the sample's own replay
+    fraction: float             # samples replayed / samples in the frame
+    tiles: int                  # tiles replayed
+    tiles_total: int
+    scale: float                # cycles / sample_cycles
+
+
+def scale(sample_cycles: int, sizes: np.ndarray, weights: np.ndarray, strata_order, tiles_total: int,
+          fraction: float) -> Scaled:
+    """The frame's time from the sample's replay: ``sizes`` per sampled tile (level-0 time),
+    ``weights`` the tiles each stands for, ``strata_order`` the blocks' serpentine positions of
+    the sampled tiles (None: random sampling)."""
+    y = np.asarray(sizes, float)
+    w = np.asarray(weights, float)
+    n = len(y)
+    ys = float(y.sum())
+    Y = float((w * y).sum())
+    if strata_order is None:
+        f = n / tiles_total
+        var = tiles_total ** 2 * (1 - f) * (float(np.var(y, ddof=1)) if n > 1 else 0.0) / n
+    else:
+        est = (w * y)[np.argsort(strata_order)]           # per block, in serpentine order
+        d = np.diff(est)
+        var = (1 - n / tiles_total) * (n / (2 * (n - 1))) * float((d * d).sum()) if n > 1 else 0.0
+    ratio = sample_cycles / ys if ys > 0 else float(tiles_total) / max(n, 1)
+    cycles = ratio * Y if ys > 0 else sample_cycles * ratio
+    half = 1.96 * ratio * math.sqrt(var)
+    return Scaled(cycles=int(round(cycles)), interval=(int(math.floor(cycles - half)), int(math.ceil(cycles + half))),
+                  sample_cycles=int(sample_cycles), fraction=fraction, tiles=n, tiles_total=tiles_total,
+                  scale=cycles / sample_cycles if sample_cycles else 0.0)
+
+
+@dataclass
+class SampledTrace:
+    """The trace of a sample of a frame's tiles, and what scaling it up needs."""
+
+    trace: Trace
+    sampling: Sampling
+    tile: int                   # tile edge, samples
+    tiles: np.ndarray           # the tiles in the sample, sorted
+    weights: np.ndarray         # tiles of the frame each stands for
+    strata_order: object        # block position of each (None: random sampling)
+    tiles_total: int
+    fraction: float             # samples in the sample / samples in the frame
+    visits: np.ndarray | None = None    # sample_trace: which of the source's visits the sample holds
+
+
+def _tiling(meta, tile):
+    w, h = int(meta["samples_w"]), int(meta["samples_h"])
+    return -(-w // tile), -(-h // tile), w * h
+
+
+def sample_trace(trace, sampling: Sampling | str, tile: int | None = None) -> SampledTrace:
+    """A sample of a whole frame's trace: the chosen tiles' trees (edge ``tile``, default
+    the trace's own), in the trace's order.  A visit's costs depend on its ray's own
+    visits and children only, so the source's visit costs sliced by ``.visits`` are the
+    sample's."""
+    sampling = Sampling.parse(sampling) if isinstance(sampling, str) else sampling
+    meta = trace.meta
+    tiles_done, total = meta.get("tiles"), meta.get("tiles_total")
+    if tiles_done is not None and total is not None and len(tiles_done) != total:
+        raise InvalidArgument(f"the trace holds {len(tiles_done)} of {total} tiles; sample a whole frame's trace")
+    tile = int(tile or meta.get("tile") or 16)
+    tx, ty, nsamples = _tiling(meta, tile)
+    sel, weights, order = choose(sampling, tx, ty)
+    tt = tree_tiles(trace, tile)
+    keep = np.isin(tt, sel)
+    sub = subset(trace, keep)
+    sub.meta["sampled"] = {"sample": str(sampling), "tile": tile, "tiles": sel.tolist()}
+    kind = np.asarray(trace.rays["kind"])
+    keep_ray = keep[np.cumsum(kind == PRIMARY) - 1]
+    return SampledTrace(sub, sampling, tile, sel, weights, order, tx * ty, int(keep.sum()) / nsamples,
+                        keep_ray[np.asarray(trace.visits["ray"])])
+
+
+def trace_sample(grid, sampling: Sampling | str, width: int = 0, height: int = 0, tile: int = 16,
+                 **options) -> SampledTrace:
+    """Trace only the chosen tiles of a frame (``options`` as ``Grid.trace``'s)."""
+    from ..grid import render_desc
+    from ..tracing import trace as trace_grid
+
+    sampling = Sampling.parse(sampling) if isinstance(sampling, str) else sampling
+    desc = grid.resolve(render_desc(width, height, options.get("rules", "paper"), options.get("threshold"),
+                                    options.get("max_depth", 0), options.get("threads", 1), tile,
+                                    options.get("ambient"), options.get("mailbox", False)))
+    sw, sh, tx, ty = grid.tiling(desc)
+    sel, weights, order = choose(sampling, tx, ty)
+    _, tr = trace_grid(grid, width, height, tile=tile, tiles=sel.tolist(), **options)
+    tr.meta["sampled"] = {"sample": str(sampling), "tile": tile, "tiles": sel.tolist()}
+    return SampledTrace(tr, sampling, tile, sel, weights, order, tx * ty, len(tr.rays[tr.rays["kind"] == PRIMARY])
+                        / (sw * sh))
+
+
+def estimate(st: SampledTrace, evaluation, analytical, config) -> Scaled:
+    """The frame's time from a sampled replay (``evaluation``: its Evaluation at some level)
+    with ``analytical`` (the sample's level-0 form) sizing its tiles for ``config``."""
+    tiles, sizes = analytical.tile_times(config, tree_tiles(st.trace, st.tile))
+    if not np.array_equal(tiles, st.tiles):
+        raise InvalidArgument("the sampled trace does not hold the tiles it was chosen with")
+    return scale(evaluation.cycles, sizes, st.weights, st.strata_order, st.tiles_total, st.fraction)
+
+
+def scaled_result(result, scaled: Scaled):
+    """A copy of the sample's SimResult standing for the frame: cycles the estimate, every
+    cycle figure of the stages scaled by the same factor (shares unchanged); counts stay
+    the sample's."""
+    import copy
+
+    r = copy.deepcopy(result)
+    f = scaled.scale
+    r.cycles = scaled.cycles
+    for d in list(r.stages.values()) + list(r.nodes.values()):
+        for k in ("processing", "communication", "waiting", "memory_stall", "busy", "blocked", "idle"):
+            if k in d:
+                d[k] = int(round(d[k] * f))
+    return r

@@ -1,0 +1,142 @@
+"""The SimPy machine model's result from plain counters.
+
+The compiled replay (and level 0) count what the SimPy model counts: per
+processor its busy and blocked cycles and visits, per stage its FIFOs' figures
+and local queue, per PE its DIS and the costs of the visits it ran.  Views
+shaped like the model's parts hold those counters, and the model's own
+``System._result`` and ``System._deadlock`` turn them into a ``SimResult`` or a
+``DeadlockError``, so a result cannot differ from SimPy's in how it is summed
+or worded.  The counters come as numpy records of the C library's
+``mprt_replay_proc``, ``mprt_replay_node`` and ``mprt_replay_pe`` layouts.
+"""
+from __future__ import annotations
+
+import numpy as np
+
+from .._lowlevel import REPLAY_NODE_DTYPE, REPLAY_PE_DTYPE, REPLAY_PROC_DTYPE
+from ..machine.fifo import Fifo
+from ..machine.pe import PE
+from ..machine.stage import Stage
+from ..machine.system import System
+
+__all__ = ["SystemView", "REPLAY_NODE_DTYPE", "REPLAY_PE_DTYPE", "REPLAY_PROC_DTYPE"]
+
+
+class _FifoView:
+    """A FIFO at the end of the run, as ``Fifo``'s own reports read it."""
+
+    mean = Fifo.mean
+    state = Fifo.state
+
+    def __init__(self, name, capacity, occupancy, maximum, puts, area, end, waiters):
+        self.name, self.capacity = name, capacity
+        self.items = range(occupancy)
+        self.reserved = 0
+        self.max, self.puts, self.area, self.last = maximum, puts, area, end
+        self.waiters = waiters
+
+
+class _Named:
+    def __init__(self, name):
+        self.name = name
+
+
+class _StageView:
+    state_of = Stage.state_of
+
+    def __init__(self, name, cfg, procs, node, receive, send):
+        self.name, self.cfg, self.n = name, cfg, len(procs)
+        self.busy = procs["busy"].tolist()
+        self.blocked = procs["blocked"].tolist()
+        self.visits = procs["visits"].tolist()
+        self.state = procs["state"].tolist()
+        self.cur = procs["visit"].tolist()
+        self.pending = [range(p) for p in procs["pending"].tolist()]
+        self.stall = [0] * self.n
+        self.generated = int(node["generated"])
+        self.local = range(int(node["local_queue"]))
+        self.receive, self.send = receive, send
+
+
+class _IdealNet:
+    def state(self):
+        return {"network": "ideal"}
+
+    def link_utilisation(self, end):
+        return []
+
+
+class _PEView:
+    state = PE.state
+
+    def __init__(self, index, stages, pe):
+        self.index, self.stages = index, stages
+        self.live, self.max_live = int(pe["live"]), int(pe["max_live"])
+        self.retired, self.t_end = int(pe["retired"]), int(pe["end"])
+        self.dis = _Named(f"PE{index}.DIS")
+        self.dis.admitted = int(pe["admitted"])
+        self.dis.pending = 0 if pe["dis_holding"] else None
+        self.net = _IdealNet()
+
+
+class _ReplayView:
+    """Per-PE sums standing for the SimPy replay's per-tree sums (one 'tree' per PE)."""
+
+    def __init__(self, pes, n_visits, n_rays, max_leaves):
+        self.tree_process = np.stack([p["processing"] for p in pes]).astype(np.int64)
+        self.tree_comm = np.stack([p["communication"] for p in pes]).astype(np.int64)
+        self.tree_visits = np.stack([p["visits"] for p in pes]).astype(np.int64)
+        self.n_visits, self.n_rays, self.max_leaves = n_visits, n_rays, max_leaves
+
+
+def no_waiters(pe, stage, which):
+    return []
+
+
+class SystemView:
+    """A finished (or deadlocked) machine as ``System`` reports it.
+
+    ``end``: the run's time; ``pes``, ``procs``, ``nodes``: counter records
+    (PE order; processors by PE, stage, replica; stages by PE, stage);
+    ``waiters(pe, stage, which)``: who waits for a receive (0: stage indices,
+    -1 the DIS) or send (1: replicas) FIFO slot."""
+
+    _result = System._result
+    _deadlock = System._deadlock
+
+    def __init__(self, trace, config, end, retired, pes, procs, nodes, gen_process, gen_send, n_visits, n_rays,
+                 max_leaves, waiters=no_waiters):
+        self.trace, self.config, self.log = trace, config, None
+        self.timeline = None
+        self.memories = {}
+        self.gen_process, self.gen_send = gen_process, gen_send
+        self.t_end = int(end)
+        self.retired = int(retired)
+        self.replay = _ReplayView(pes, n_visits, n_rays, max_leaves)
+        self.tree_pe = np.arange(config.pes, dtype=np.int32)
+        self.names = []
+        self.pes = []
+        first, n = 0, 0
+        for p in range(config.pes):
+            stages = []
+            for s, sc in enumerate(config.stages):
+                name = f"PE{p}.{sc.name}"
+                nd = nodes[n]
+                rwait = [_Named(f"PE{p}.DIS") if w < 0 else _Named(f"PE{p}.{config.stages[w].name}")
+                         for w in waiters(p, s, 0)]
+                recv = _FifoView(name + ".receive", sc.receive_fifo, int(nd["receive_occupancy"]),
+                                 int(nd["receive_max"]), int(nd["receive_puts"]), int(nd["receive_area"]),
+                                 self.t_end, rwait)
+                send = _FifoView(name + ".send", sc.send_fifo, int(nd["send_occupancy"]), int(nd["send_max"]),
+                                 int(nd["send_puts"]), int(nd["send_area"]), self.t_end, waiters(p, s, 1))
+                stages.append(_StageView(name, sc, procs[first:first + sc.replicas], nd, recv, send))
+                self.names += [(name, k) for k in range(sc.replicas)]
+                first += sc.replicas
+                n += 1
+            self.pes.append(_PEView(p, stages, pes[p]))
+
+    def result(self):
+        return self._result()
+
+    def deadlock(self):
+        return self._deadlock()

@@ -1,0 +1,164 @@
+"""``mprt simulate``: replay a trace (or trace a scene first) on a machine.
+
+    mprt simulate TRACE.npz|SCENE [--grid N] [--res WxH] [--model S|M|3mppe]
+                  [--config FILE.toml] [--pes N] [--json OUT.json] [--plot OUT.png]
+
+Wire into the main parser with ``add_parser(subparsers)``; ``run(args)``
+returns the exit status (2 for an invalid configuration).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+import time
+
+from .. import options as opt
+from .config import BUILTIN, resolve
+from .errors import ConfigError, DeadlockError
+
+
+def add_parser(subparsers) -> argparse.ArgumentParser:
+    s = subparsers.add_parser(
+        "simulate", help="replay a trace on a machine model (S, M, 3mppe or a TOML configuration)",
+        description="Replay a trace on the machine model (SimPy).  A SCENE (SPD name or NFF file) is traced "
+                    "first with the tracing options.")
+    s.add_argument("source", metavar="TRACE.npz|SCENE", help="a trace file, or a scene to trace first")
+    g = s.add_argument_group("tracing (when SOURCE is a scene)")
+    g.add_argument("--grid", type=opt.grid_arg, default=None, metavar="N|NX,NY,NZ",
+                   help=f"voxels per axis, each 1..{opt.GRID_MAX} (default: Scene.default_grid)")
+    g.add_argument("--res", type=opt.resolution_arg, default=None, metavar="WxH",
+                   help=f"image size, each 1..{opt.RES_MAX} (default: the scene's view resolution)")
+    g.add_argument("--rules", choices=("paper", "spd"), default=None, help="shading rules (default: paper)")
+    g.add_argument("--threshold", type=opt.threshold_arg, default=None,
+                   help=f"contribution cutoff in [0, 1), paper rules only "
+                        f"(default: {opt.fraction_text(opt.default_threshold())})")
+    g.add_argument("--threads", type=opt.threads_arg, default=None,
+                   help=f"tracing threads, 1..{opt.THREADS_MAX} (default: {opt.default_threads()}, the machine's cores)")
+    g.add_argument("--tile", type=opt.tile_arg, default=None,
+                   help=f"tile edge in samples, 1..{opt.TILE_MAX} (default: {opt.default_tile()})")
+    m = s.add_argument_group("machine")
+    m.add_argument("--model", choices=tuple(BUILTIN), default=None, help="built-in configuration (default: M)")
+    m.add_argument("--config", metavar="FILE.toml", default=None, help="machine configuration file")
+    m.add_argument("--pes", type=opt.int_range_arg("PEs", 1, 1 << 20), default=None,
+                   help="number of PEs, 1..2^20 and at most the pixels (overrides the configuration)")
+    o = s.add_argument_group("output")
+    o.add_argument("--json", metavar="OUT.json", default=None, help="write the figures and settings as JSON")
+    o.add_argument("--plot", metavar="OUT.png", default=None,
+                   help="write per-stage load bars, utilisation and FIFO occupancy over time (PNG)")
+    s.set_defaults(func=run)
+    return s
+
+
+def _load_source(a):
+    """(trace, settings) from a trace file or a scene traced now."""
+    from ..trace import load_trace
+    from ..tracing import trace as trace_grid
+
+    src = a.source
+    if src.endswith(".npz"):
+        trace = load_trace(src)
+        how = f"trace   {src}"
+    else:
+        scene, _ = opt.load_scene(src)
+        grid = scene.grid(a.grid)
+        w, h = a.res or (0, 0)
+        t0 = time.perf_counter()
+        _, trace = trace_grid(grid, w, h, rules=a.rules or "paper", threshold=a.threshold,
+                              threads=a.threads or os.cpu_count() or 1, tile=a.tile or 16,
+                              progress=sys.stderr.isatty())
+        how = (f"traced  {scene.name}, grid {'x'.join(map(str, grid.n))}, {trace.meta['width']}x"
+               f"{trace.meta['height']} {trace.meta['rules']} in {time.perf_counter() - t0:.2f} s")
+    settings = source_settings(a, trace)
+    return trace, settings, how
+
+
+def source_settings(a, trace) -> dict:
+    """The JSON ``settings`` describing where a trace came from."""
+    m = trace.meta
+    src = a.source
+    return {"source": src, "scene": m.get("scene"), "scene_sha256": m.get("scene_sha256"),
+            "grid": m.get("grid"), "resolution": [m.get("width"), m.get("height")], "rules": m.get("rules"),
+            "threshold": m.get("threshold"), "tiles": len(m.get("tiles", [])),
+            "tiles_total": m.get("tiles_total"), "tile": m.get("tile"),
+            "threads": None if src.endswith(".npz") else a.threads or os.cpu_count() or 1}
+
+
+def run(a, load=None, replay=None) -> int:
+    """``load(a)`` -> (trace, settings, how) and ``replay(trace, cfg, a)`` -> (SimResult, JSON
+    fields to add) replace the defaults (tracing/reading SOURCE; the SimPy replay), so the
+    fidelity ladder's options can reuse this command (mprt.fidelity.cli)."""
+    from .._lowlevel import EXT_VERSION
+    from ..errors import MprtError
+    from .system import System
+
+    if a.source.endswith(".npz"):
+        given = [f"--{k}" for k in ("grid", "res", "rules", "threshold", "threads", "tile")
+                 if getattr(a, k) is not None]
+        if given:
+            print(f"mprt simulate: {', '.join(given)} set how a scene is traced; {a.source} was traced with "
+                  "its own settings (see 'mprt stats')", file=sys.stderr)
+            return 2
+    try:
+        opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"))
+        if a.source.endswith(".npz"):
+            opt.check_input("TRACE", a.source)
+        if a.threshold is not None and (a.rules or "paper") != "paper":
+            opt.check_render_options(argparse.Namespace(threshold=a.threshold, rules=a.rules))
+        cfg = resolve(a.model, a.config, a.pes)
+        if a.res and not a.source.endswith(".npz") and cfg.pes > a.res[0] * a.res[1]:
+            raise ConfigError(f"{cfg.source + ': ' if cfg.source else ''}pes: {cfg.pes} PEs but only "
+                              f"{a.res[0] * a.res[1]} pixels")
+        t0 = time.perf_counter()
+        trace, settings, how = (load or _load_source)(a)
+        print(how)
+        if replay is None:
+            res, extra = System(trace, cfg, timeline=bool(a.plot)).run(progress=sys.stderr.isatty()), {}
+        else:
+            res, extra = replay(trace, cfg, a)
+    except ConfigError as e:
+        print(f"mprt simulate: invalid configuration: {e}", file=sys.stderr)
+        return 2
+    except opt.UsageError as e:
+        print(f"mprt simulate: error: {e}", file=sys.stderr)
+        return 2
+    except DeadlockError as e:
+        print(f"mprt simulate: {e}", file=sys.stderr)
+        return 1
+    except (MprtError, OSError, ValueError, MemoryError) as e:
+        print(f"mprt simulate: error: {e}", file=sys.stderr)
+        return 1
+    wall = time.perf_counter() - t0
+    print(res.report())
+    print(f"time    {res.wall_seconds:.2f} s replay ({res.visits / max(res.wall_seconds, 1e-9):,.0f} visits/s), "
+          f"{wall:.2f} s in all")
+    if a.json:
+        out = res.to_dict()
+        out.update(extra)
+        out["wall_seconds"] = wall
+        out["replay_seconds"] = res.wall_seconds
+        out["settings"] = {**settings, "model": cfg.name, "config_file": cfg.source, "pes": cfg.pes,
+                           "mprt_version": EXT_VERSION, "cost_model": "default"}
+        with open(a.json, "w") as f:
+            json.dump(out, f, indent=2)
+        print(f"wrote   {a.json}")
+    if a.plot:
+        res.plot(a.plot, title=f"{settings['scene']} grid {settings['grid']}: model {cfg.name}, "
+                                f"{res.cycles:,} cycles")
+        print(f"wrote   {a.plot}")
+    return 0
+
+
+def main(argv=None, add=None) -> int:
+    """Run ``simulate`` alone (until it is wired into the ``mprt`` command); ``add``: the
+    add_parser to use (default this module's)."""
+    p = argparse.ArgumentParser(prog="mprt")
+    sub = p.add_subparsers(dest="cmd", required=True)
+    (add or add_parser)(sub)
+    args = p.parse_args(argv)
+    return args.func(args)
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,487 @@
+"""Machine configurations: frozen, validated dataclasses, the built-in models
+and TOML files.
+
+A configuration says which parts the machine has; the model builds only
+those (no ring without ``ring``, no cache without ``cache``).  Model S and
+model M of the paper are configurations like any other:
+
+    S      one sequential processor running OS, IC and SC; ideal network, memory
+    M      three sequential processors (OS, IC, SC); unbounded FIFOs, ideal network
+    3mppe  the paper's VLIW processors on a ring with finite FIFOs, caches,
+           resident memories, global memories and 2 PEs
+
+A TOML file holds the same fields (see ``python/mprt/machine/README.md``);
+every field is checked and an error names the field and the file.
+"""
+from __future__ import annotations
+
+import dataclasses
+import os
+import tomllib
+from dataclasses import dataclass, field
+from typing import Any
+
+from .errors import ConfigError
+
+SUBTASKS = ("OS", "IC", "SC")
+DIS_POLICIES = ("blocks", "interleaved", "dynamic")
+
+
+@dataclass(frozen=True)
+class StageConfig:
+    """A stage: ``replicas`` processors of one configuration running the
+    given subtasks, behind one ring node with a send and a receive FIFO
+    (capacity in packets; None = unbounded)."""
+
+    subtasks: tuple
+    processor: Any
+    replicas: int = 1
+    send_fifo: int | None = None
+    receive_fifo: int | None = None
+    processor_spec: Any = "sequential"
+
+    @property
+    def name(self) -> str:
+        return "+".join(self.subtasks)
+
+
+@dataclass(frozen=True)
+class RingConfig:
+    """The unidirectional ring joining the stages of a PE in their order:
+    one flit per ``flit_time`` cycles per link; ``buffer_classes`` flit
+    buffers per node (the paper's structured pool has one class per hop,
+    3 for 3 stages; 1 is a single shared buffer per node)."""
+
+    flit_time: int = 1
+    buffer_classes: int = 3
+
+
+@dataclass(frozen=True)
+class CacheConfig:
+    """A set-associative LRU cache: size and line in bytes, ways per set."""
+
+    size: int
+    line: int
+    ways: int
+
+
+@dataclass(frozen=True)
+class LocalMemoryConfig:
+    """A processor's local memory for IC or SC data: a resident part (bytes,
+    filled with the most referenced data) and a cache of the global memory
+    (None: whatever is not resident is read from global memory uncached)."""
+
+    resident: int = 0
+    cache: CacheConfig | None = None
+
+
+@dataclass(frozen=True)
+class GlobalMemoryConfig:
+    """ICGM or SCGM: a miss costs ``latency`` cycles plus the line's transfer
+    at ``bandwidth`` bytes per cycle; with ``contention`` all PEs share one
+    port (transfers queue first come, first served), else each PE has its own."""
+
+    latency: int
+    bandwidth: int
+    contention: bool = True
+
+
+@dataclass(frozen=True)
+class SystemConfig:
+    """A whole machine: PEs of the given stages, network, memories, DIS."""
+
+    name: str
+    stages: tuple
+    ring: RingConfig | None = None
+    ic_memory: LocalMemoryConfig | None = None
+    sc_memory: LocalMemoryConfig | None = None
+    icgm: GlobalMemoryConfig | None = None
+    scgm: GlobalMemoryConfig | None = None
+    pes: int = 1
+    dis: str = "dynamic"
+    window: int = 256
+    source: str | None = field(default=None, compare=False)
+
+    def __post_init__(self):
+        _validate(self)
+
+    # -- derived ------------------------------------------------------------
+    def stage_of(self, subtask: str) -> int:
+        """Index (ring position) of the stage that runs a subtask."""
+        for i, s in enumerate(self.stages):
+            if subtask in s.subtasks:
+                return i
+        raise KeyError(subtask)
+
+    @property
+    def level(self) -> int:
+        """Fidelity level: 3 when caches or memories are modelled, else 2."""
+        return 3 if (self.ic_memory or self.sc_memory) else 2
+
+    @property
+    def finite_fifos(self) -> bool:
+        return any(s.send_fifo is not None or s.receive_fifo is not None for s in self.stages)
+
+    @property
+    def cycle_capacity(self) -> int | None:
+        """The fewest live rays a PE needs for its FIFOs to deadlock (None:
+        never): every stage of a cycle then has a full receive FIFO, a full
+        send FIFO and a packet in each of its blocked processors, so it is at
+        least the smallest sum of two stages' (receive + send + replicas)."""
+        caps = [None if s.send_fifo is None or s.receive_fifo is None else s.send_fifo + s.receive_fifo + s.replicas
+                for s in self.stages]
+        finite = sorted(c for c in caps if c is not None)
+        if len(finite) < 2:
+            return None
+        return finite[0] + finite[1]
+
+    def processors(self) -> dict:
+        """The processor configuration that runs each subtask (for the cost model)."""
+        return {t: self.stages[self.stage_of(t)].processor for t in SUBTASKS}
+
+    def replace(self, **changes) -> "SystemConfig":
+        return dataclasses.replace(self, **changes)
+
+    def to_dict(self) -> dict:
+        """The settings as plain data (JSON), processors by their specification."""
+        def part(x):
+            return None if x is None else dataclasses.asdict(x)
+        return {
+            "name": self.name,
+            "source": self.source,
+            "pes": self.pes,
+            "dis": self.dis,
+            "window": self.window,
+            "stages": [{"subtasks": list(s.subtasks), "processor": _spec_json(s.processor_spec),
+                        "replicas": s.replicas, "send_fifo": s.send_fifo, "receive_fifo": s.receive_fifo}
+                       for s in self.stages],
+            "ring": part(self.ring),
+            "ic_memory": part(self.ic_memory),
+            "sc_memory": part(self.sc_memory),
+            "icgm": part(self.icgm),
+            "scgm": part(self.scgm),
+            "level": self.level,
+        }
+
+
+def _spec_json(spec):
+    return spec if isinstance(spec, (str, dict)) else repr(spec)
+
+
+# ---- validation ---------------------------------------------------------------
+
+def _where(cfg) -> str:
+    return f"{cfg.source}: " if cfg.source else ""
+
+
+def _int(value, where, name, lo=1, allow_none=False):
+    """An integer >= lo (bool is not an integer here)."""
+    if value is None and allow_none:
+        return None
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ConfigError(f"{where}{name}: must be an integer, not {value!r}")
+    if value < lo:
+        raise ConfigError(f"{where}{name}: must be at least {lo}, not {value}")
+    return value
+
+
+def _validate(cfg: SystemConfig) -> None:
+    w = _where(cfg)
+    if not isinstance(cfg.name, str) or not cfg.name:
+        raise ConfigError(f"{w}name: must be a non-empty string")
+    if not isinstance(cfg.stages, tuple) or not cfg.stages:
+        raise ConfigError(f"{w}stage: at least one stage is needed")
+    seen = []
+    for i, s in enumerate(cfg.stages):
+        where = f"stage[{i}]"
+        if not isinstance(s, StageConfig):
+            raise ConfigError(f"{w}{where}: not a StageConfig")
+        if not isinstance(s.subtasks, tuple) or not s.subtasks:
+            raise ConfigError(f"{w}{where}.subtasks: must list one or more of {', '.join(SUBTASKS)}")
+        for t in s.subtasks:
+            if t not in SUBTASKS:
+                raise ConfigError(f"{w}{where}.subtasks: unknown subtask {t!r} (known: {', '.join(SUBTASKS)})")
+            if t in seen:
+                raise ConfigError(f"{w}{where}.subtasks: {t} is already run by another stage")
+            seen.append(t)
+        _int(s.replicas, w, f"{where}.replicas")
+        _int(s.send_fifo, w, f"{where}.send_fifo", allow_none=True)
+        _int(s.receive_fifo, w, f"{where}.receive_fifo", allow_none=True)
+    missing = [t for t in SUBTASKS if t not in seen]
+    if missing:
+        raise ConfigError(f"{w}stage: no stage runs {', '.join(missing)}")
+    if cfg.ring is not None:
+        if len(cfg.stages) < 2:
+            raise ConfigError(f"{w}ring: a ring needs at least 2 stages (one stage has no network)")
+        _int(cfg.ring.flit_time, w, "ring.flit_time")
+        _int(cfg.ring.buffer_classes, w, "ring.buffer_classes")
+        if cfg.ring.buffer_classes > len(cfg.stages):
+            raise ConfigError(f"{w}ring.buffer_classes: at most {len(cfg.stages)} (one per hop plus the "
+                              f"source's) with {len(cfg.stages)} stages, not {cfg.ring.buffer_classes}")
+    for mem, gm, tag in ((cfg.ic_memory, cfg.icgm, "ic"), (cfg.sc_memory, cfg.scgm, "sc")):
+        if mem is not None:
+            _int(mem.resident, w, f"{tag}_memory.resident", lo=0)
+            if mem.cache is not None:
+                c = mem.cache
+                _int(c.size, w, f"{tag}_memory.cache.size")
+                _int(c.line, w, f"{tag}_memory.cache.line")
+                _int(c.ways, w, f"{tag}_memory.cache.ways")
+                if c.line > c.size:
+                    raise ConfigError(f"{w}{tag}_memory.cache.line: the line ({c.line} bytes) is larger than "
+                                      f"the cache ({c.size} bytes)")
+                if c.line & (c.line - 1):
+                    raise ConfigError(f"{w}{tag}_memory.cache.line: must be a power of two, not {c.line}")
+                if c.size % (c.line * c.ways):
+                    raise ConfigError(f"{w}{tag}_memory.cache.size: {c.size} bytes is not a whole number of "
+                                      f"sets of {c.ways} ways x {c.line}-byte lines")
+            if gm is None:
+                raise ConfigError(f"{w}{tag}gm: {tag}_memory is modelled, so its misses need a global memory "
+                                  f"([{tag}gm] with latency and bandwidth)")
+        if gm is not None:
+            _int(gm.latency, w, f"{tag}gm.latency", lo=0)
+            _int(gm.bandwidth, w, f"{tag}gm.bandwidth")
+            if not isinstance(gm.contention, bool):
+                raise ConfigError(f"{w}{tag}gm.contention: must be true or false, not {gm.contention!r}")
+    _int(cfg.pes, w, "pes")
+    if cfg.dis not in DIS_POLICIES:
+        raise ConfigError(f"{w}dis: unknown policy {cfg.dis!r} (known: {', '.join(DIS_POLICIES)})")
+    _int(cfg.window, w, "window")
+
+
+# ---- processors -----------------------------------------------------------------
+
+def make_processor(spec, subtasks, where="processor"):
+    """A ProcessorConfig from a specification: "sequential", "paper" (the
+    paper's processor for the stage's one subtask), "paper:OS|IC|SC", or a
+    table of ProcessorConfig's fields (units, latency, issue_width)."""
+    from ..cost import ProcessorConfig
+
+    if isinstance(spec, ProcessorConfig):
+        return spec
+    try:
+        if spec == "sequential":
+            return ProcessorConfig.sequential()
+        if isinstance(spec, str) and spec.startswith("paper"):
+            sub = spec[6:] if spec.startswith("paper:") else None
+            if spec not in ("paper",) and sub is None:
+                raise ConfigError(f"{where}: unknown processor {spec!r}")
+            if sub is None:
+                if len(subtasks) != 1:
+                    raise ConfigError(f"{where}: 'paper' is ambiguous for a stage running "
+                                      f"{'+'.join(subtasks)}; write 'paper:OS', 'paper:IC' or 'paper:SC'")
+                sub = subtasks[0]
+            if sub not in SUBTASKS:
+                raise ConfigError(f"{where}: unknown paper processor {sub!r} (known: {', '.join(SUBTASKS)})")
+            return ProcessorConfig.paper(sub)
+        if isinstance(spec, dict):
+            return ProcessorConfig.from_dict(spec, where=where)
+    except ConfigError:
+        raise
+    except (TypeError, ValueError) as e:
+        msg = str(e)
+        raise ConfigError(msg if msg.startswith(where) else f"{where}: {msg}") from None
+    raise ConfigError(f"{where}: must be 'sequential', 'paper', 'paper:OS|IC|SC' or a table of "
+                      f"units/latency/issue_width, not {spec!r}")
+
+
+def make_stage(subtasks, processor="sequential", replicas=1, send_fifo=None, receive_fifo=None) -> StageConfig:
+    """A StageConfig with its processor built from a specification."""
+    subtasks = tuple(subtasks)
+    return StageConfig(subtasks, make_processor(processor, subtasks), replicas, send_fifo, receive_fifo, processor)
+
+
+# ---- built-in configurations --------------------------------------------------
+
+def model_s() -> SystemConfig:
+    """The paper's model S: one sequential processor runs OS, IC and SC."""
+    return SystemConfig("S", (make_stage(SUBTASKS),))
+
+
+def model_m() -> SystemConfig:
+    """The paper's model M: three identical sequential processors, unbounded
+    FIFOs, zero network latency, every data access a hit."""
+    return SystemConfig("M", tuple(make_stage((t,)) for t in SUBTASKS))
+
+
+def model_3mppe() -> SystemConfig:
+    """The paper's 3MPPE: VLIW OS (2 int + 2 FP) and IC (1 int + 3 FP), a
+    sequential SC, on a ring (structured buffer pool, 1 cycle per flit) with
+    finite FIFOs; IC and SC with resident memory and a cache in front of
+    ICGM/SCGM shared by 2 PEs.  Sizes are our choices (the paper gives none);
+    window and FIFOs are such that the FIFOs cannot deadlock for trees of up
+    to 28 leaves (4 x 28 < 2 x (8 + 48 + 1), see README.md)."""
+    return SystemConfig(
+        "3mppe",
+        tuple(make_stage((t,), "paper", send_fifo=8, receive_fifo=48) for t in SUBTASKS),
+        ring=RingConfig(flit_time=1, buffer_classes=3),
+        ic_memory=LocalMemoryConfig(resident=64 << 10, cache=CacheConfig(size=32 << 10, line=32, ways=4)),
+        sc_memory=LocalMemoryConfig(resident=4 << 10, cache=CacheConfig(size=4 << 10, line=32, ways=2)),
+        icgm=GlobalMemoryConfig(latency=20, bandwidth=8, contention=True),
+        scgm=GlobalMemoryConfig(latency=20, bandwidth=8, contention=True),
+        pes=2, dis="dynamic", window=4)
+
+
+BUILTIN = {"S": model_s, "M": model_m, "3mppe": model_3mppe}
+
+
+def builtin(name: str) -> SystemConfig:
+    """A built-in configuration by name (S, M, 3mppe)."""
+    if name not in BUILTIN:
+        raise ConfigError(f"unknown model {name!r} (known: {', '.join(BUILTIN)})")
+    return BUILTIN[name]()
+
+
+# ---- TOML ---------------------------------------------------------------------------
+
+_TOP = {"base", "name", "pes", "dis", "window", "stage", "ring", "ic_memory", "sc_memory", "icgm", "scgm"}
+_STAGE = {"subtasks", "processor", "replicas", "send_fifo", "receive_fifo"}
+_RING = {"flit_time", "buffer_classes"}
+_LOCAL = {"resident", "cache"}
+_CACHE = {"size", "line", "ways"}
+_GLOBAL = {"latency", "bandwidth", "contention"}
+
+
+def _table(value, where, name, keys):
+    if not isinstance(value, dict):
+        raise ConfigError(f"{where}{name}: must be a table, not {value!r}")
+    unknown = sorted(set(value) - keys)
+    if unknown:
+        raise ConfigError(f"{where}{name}.{unknown[0]}: unknown field (known: {', '.join(sorted(keys))})")
+    return value
+
+
+def _fifo(value, where, name):
+    if value == "unbounded":
+        return None
+    if isinstance(value, bool) or not isinstance(value, int):
+        raise ConfigError(f"{where}{name}: must be a positive integer or \"unbounded\", not {value!r}")
+    if value < 1:
+        raise ConfigError(f"{where}{name}: a FIFO holds at least 1 packet, not {value}")
+    return value
+
+
+def _need(tbl, key, where, name):
+    if key not in tbl:
+        raise ConfigError(f"{where}{name}.{key}: missing")
+    return tbl[key]
+
+
+def _optional(data, key, where, build):
+    """A table, or "none" to leave the part out; absent: the base's part."""
+    v = data[key]
+    if v == "none":
+        return None
+    return build(v)
+
+
+def config_from_dict(data: dict, source: str | None = None) -> SystemConfig:
+    """A SystemConfig from parsed TOML (or equivalent) data, checked field by field."""
+    w = f"{source}: " if source else ""
+    unknown = sorted(set(data) - _TOP)
+    if unknown:
+        raise ConfigError(f"{w}{unknown[0]}: unknown field (known: {', '.join(sorted(_TOP))})")
+    base = data.get("base")
+    if base is not None:
+        if not isinstance(base, str) or base not in BUILTIN:
+            raise ConfigError(f"{w}base: unknown model {base!r} (known: {', '.join(BUILTIN)})")
+        cfg = builtin(base)
+    else:
+        cfg = None
+    ch: dict = {}
+    if "name" in data:
+        if not isinstance(data["name"], str) or not data["name"]:
+            raise ConfigError(f"{w}name: must be a non-empty string")
+        ch["name"] = data["name"]
+    elif cfg is None:
+        ch["name"] = os.path.splitext(os.path.basename(source))[0] if source else "custom"
+    for key in ("pes", "window"):
+        if key in data:
+            ch[key] = _int(data[key], w, key)
+    if "dis" in data:
+        if data["dis"] not in DIS_POLICIES:
+            raise ConfigError(f"{w}dis: unknown policy {data['dis']!r} (known: {', '.join(DIS_POLICIES)})")
+        ch["dis"] = data["dis"]
+    if "stage" in data:
+        stages = data["stage"]
+        if not isinstance(stages, list) or not stages:
+            raise ConfigError(f"{w}stage: must be an array of tables ([[stage]]), one per stage")
+        out = []
+        for i, st in enumerate(stages):
+            nm = f"stage[{i}]"
+            _table(st, w, nm, _STAGE)
+            subs = _need(st, "subtasks", w, nm)
+            if isinstance(subs, str):
+                subs = [subs]
+            if not isinstance(subs, list) or not all(isinstance(x, str) for x in subs):
+                raise ConfigError(f"{w}{nm}.subtasks: must be a list of OS, IC, SC")
+            for x in subs:
+                if x not in SUBTASKS:
+                    raise ConfigError(f"{w}{nm}.subtasks: unknown subtask {x!r} (known: {', '.join(SUBTASKS)})")
+            spec = st.get("processor", "sequential")
+            proc = make_processor(spec, tuple(subs), where=f"{w}{nm}.processor")
+            out.append(StageConfig(tuple(subs), proc, _int(st.get("replicas", 1), w, f"{nm}.replicas"),
+                                   _fifo(st.get("send_fifo", "unbounded"), w, f"{nm}.send_fifo"),
+                                   _fifo(st.get("receive_fifo", "unbounded"), w, f"{nm}.receive_fifo"), spec))
+        ch["stages"] = tuple(out)
+    if "ring" in data:
+        def ring(v):
+            _table(v, w, "ring", _RING)
+            return RingConfig(_int(v.get("flit_time", 1), w, "ring.flit_time"),
+                              _int(v.get("buffer_classes", 3), w, "ring.buffer_classes"))
+        ch["ring"] = _optional(data, "ring", w, ring)
+    for tag in ("ic", "sc"):
+        key = f"{tag}_memory"
+        if key in data:
+            def local(v, key=key):
+                _table(v, w, key, _LOCAL)
+                cache = None
+                if "cache" in v and v["cache"] != "none":
+                    c = _table(v["cache"], w, f"{key}.cache", _CACHE)
+                    cache = CacheConfig(*(_int(_need(c, k, w, f"{key}.cache"), w, f"{key}.cache.{k}")
+                                          for k in ("size", "line", "ways")))
+                return LocalMemoryConfig(_int(v.get("resident", 0), w, f"{key}.resident", lo=0), cache)
+            ch[key] = _optional(data, key, w, local)
+        gkey = f"{tag}gm"
+        if gkey in data:
+            def glob(v, gkey=gkey):
+                _table(v, w, gkey, _GLOBAL)
+                cont = v.get("contention", True)
+                if not isinstance(cont, bool):
+                    raise ConfigError(f"{w}{gkey}.contention: must be true or false, not {cont!r}")
+                return GlobalMemoryConfig(_int(_need(v, "latency", w, gkey), w, f"{gkey}.latency", lo=0),
+                                          _int(_need(v, "bandwidth", w, gkey), w, f"{gkey}.bandwidth"), cont)
+            ch[gkey] = _optional(data, gkey, w, glob)
+    ch["source"] = source
+    if cfg is None:
+        if "stages" not in ch:
+            raise ConfigError(f"{w}stage: missing (give [[stage]] tables, or base = \"S\"|\"M\"|\"3mppe\")")
+        try:
+            return SystemConfig(**ch)
+        except TypeError as e:
+            raise ConfigError(f"{w}{e}") from None
+    # the base's checks ran without a file name; run them again with it
+    return dataclasses.replace(cfg, **ch)
+
+
+def load_config(path) -> SystemConfig:
+    """Read and check a machine configuration file (TOML)."""
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as f:
+            data = tomllib.load(f)
+    except OSError as e:
+        raise ConfigError(f"{path}: cannot read the configuration ({e.strerror or e})") from None
+    except tomllib.TOMLDecodeError as e:
+        raise ConfigError(f"{path}: not valid TOML ({e})") from None
+    return config_from_dict(data, source=path)
+
+
+def resolve(model: str | None = None, config_path=None, pes: int | None = None) -> SystemConfig:
+    """The configuration a command asks for: a file, else a built-in model
+    (default M); ``pes`` overrides the number of PEs."""
+    if config_path and model:
+        raise ConfigError("give --model or --config, not both (a file may start from a model with base = ...)")
+    cfg = load_config(config_path) if config_path else builtin(model or "M")
+    if pes is not None:
+        cfg = cfg.replace(pes=_int(pes, "", "--pes"))
+    return cfg

@@ -1,0 +1,355 @@
+"""The command line's options: one validation per option, shared by every ``mprt`` subcommand.
+
+Each option is checked once, here, with its allowed range in the message and
+in ``--help``; nothing out of range is passed on to be replaced by a default
+(``--res 0x64`` is refused, not rendered at 512x64).  A subcommand module
+(``mprt simulate``, ``explore``, ``prepass``, ``sweep``) builds its parser
+with these helpers and, before any work:
+
+    from mprt import options
+    def add_parser(sub):
+        p = sub.add_parser("simulate", ...)
+        options.add_scene_argument(p)          # or its own positional
+        options.add_render_options(p)          # --grid --res --rules --threshold --threads --tile --mailbox
+        p.add_argument("--json", metavar="OUT.json", help=options.OUTPUT_HELP["json"])
+    def run(a):
+        options.check_render_options(a)        # combinations (--threshold with --rules spd)
+        options.check_outputs(("--json", a.json, "json"))
+        scene, how = options.load_scene(a.scene)
+        ...
+        options.write_json(a.json, {..., "settings": options.run_settings(scene, grid, desc, how),
+                                    "wall_seconds": ...})
+
+``UsageError`` (exit status 2 in ``mprt``) is raised for a bad option or an
+output that cannot be written; argparse's own type errors exit 2 as well.
+
+The scene rule: a SCENE that is an SPD name, with or without ``:SIZE``
+(``balls``, ``balls:2``), is always the SPD generator, even when a file or
+directory of that name exists (a note says it is not read); any other SCENE
+is an NFF file path (write ``./balls`` for a file named ``balls``).
+"""
+from __future__ import annotations
+
+import argparse
+import json
+import os
+import sys
+from fractions import Fraction
+
+from ._lowlevel import EXT_VERSION, RULES, binding
+from .errors import InvalidArgument
+from .scene import SPD_DEFAULT_SIZES, SPD_SCENES, Scene
+
+# The ranges the library accepts (render.c, grid.c, spd.c; tests/test_cli_options.py
+# checks each against the library), except where the command line is stricter:
+# threads 0 (the library's "1") and tile <= 0 (its "16") are refused here, and the
+# tile edge is capped so that a tile's record buffers stay small.
+RES_MAX = 65536          # width and height: 1..RES_MAX
+GRID_MAX = 1024          # voxels per axis: 1..GRID_MAX
+THREADS_MAX = 64         # threads: 1..THREADS_MAX
+TILE_MAX = 256           # tile edge in samples: 1..TILE_MAX
+SPD_MAX_SIZES = {"balls": 8, "gears": 69, "mount": 12, "rings": 135, "tetra": 12, "tree": 23}
+
+OUTPUT_SUFFIX = {"png": ".png", "plot": ".png", "npz": ".npz"}   # outputs whose format mprt fixes
+OUTPUT_HELP = {
+    "png": "PNG image to write (the name must end in .png)",
+    "npz": "trace file to write (the name must end in .npz)",
+    "json": "JSON file to write: the figures, the settings that made them and the wall time",
+    "plot": "PNG plot to write (the name must end in .png)",
+}
+
+
+class UsageError(InvalidArgument):
+    """An option is out of range, options contradict each other, or an output cannot be
+    written: found before any work (``mprt`` exits with status 2)."""
+
+
+def default_threads() -> int:
+    """The machine's cores available to this process (at most THREADS_MAX)."""
+    try:
+        n = len(os.sched_getaffinity(0))
+    except (AttributeError, OSError):
+        n = os.cpu_count() or 1
+    return max(1, min(n, THREADS_MAX))
+
+
+def default_threshold() -> float:
+    """The library's default contribution cutoff (paper rules)."""
+    return binding().render_desc_init()["threshold"]
+
+
+def default_tile() -> int:
+    return binding().render_desc_init()["tile"]
+
+
+def fraction_text(x: float) -> str:
+    """1/512 for 0.001953125 (a unit fraction, exactly); other numbers as %g."""
+    if 0 < x < 1 and (1 / x).is_integer() and 1 / round(1 / x) == x:
+        return f"1/{round(1 / x)}"
+    return f"{x:g}"
+
+
+# -- argparse types: each raises ArgumentTypeError with the allowed range -------------------------
+def _int(text: str, what: str, lo: int, hi: int) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number ({what} must be in {lo}..{hi})") from None
+    if not lo <= v <= hi:
+        raise argparse.ArgumentTypeError(f"{what} {v} is not in {lo}..{hi}")
+    return v
+
+
+def int_range_arg(what: str, lo: int, hi: int):
+    """An argparse type: a whole number in lo..hi, the range named in the message."""
+    return lambda text: _int(text, what, lo, hi)
+
+
+def threads_arg(text: str) -> int:
+    """--threads: 1..THREADS_MAX."""
+    return _int(text, "threads", 1, THREADS_MAX)
+
+
+def tile_arg(text: str) -> int:
+    """--tile: the tile edge in samples, 1..TILE_MAX."""
+    return _int(text, "tile edge", 1, TILE_MAX)
+
+
+def grid_arg(text: str):
+    """--grid: N or NX,NY,NZ, each 1..GRID_MAX."""
+    parts = text.split(",")
+    if len(parts) not in (1, 3):
+        raise argparse.ArgumentTypeError(f"grid must be N or NX,NY,NZ, not {text!r}")
+    vals = [_int(p.strip(), "voxels per axis", 1, GRID_MAX) for p in parts]
+    return vals[0] if len(vals) == 1 else tuple(vals)
+
+
+def resolution_arg(text: str):
+    """--res: WxH, each 1..RES_MAX."""
+    parts = text.lower().split("x")
+    if len(parts) != 2:
+        raise argparse.ArgumentTypeError(f"resolution must be WxH (e.g. 512x512), not {text!r}")
+    w, h = (_int(p.strip(), "width" if i == 0 else "height", 1, RES_MAX) for i, p in enumerate(parts))
+    return w, h
+
+
+def threshold_arg(text: str) -> float:
+    """--threshold: a contribution cutoff in [0, 1)."""
+    try:
+        v = float(Fraction(text)) if "/" in text else float(text)
+    except (ValueError, ZeroDivisionError):
+        raise argparse.ArgumentTypeError(f"threshold must be a number in [0, 1) such as 0.002 or 1/512, "
+                                         f"not {text!r}") from None
+    if not 0 <= v < 1:
+        raise argparse.ArgumentTypeError(f"threshold {text} is not in [0, 1)")
+    return v
+
+
+def tiles_arg(text: str):
+    """--tiles: a comma-separated list of tile numbers (checked against the image's tiles later)."""
+    try:
+        vals = [int(v) for v in text.split(",") if v.strip()]
+    except ValueError:
+        vals = None
+    if not vals or min(vals) < 0:
+        raise argparse.ArgumentTypeError(f"tiles must be a comma-separated list of tile numbers (0, 1, ...), "
+                                         f"not {text!r}")
+    return vals
+
+
+def sample_arg(text: str) -> str:
+    """--sample: regular:K or random:N:SEED with K, N >= 1 (N is checked against the image's tiles later)."""
+    p = text.split(":")
+    ok = (len(p) == 2 and p[0] == "regular" and p[1].isdigit() and int(p[1]) >= 1) or \
+         (len(p) == 3 and p[0] == "random" and p[1].isdigit() and int(p[1]) >= 1 and p[2].lstrip("-").isdigit())
+    if not ok:
+        raise argparse.ArgumentTypeError(f"sample must be regular:K (every K-th tile, K >= 1) or random:N:SEED "
+                                         f"(N tiles, N >= 1), not {text!r}")
+    return text
+
+
+def spd_size(name: str, size) -> int | None:
+    """A validated SPD size factor for scene ``name`` (None: the SPD default); the same
+    message for every size out of range, whichever end."""
+    if size is None or size == "":
+        if size == "":
+            raise UsageError(f"SPD size missing after '{name}:' (sizes are 1..{SPD_MAX_SIZES[name]}, "
+                             f"default {SPD_DEFAULT_SIZES[name]})")
+        return None
+    lo, hi = 1, SPD_MAX_SIZES[name]
+    try:
+        v = int(size)
+    except (TypeError, ValueError):
+        v = None
+    what = "a whole number in" if v is None else "in"
+    if v is None or not lo <= v <= hi:
+        raise UsageError(f"SPD size {size} for {name} is not {what} {lo}..{hi} (default {SPD_DEFAULT_SIZES[name]})")
+    return v
+
+
+def spd_size_arg(text: str) -> int:
+    """--size: a whole number (its range depends on the scene, checked with it)."""
+    try:
+        return int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"SPD size must be a whole number, not {text!r}") from None
+
+
+# -- groups of options --------------------------------------------------------------------------
+SCENE_HELP = ("an SPD scene name with an optional size (balls, balls:2; always the SPD generator, even when "
+              "a file of that name exists: write ./balls for the file) or an NFF file path")
+
+
+def add_scene_argument(p: argparse.ArgumentParser, name: str = "scene") -> None:
+    p.add_argument(name, metavar="SCENE", help=SCENE_HELP)
+
+
+def add_render_options(p: argparse.ArgumentParser, trace: bool = False) -> argparse._ArgumentGroup:
+    """--grid, --res, --rules, --threshold, --threads, --tile, --mailbox, each with its range
+    and default in --help.  Returns the argument group (to add more)."""
+    g = p.add_argument_group("rendering")
+    g.add_argument("--grid", type=grid_arg, default=None, metavar="N|NX,NY,NZ",
+                   help=f"voxels per axis, each 1..{GRID_MAX} (default: Scene.default_grid, about "
+                        "8*N^(1/3) along the box's longest axis for N primitives)")
+    g.add_argument("--res", type=resolution_arg, default=None, metavar="WxH",
+                   help=f"image size, each 1..{RES_MAX} (default: the scene's view resolution)")
+    g.add_argument("--rules", choices=tuple(RULES), default="paper",
+                   help="shading rules: paper (pixel centres, contribution cutoff) or spd (SPD's procedure: "
+                        "pixel corners, depth 5, no cutoff) (default: paper)")
+    g.add_argument("--threshold", type=threshold_arg, default=None,
+                   help=f"contribution cutoff in [0, 1), paper rules only (default: {fraction_text(default_threshold())})")
+    g.add_argument("--threads", type=threads_arg, default=default_threads(),
+                   help=f"threads, 1..{THREADS_MAX} (default: {default_threads()}, the machine's cores); "
+                        "results are the same bits for any number")
+    g.add_argument("--tile", type=tile_arg, default=None,
+                   help=f"tile edge in samples, 1..{TILE_MAX}: the unit of work{' and of --tiles/--sample' if trace else ''}"
+                        f" (default: {default_tile()})")
+    g.add_argument("--mailbox", action="store_true",
+                   help="IC skips primitives the ray already tested (fewer tests, same image; default: off, as the "
+                        "paper's IC)")
+    return g
+
+
+def check_render_options(a) -> None:
+    """Combinations of the render options that would be silently ignored."""
+    if getattr(a, "threshold", None) is not None and a.rules != "paper":
+        raise UsageError(f"--threshold applies to the paper rules only (the {a.rules} rules have no cutoff); "
+                         "leave it out or use --rules paper")
+
+
+def render_kwargs(a) -> dict:
+    """The keyword options of Grid.render / tracing.trace from parsed render options."""
+    w, h = a.res or (0, 0)
+    return dict(width=w, height=h, rules=a.rules, threshold=a.threshold, threads=a.threads, tile=a.tile,
+                mailbox=a.mailbox)
+
+
+# -- scenes -------------------------------------------------------------------------------------
+def load_scene(spec: str, precision: str = "double", note=None):
+    """(Scene, how): the scene a SCENE argument names under the rule in this module's text, and
+    a phrase saying which was used.  When an SPD name is also a file or directory here, a note
+    says it is not read (``note``: a function of the message; default: print to stderr)."""
+    base, colon, size = spec.partition(":")
+    if base in SPD_SCENES:
+        n = spd_size(base, size if colon else None)
+        scene = Scene.spd(base, n, precision)
+        if os.path.exists(spec):
+            kind = "directory" if os.path.isdir(spec) else "file"
+            (note or _note)(f"{spec} is the SPD scene; the {kind} {spec} here is not read (write ./{spec} for it)")
+        return scene, "SPD scene (generated)"
+    if os.path.isdir(spec):
+        raise UsageError(f"scene {spec!r} is a directory, not an NFF file")
+    if not os.path.exists(spec):
+        raise UsageError(f"scene {spec!r} is neither a file nor an SPD scene ({', '.join(SPD_SCENES)}, "
+                         "with an optional :SIZE)")
+    return Scene.from_nff(spec, precision), f"NFF file {spec}"
+
+
+def _note(message: str) -> None:
+    print(f"mprt: note: {message}", file=sys.stderr)
+
+
+# -- outputs ------------------------------------------------------------------------------------
+def check_output(option: str, path, kind: str = "any") -> None:
+    """Fail (UsageError naming the option and the user's path) unless ``path`` can be written
+    as ``kind`` ('png', 'npz', or any other for free-form files): the directory exists and is
+    writable, the path is not a directory, and a format mprt fixes has its suffix."""
+    if path is None:
+        return
+    p = os.fspath(path)
+    if not p:
+        raise UsageError(f"{option}: the file name is empty")
+    suffix = OUTPUT_SUFFIX.get(kind)
+    if suffix and not p.lower().endswith(suffix):
+        raise UsageError(f"{option} {p}: mprt writes {suffix[1:].upper()} here; give a name ending in {suffix}")
+    if os.path.isdir(p):
+        raise UsageError(f"{option} {p}: is a directory")
+    d = os.path.dirname(p) or "."
+    if not os.path.isdir(d):
+        raise UsageError(f"{option} {p}: directory {d} does not exist")
+    if not os.access(d, os.W_OK | os.X_OK) or (os.path.exists(p) and not os.access(p, os.W_OK)):
+        raise UsageError(f"{option} {p}: not writable")
+
+
+def check_outputs(*outputs) -> None:
+    """check_output for each (option, path, kind); also refuses two outputs naming one file."""
+    seen = {}
+    for option, path, kind in outputs:
+        if path is None:
+            continue
+        check_output(option, path, kind)
+        real = os.path.realpath(path)
+        if real in seen:
+            raise UsageError(f"{seen[real]} and {option} both name {path}")
+        seen[real] = option
+
+
+def check_input(option: str, path) -> None:
+    """An input file must exist and be a file (not a directory)."""
+    p = os.fspath(path)
+    if os.path.isdir(p):
+        raise UsageError(f"{option} {p}: is a directory, not a file")
+    if not os.path.exists(p):
+        raise UsageError(f"{option} {p}: no such file")
+
+
+# -- what JSON outputs record -------------------------------------------------------------------
+def version() -> str:
+    return EXT_VERSION
+
+
+def base_settings(argv=None) -> dict:
+    """What every JSON output records of the run itself: the mprt version and the command line
+    (``argv``, default sys.argv)."""
+    return {"mprt_version": version(), "command": " ".join(["mprt"] + list(sys.argv[1:] if argv is None else argv))}
+
+
+def run_settings(scene=None, grid=None, desc: dict | None = None, how: str | None = None, argv=None,
+                 **extra) -> dict:
+    """The settings that made a result, for its JSON: ``base_settings``, the scene (name, how it
+    was read, NFF SHA-256), grid, resolution, rules, threshold (None under rules without a
+    cutoff), threads, tile, max depth, mailbox; ``extra`` adds more."""
+    s = base_settings(argv)
+    if scene is not None:
+        s.update(scene=scene.name, scene_source=how, scene_sha256=scene.content_hash(),
+                 precision=scene.precision)
+    if grid is not None:
+        s["grid"] = list(grid.n)
+    if desc is not None:
+        rules = next(k for k, v in RULES.items() if v == desc["rules"])
+        s.update(resolution=[desc["width"], desc["height"]], rules=rules,
+                 threshold=desc["threshold"] if rules == "paper" else None, threads=desc["threads"],
+                 tile=desc["tile"], max_depth=desc["max_depth"], mailbox=bool(desc["mailbox"]))
+    s.update(extra)
+    return s
+
+
+def write_json(path, data: dict) -> None:
+    """Write ``data`` as indented JSON to a path (checked with check_output first) or an open
+    text file."""
+    if hasattr(path, "write"):
+        json.dump(data, path, indent=2)
+        path.write("\n")
+        return
+    with open(path, "w") as f:
+        write_json(f, data)

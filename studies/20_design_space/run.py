@@ -1,0 +1,108 @@
+"""The design space per SPD scene: best machines at three budgets beside the
+paper's 3MPPE and models S and M; whether SC should keep its own processor;
+how the best subdivision moves with the machine.
+
+    .venv/bin/python studies/20_design_space/run.py [--res RES] [--out DIR] [--quick]
+Writes DIR/design_space.{csv,md} (default studies/out) and prints the Markdown.  --quick: tetra
+at SPD size 1, 32x32, one budget (the committed ref/; the full run's results are in ref/full/).
+"""
+import argparse
+import csv
+import sys
+import time
+from pathlib import Path
+
+import mprt
+from mprt.explore import model_m, model_s, paper_3mppe
+from mprt.explore.explorer import explore
+from mprt.explore.prepass import prepass
+from mprt.explore.space import DEFAULT_SPACE_TOML, parse_space
+
+OUT = Path(__file__).resolve().parents[1] / "out"
+BUDGETS = (400.0, 800.0, 1600.0)       # kGE; the paper's 3MPPE costs 794 in the default unit costs
+
+
+def mapping_space(mapping: str):
+    text = DEFAULT_SPACE_TOML.replace(
+        'mapping = { choices = ["OS|IC|SC", "OS+SC|IC", "OS|IC+SC", "OS+IC+SC"] }', f'mapping = "{mapping}"')
+    return parse_space(text, f"<default space, mapping {mapping}>")
+
+
+def main(argv=None):
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--res", type=int, default=128)
+    ap.add_argument("--out", type=Path, default=OUT)
+    ap.add_argument("--threads", type=int, default=2)
+    ap.add_argument("--quick", action="store_true")
+    a = ap.parse_args(argv)
+    scenes = [("tetra", 1)] if a.quick else [(n, None) for n in mprt.SPD_SCENES]
+    budgets = BUDGETS[1:2] if a.quick else BUDGETS
+    run(32 if a.quick else a.res, a.out, scenes, budgets, a.threads)
+    return 0
+
+
+def run(res, out, scenes, budgets, threads):
+    out.mkdir(parents=True, exist_ok=True)
+    rows, md = [], []
+    md.append(f"Level 0, {res}x{res} (search at {res // 2}x{res // 2}), built-in space, default unit costs.\n")
+    md.append("| scene | budget kGE | best design | subdivision | cycles | cost | x 3MPPE | x M | x S |")
+    md.append("|---|---|---|---|---|---|---|---|---|")
+    sc_rows, sub_rows = [], []
+    for name, size in scenes:
+        scene = mprt.Scene.spd(name, size)
+        for b in budgets:
+            t0 = time.perf_counter()
+            r = explore(scene, res, res, objective="time", budget=b, fraction=2, threads=threads)
+            best, refs = r["best"], r["references"]
+            row = {"scene": name, "budget": b, "mapping": best["design"]["mapping"], "pes": best["design"]["pes"],
+                   "subdivision": "x".join(map(str, best["subdivision"])), "cycles": best["cycles"],
+                   "cost": best["cost"], "evaluations": r["evaluations"],
+                   "described": best["described"], "design": best["design"]}
+            for k in ("3mppe", "M", "S"):
+                row[f"{k}_cycles"] = refs[k]["cycles"]
+            rows.append(row)
+            md.append(f"| {name} | {b:.0f} | {best['described']} | {row['subdivision']} | {best['cycles']:.3g} "
+                      f"| {best['cost']:.0f} | {refs['3mppe']['cycles'] / best['cycles']:.2f} "
+                      f"| {refs['M']['cycles'] / best['cycles']:.2f} | {refs['S']['cycles'] / best['cycles']:.2f} |")
+            print(row, f"{time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
+        # SC on its own processor or shared, at the middle budget
+        per = {}
+        for mapping in ("OS|IC|SC", "OS+SC|IC", "OS|IC+SC", "OS+IC+SC"):
+            r = explore(scene, res, res, space=mapping_space(mapping), objective="time", budget=BUDGETS[1],
+                        fraction=2, threads=threads)
+            per[mapping] = r["best"]["cycles"]
+        sc_rows.append((name, per))
+        # the best subdivision per machine (prepass at this resolution)
+        subs = {}
+        for label, d in (("S", model_s()), ("M", model_m()), ("3MPPE", paper_3mppe()),
+                         ("best@800", _design(rows, name, BUDGETS[1]))):
+            subs[label] = "x".join(map(str, prepass(scene, res, res, design=d, fraction=2, threads=threads)["subdivision"]))
+        sub_rows.append((name, subs))
+    md.append(f"\nSC's processor, best design per stage mapping at {BUDGETS[1]:.0f} kGE (cycles; "
+              "lower is better):\n")
+    md.append("| scene | OS\\|IC\\|SC | OS+SC\\|IC | OS\\|IC+SC | OS+IC+SC (one processor type) | best |")
+    md.append("|---|---|---|---|---|---|")
+    for name, per in sc_rows:
+        bestm = min(per, key=per.get).replace("|", "\\|")
+        md.append(f"| {name} | " + " | ".join(f"{per[m]:.3g}" for m in per) + f" | {bestm} |")
+    md.append("\nBest subdivision (prepass) per machine:\n")
+    md.append("| scene | model S | model M | 3MPPE | best design at 800 kGE |")
+    md.append("|---|---|---|---|---|")
+    for name, subs in sub_rows:
+        md.append(f"| {name} | " + " | ".join(subs.values()) + " |")
+    with open(out / "design_space.csv", "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(rows[0]))
+        w.writeheader()
+        w.writerows(rows)
+    text = "\n".join(md) + "\n"
+    (out / "design_space.md").write_text(text)
+    print(text)
+
+
+def _design(rows, name, budget):
+    from mprt.explore import Design
+    return Design.from_dict(next(r for r in rows if r["scene"] == name and r["budget"] == budget)["design"])
+
+
+if __name__ == "__main__":
+    sys.exit(main())

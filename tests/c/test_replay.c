@@ -1,0 +1,329 @@
+/* test_replay.c: the compiled replay (mprt_replay_*) on hand-built traces
+ * whose timings are worked out here by hand (the same cases as the SimPy
+ * model's tests/test_machine.py), its deadlock report, and its checks of
+ * configurations and traces. */
+#include "check.h"
+#include "mprt.h"
+
+#include <string.h>
+
+#define MAXV 32
+
+/* A hand-built trace: rays (parent, kind) and visits (ray, stage, made). */
+typedef struct {
+    mprt_trace_ray rays[MAXV];
+    mprt_trace_visit visits[MAXV];
+    int64_t process[MAXV], receive[MAXV], send[MAXV];
+    size_t nr, nv;
+} hand;
+
+static void ray(hand *h, int64_t parent, int kind)
+{
+    mprt_trace_ray *r = &h->rays[h->nr];
+    memset(r, 0, sizeof *r);
+    r->id = (int64_t)h->nr;
+    r->parent = parent;
+    r->kind = (uint8_t)kind;
+    h->nr++;
+}
+
+static void visit(hand *h, int64_t r, int stage, int made, int64_t cycles)
+{
+    mprt_trace_visit *v = &h->visits[h->nv];
+    memset(v, 0, sizeof *v);
+    v->ray = r;
+    v->stage = (uint8_t)stage;
+    v->made = (uint8_t)made;
+    h->process[h->nv] = cycles;
+    h->receive[h->nv] = 0;
+    h->send[h->nv] = 0;
+    h->nv++;
+}
+
+static mprt_replay_config model_m(void)
+{
+    mprt_replay_config c;
+    mprt_replay_config_init(&c);
+    return c;
+}
+
+static mprt_replay_config model_s(void)
+{
+    mprt_replay_config c;
+    mprt_replay_config_init(&c);
+    c.nstages = 1;
+    c.stage_of[0] = c.stage_of[1] = c.stage_of[2] = 0;
+    return c;
+}
+
+/* Cycles of a run (-1: the run failed). */
+static int64_t cycles(const hand *h, const mprt_replay_config *c, int64_t *log, size_t cap)
+{
+    mprt_replay *r;
+    mprt_replay_info info;
+    int64_t out = -1;
+    if (mprt_replay_create(c, &r) != MPRT_OK) return -1;
+    if (mprt_replay_load(r, h->rays, h->nr, h->visits, h->nv, h->process, h->receive, h->send) == MPRT_OK &&
+        mprt_replay_run(r, log, cap) == MPRT_OK && mprt_replay_get_info(r, &info) == MPRT_OK)
+        out = info.cycles;
+    mprt_replay_destroy(r);
+    return out;
+}
+
+static void test_one_ray(void)
+{
+    /* one OS visit of 10 + 2 cycles: 12 on M and on S */
+    hand h = {0};
+    mprt_replay_config m = model_m(), s = model_s();
+    int64_t log[8 * 2];
+    ray(&h, -1, MPRT_RAY_PRIMARY);
+    visit(&h, 0, MPRT_STAGE_OS, 0, 10);
+    h.receive[0] = 2;
+    CHECK(cycles(&h, &m, log, 16) == 12);
+    /* start at 0 on processor 0 (OS), end at 12 */
+    CHECK(log[0] == 0 && log[1] == 0 && log[2] == 0 && log[3] == 0);
+    CHECK(log[4] == 12 && log[5] == 1 && log[6] == 0 && log[7] == 0);
+    CHECK(cycles(&h, &s, NULL, 0) == 12);
+}
+
+static void test_a_ray_with_a_return(void)
+{
+    /* OS 8 -> IC 25 (return) -> OS 7 -> IC 36 -> SC 53, back to back: 129 cycles */
+    hand h = {0};
+    mprt_replay_config m = model_m(), s = model_s();
+    ray(&h, -1, MPRT_RAY_PRIMARY);
+    visit(&h, 0, MPRT_STAGE_OS, 0, 8);
+    visit(&h, 0, MPRT_STAGE_IC, 0, 25);
+    visit(&h, 0, MPRT_STAGE_OS, 0, 7);
+    visit(&h, 0, MPRT_STAGE_IC, 0, 36);
+    visit(&h, 0, MPRT_STAGE_SC, 0, 53);
+    CHECK(cycles(&h, &m, NULL, 0) == 129);
+    CHECK(cycles(&h, &s, NULL, 0) == 129);
+}
+
+/* The primary (OS 10, IC 20, SC 30 making 2 rays), its shadow ray (OS 5, SC 4)
+ * and its reflection (OS 6, IC 8, OS 3). */
+static hand parent_and_children(void)
+{
+    hand h = {0};
+    ray(&h, -1, MPRT_RAY_PRIMARY);
+    ray(&h, 0, MPRT_RAY_SHADOW);
+    ray(&h, 0, MPRT_RAY_REFLECT);
+    visit(&h, 0, MPRT_STAGE_OS, 0, 10);
+    visit(&h, 0, MPRT_STAGE_IC, 0, 20);
+    visit(&h, 0, MPRT_STAGE_SC, 2, 30);
+    visit(&h, 1, MPRT_STAGE_OS, 0, 5);
+    visit(&h, 1, MPRT_STAGE_SC, 0, 4);
+    visit(&h, 2, MPRT_STAGE_OS, 0, 6);
+    visit(&h, 2, MPRT_STAGE_IC, 0, 8);
+    visit(&h, 2, MPRT_STAGE_OS, 0, 3);
+    return h;
+}
+
+static void test_parent_and_children(void)
+{
+    /* M: 0-10 OS, 10-30 IC, 30-60 SC; at 60 SC sends ray 1 (to the idle OS: 60-65)
+     * then ray 2 (OS's receive FIFO).  65: OS hands ray 1 to the idle SC (65-69)
+     * and takes ray 2 (65-71); 71-79 IC; 79-82 OS.  S: the sum, 86. */
+    static const int64_t starts[8][2] = {{0, 0}, {10, 1}, {30, 2}, {60, 3}, {65, 4}, {65, 5}, {71, 6}, {79, 7}};
+    hand h = parent_and_children();
+    mprt_replay_config m = model_m(), s = model_s();
+    int64_t log[8 * 11];
+    int i, k = 0;
+    CHECK(cycles(&h, &m, log, 88) == 82);
+    for (i = 0; i < 16; i++) {
+        const int64_t *e = log + 4 * i;
+        if (e[1] != 0) continue;
+        CHECK_MSG(k < 8 && e[0] == starts[k][0] && e[3] == starts[k][1], "start %d: cycle %lld visit %lld", k,
+                  (long long)e[0], (long long)e[3]);
+        k++;
+    }
+    CHECK(k == 8);
+    CHECK(cycles(&h, &s, NULL, 0) == 86);
+}
+
+static void test_replicas_share_the_work(void)
+{
+    /* four primaries of 10 cycles on one stage of two processors: 20 cycles */
+    hand h = {0};
+    mprt_replay_config s = model_s();
+    int i;
+    for (i = 0; i < 4; i++) {
+        ray(&h, -1, MPRT_RAY_PRIMARY);
+        visit(&h, i, MPRT_STAGE_OS, 0, 10);
+    }
+    CHECK(cycles(&h, &s, NULL, 0) == 40);
+    s.replicas[0] = 2;
+    CHECK(cycles(&h, &s, NULL, 0) == 20);
+    s.pes = 2;               /* two PEs: the dynamic DIS of the first admits all four at once */
+    CHECK(cycles(&h, &s, NULL, 0) == 20);
+    s.dis = MPRT_DIS_INTERLEAVED; /* two each: all four at once */
+    CHECK(cycles(&h, &s, NULL, 0) == 10);
+    s.window = 1;            /* one at a time per PE */
+    CHECK(cycles(&h, &s, NULL, 0) == 20);
+}
+
+static void test_sc_makes_the_primaries(void)
+{
+    /* making a primary costs SC 4 cycles, then OS runs it 12: 16 */
+    hand h = {0};
+    mprt_replay_config m = model_m();
+    mprt_replay *r;
+    mprt_replay_node nodes[3];
+    ray(&h, -1, MPRT_RAY_PRIMARY);
+    visit(&h, 0, MPRT_STAGE_OS, 0, 12);
+    m.gen_cycles = 4;
+    CHECK(cycles(&h, &m, NULL, 0) == 16);
+    CHECK(mprt_replay_create(&m, &r) == MPRT_OK);
+    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    CHECK(mprt_replay_run(r, NULL, 0) == MPRT_OK);
+    CHECK(mprt_replay_get_nodes(r, nodes, 3) == MPRT_OK);
+    CHECK(nodes[2].generated == 1 && nodes[0].generated == 0);
+    mprt_replay_destroy(r);
+}
+
+static void test_deadlock(void)
+{
+    /* eight primaries OS -> IC -> OS of 1 cycle; OS: receive 3, send 1; IC: 1 and 1.
+     * Window 8 fills both stages' FIFOs (3 + 1 + 1 + 1 + 1 + 1 = 8 rays); 7 cannot:
+     * then OS, never idle, takes its 16 cycles. */
+    hand h = {0};
+    mprt_replay_config c = model_m();
+    mprt_replay *r;
+    mprt_replay_info info;
+    mprt_replay_proc procs[3];
+    int i;
+    for (i = 0; i < 8; i++) {
+        ray(&h, -1, MPRT_RAY_PRIMARY);
+        visit(&h, i, MPRT_STAGE_OS, 0, 1);
+        visit(&h, i, MPRT_STAGE_IC, 0, 1);
+        visit(&h, i, MPRT_STAGE_OS, 0, 1);
+    }
+    c.receive_fifo[0] = 3;
+    c.send_fifo[0] = 1;
+    c.receive_fifo[1] = 1;
+    c.send_fifo[1] = 1;
+    c.window = 8;
+    CHECK(mprt_replay_create(&c, &r) == MPRT_OK);
+    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    CHECK(mprt_replay_run(r, NULL, 0) == MPRT_ERR_STATE);
+    CHECK(strstr(mprt_replay_errmsg(r), "deadlock: the machine stopped with 8 of 8 rays") != NULL);
+    CHECK(mprt_replay_get_info(r, &info) == MPRT_OK);
+    CHECK(info.deadlocked == 1 && info.cycles == -1 && info.retired == 0);
+    CHECK(mprt_replay_get_procs(r, procs, 3) == MPRT_OK);
+    CHECK(procs[0].state == MPRT_PROC_BLOCKED && procs[0].pending == 1);
+    c.window = 7;
+    CHECK(mprt_replay_set_config(r, &c) == MPRT_OK);
+    CHECK(mprt_replay_run(r, NULL, 0) == MPRT_OK);        /* the same load, another machine */
+    CHECK(mprt_replay_get_info(r, &info) == MPRT_OK && info.cycles == 16);
+    mprt_replay_destroy(r);
+}
+
+static void test_bad_configurations(void)
+{
+    mprt_replay_config c;
+    mprt_replay *r;
+    struct {
+        int field;
+        const char *msg;
+    } cases[] = {{0, "nstages: must be 1, 2 or 3, not 0"}, {1, "stage_of[1]: the stage running IC must be 0..2"},
+                 {2, "replicas[2]: must be"}, {3, "receive_fifo[0]: must be >= 0"}, {4, "pes: must be"},
+                 {5, "dis: must be"}, {6, "window: must be >= 1"}, {7, "gen_cycles: must be >= 0"},
+                 {8, "stage_of: stage 2 runs no subtask"}};
+    size_t i;
+    for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
+        mprt_replay_config_init(&c);
+        switch (cases[i].field) {
+        case 0: c.nstages = 0; break;
+        case 1: c.stage_of[1] = 5; break;
+        case 2: c.replicas[2] = 0; break;
+        case 3: c.receive_fifo[0] = -1; break;
+        case 4: c.pes = 0; break;
+        case 5: c.dis = 7; break;
+        case 6: c.window = 0; break;
+        case 7: c.gen_cycles = -3; break;
+        default: c.stage_of[2] = 1; break;
+        }
+        CHECK(mprt_replay_create(&c, &r) == MPRT_ERR_INVALID_ARG);
+        CHECK_MSG(r && strstr(mprt_replay_errmsg(r), cases[i].msg) != NULL, "%s", r ? mprt_replay_errmsg(r) : "");
+        mprt_replay_destroy(r);
+    }
+}
+
+/* Load h on M; the error message (or "" when it loads). */
+static const char *load_error(const hand *h, mprt_replay **r)
+{
+    mprt_replay_config c = model_m();
+    mprt_replay_create(&c, r);
+    mprt_replay_load(*r, h->rays, h->nr, h->visits, h->nv, h->process, h->receive, h->send);
+    return mprt_replay_errmsg(*r);
+}
+
+static void test_bad_traces(void)
+{
+    hand h;
+    mprt_replay *r;
+    mprt_replay_config c = model_m();
+    int i;
+    for (i = 0; i < 6; i++) {
+        h = parent_and_children();
+        switch (i) {
+        case 0: h.rays[1].id = 7; break;                 /* ids out of order */
+        case 1: h.rays[0].kind = MPRT_RAY_SHADOW; break; /* no primary first */
+        case 2: h.rays[1].parent = 2; break;             /* parent after child */
+        case 3: h.visits[3].ray = 9; break;              /* no such ray */
+        case 4: h.process[4] = 0; break;                 /* a visit of no cycles */
+        default: h.visits[2].made = 1; break;            /* SC made 2 rays, says 1 */
+        }
+        {
+            static const char *msgs[] = {"ray ids are not 0..n-1 in order", "the first ray is not a primary ray",
+                                         "ray 1 is not stored after its parent", "a visit names a ray that does not exist",
+                                         "visit 4: costs must be >= 0 and a visit must last at least 1 cycle",
+                                         "visit 2 made 1 rays but 2 have it as parent"};
+            const char *m = load_error(&h, &r);
+            CHECK_MSG(strstr(m, msgs[i]) != NULL, "case %d: %s", i, m);
+            CHECK(mprt_replay_run(r, NULL, 0) == MPRT_ERR_STATE);  /* nothing loaded */
+            mprt_replay_destroy(r);
+        }
+    }
+    /* more PEs than primary rays */
+    h = parent_and_children();
+    c.pes = 2;
+    CHECK(mprt_replay_create(&c, &r) == MPRT_OK);
+    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    CHECK(mprt_replay_run(r, NULL, 0) == MPRT_ERR_INVALID_ARG);
+    CHECK(strstr(mprt_replay_errmsg(r), "pes: 2 PEs but the trace has only 1 primary rays") != NULL);
+    mprt_replay_destroy(r);
+}
+
+static void test_runs_repeat_exactly(void)
+{
+    hand h = parent_and_children();
+    mprt_replay_config c = model_m();
+    mprt_replay *r;
+    mprt_replay_pe a, b;
+    CHECK(mprt_replay_create(&c, &r) == MPRT_OK);
+    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    CHECK(mprt_replay_run(r, NULL, 0) == MPRT_OK && mprt_replay_get_pes(r, &a, 1) == MPRT_OK);
+    CHECK(mprt_replay_run(r, NULL, 0) == MPRT_OK && mprt_replay_get_pes(r, &b, 1) == MPRT_OK);
+    CHECK(memcmp(&a, &b, sizeof a) == 0);
+    /* the PE's costs are the trace's: OS 10 + 5 + 6 + 3, IC 20 + 8, SC 30 + 4 */
+    CHECK(a.processing[0] == 24 && a.processing[1] == 28 && a.processing[2] == 34);
+    CHECK(a.visits[0] == 4 && a.visits[1] == 2 && a.visits[2] == 2 && a.retired == 3);
+    CHECK(mprt_replay_get_pes(r, &a, 0) == MPRT_ERR_CAPACITY);
+    mprt_replay_destroy(r);
+}
+
+int main(void)
+{
+    RUN(test_one_ray);
+    RUN(test_a_ray_with_a_return);
+    RUN(test_parent_and_children);
+    RUN(test_replicas_share_the_work);
+    RUN(test_sc_makes_the_primaries);
+    RUN(test_deadlock);
+    RUN(test_bad_configurations);
+    RUN(test_bad_traces);
+    RUN(test_runs_repeat_exactly);
+    return CHECK_DONE();
+}

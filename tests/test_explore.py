@@ -1,0 +1,247 @@
+"""The design-space explorer: space files, hardware cost, level 0, NLopt search."""
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mprt
+from mprt.explore import (Design, SpaceError, UnitCosts, default_space, hardware_cost, load_space, model_m,
+                          model_s, paper_3mppe, parse_space)
+from mprt.explore.evaluate import Level0
+from mprt.explore.search import Problem, exhaustive, search
+
+DATA = Path(__file__).parent / "data"
+SMALL = DATA / "explore" / "small_space.toml"
+
+
+@pytest.fixture(scope="module")
+def level0s():
+    return {n: Level0(mprt.load_trace(DATA / "golden" / f"{n}-g9.npz")) for n in ("balls", "mount", "tetra")}
+
+
+# --- the space file ---------------------------------------------------------------------------------------------
+
+@pytest.mark.parametrize("text, field", [
+    ("pes = { min = 0, max = 2 }", "pes.min"),
+    ("mapping = { choices = ['OS|IC|SC', 'OS|SC|IC'] }", "mapping.choices[1]"),
+    ("fifo = { min = 8, max = 4 }", "fifo: max 4 is below min 8"),
+    ("[replication]\nIC = 2.5", "replication.IC"),
+    ("[units.IC]\nint = 1\nfp = 0", "units.IC: no unit runs floating-point"),
+    ("[units.OS]\nint = 1\nfp = 1\nvector = 2", "units.OS.vector"),
+    ("[cache]\nOS = 4", "cache.OS"),
+    ("colour = 3", "colour"),
+    ("[cost]\nfp_unit = -1", "cost.fp_unit"),
+    ("[subdivision]\nn = 4\nnx = 3", "subdivision: give n, or nx, ny and nz, not both"),
+    ("[subdivision]\nn = 4\nshape = 'round'", "subdivision.shape"),
+    ("fifo = { choices = [4, 4] }", "fifo.choices: repeated"),
+])
+def test_space_errors_name_file_and_field(tmp_path, text, field):
+    p = tmp_path / "bad.toml"
+    p.write_text(text + "\n")
+    with pytest.raises(SpaceError) as e:
+        load_space(p)
+    assert str(e.value).startswith(f"{p}: ") and field in str(e.value)
+
+
+def test_space_unreadable_and_malformed(tmp_path):
+    with pytest.raises(SpaceError, match="cannot read"):
+        load_space(tmp_path / "missing.toml")
+    p = tmp_path / "bad.toml"
+    p.write_text("fifo = [\n")
+    with pytest.raises(SpaceError, match=str(p)):
+        load_space(p)
+
+
+def test_space_leaves_and_defaults(tmp_path):
+    p = tmp_path / "s.toml"
+    p.write_text("pes = { min = 2, max = 8, step = 3 }\n[subdivision]\nnx = 4\nny = { choices = [1, 2] }\nnz = 5\n")
+    sp = load_space(p)
+    var = {v.name: v.values for v in sp.variables}
+    assert var["pes"] == (2, 5, 8)
+    assert var["subdivision.ny"] == (1, 2) and sp.shape == "cube"
+    # fields the file leaves out are the built-in default's
+    assert var["replication.IC"] == {v.name: v.values for v in default_space().variables}["replication.IC"]
+    pt = sp.point([0] * len(sp.variables))
+    assert pt.subdivision == (4, 1, 5) and pt.design.pes == 2
+
+
+def test_canonical_merges_designs_that_cannot_differ():
+    sp = load_space(SMALL)
+    pos = {n: i for i, n in enumerate(sp.names)}
+    a = [0] * len(sp.variables)
+    a[pos["mapping"]] = sp.variables[pos["mapping"]].values.index("OS+IC+SC")
+    b = list(a)
+    b[pos["units.IC.fp"]] = 3          # IC runs on the OS processor: its own units are dead
+    b[pos["replication.IC"]] = 2
+    assert sp.canonical(a) == sp.canonical(b)
+    c = list(a)
+    c[pos["units.OS.fp"]] = 2          # the one processor's units are live
+    assert sp.canonical(a) != sp.canonical(c)
+    assert sp.index_of(sp.point(c)) == tuple(c)
+
+
+def test_design_round_trip_and_errors():
+    d = paper_3mppe()
+    assert Design.from_dict(d.to_dict()) == d
+    with pytest.raises(SpaceError, match="design: replication.IC: 0 is below the minimum 1"):
+        Design.from_dict({"replication": {"OS": 1, "IC": 0, "SC": 1}})
+    with pytest.raises(SpaceError, match="unknown field"):
+        Design.from_dict({"speed": 3})
+
+
+# --- hardware cost ----------------------------------------------------------------------------------------------
+
+def test_cost_of_paper_machine_by_hand():
+    c = UnitCosts()
+    # three processors: OS 2 int + 2 FP, IC 1 int + 3 FP, SC 1 general; two FIFOs and a ring node each;
+    # 16 KiB IC cache and 4 KiB SC cache
+    by_hand = (3 * c.processor + (2 * c.int_unit + 2 * c.fp_unit) + (c.int_unit + 3 * c.fp_unit) + c.general_unit
+               + 3 * 2 * 256 * c.fifo_word + 3 * c.ring_node + 20 * c.cache_kib)
+    assert hardware_cost(paper_3mppe()) == pytest.approx(by_hand)
+    two = Design.from_dict({**paper_3mppe().to_dict(), "pes": 2})
+    assert hardware_cost(two) == pytest.approx(2 * by_hand)
+    # model S has no packets, so no FIFOs or ring
+    s = model_s()
+    assert hardware_cost(s) == pytest.approx(c.processor + c.general_unit + 20 * c.cache_kib)
+
+
+# --- level 0 ----------------------------------------------------------------------------------------------------
+
+def test_level0_model_s_is_the_sum_of_processing(level0s):
+    """Model S: one processor, no packets: its time is every visit's processing
+    plus SC's generation of each primary ray, priced by the cost model."""
+    from mprt.cost import CostModel, ProcessorConfig
+    ev = level0s["balls"]
+    seq = ProcessorConfig.sequential()
+    vc = CostModel.default().visit_costs(ev.trace, {"OS": seq, "IC": seq, "SC": seq})
+    primaries = int(np.sum(ev.trace.rays["kind"] == 0))
+    assert ev.run(model_s()).cycles == int(np.sum(vc.process)) + primaries * vc.inject_process
+
+
+def test_level0_pipeline_bounds(level0s):
+    for ev in level0s.values():
+        m = ev.run(model_m())
+        assert m.cycles >= max(m.loads.values())
+        assert m.cycles < ev.run(model_s()).cycles       # three processors beat one here
+        assert 0 < max(m.utilisation.values()) <= 1.0
+        # a second copy of the bottleneck processor halves its load
+        d = model_m().to_dict()
+        d["replication"][m.bottleneck] = 2
+        m2 = ev.run(Design.from_dict(d))
+        assert m2.loads[m.bottleneck] == pytest.approx(m.loads[m.bottleneck] / 2, rel=0.02)
+        assert m2.cycles < m.cycles
+        # more FP units on IC never make IC slower
+        d = paper_3mppe().to_dict()
+        d["units"]["IC"]["fp"] = 4
+        assert ev.run(Design.from_dict(d)).loads["IC"] <= ev.run(paper_3mppe()).loads["IC"]
+
+
+# --- search -----------------------------------------------------------------------------------------------------
+
+CASES = [("time", 300.0), ("time", 500.0), ("time*cost", None), ("time", None)]
+
+
+@pytest.mark.parametrize("scene", ["balls", "mount", "tetra"])
+def test_nlopt_finds_exhaustive_optimum(level0s, scene):
+    """DIRECT-L (80 distinct designs) and the lattice polish find the design
+    exhaustive enumeration finds, in fewer evaluations (counts printed)."""
+    sp = load_space(SMALL)
+    ev = level0s[scene]
+    f = lambda pts: [ev.run(p.design) for p in pts]  # noqa: E731
+    for obj, budget in CASES:
+        ex = exhaustive(Problem(sp, f, obj, budget))
+        p = Problem(sp, f, obj, budget)
+        r = search(p, "direct-l", "lattice", max_evals=80, seed=1)
+        print(f"{scene} {obj} budget {budget}: exhaustive {ex.evaluations} evaluations, "
+              f"search {r.evaluations} ({r.phases})")
+        assert p.f(r.best) == pytest.approx(p.f(ex.best), abs=1e-12)
+        assert r.best.cycles == ex.best.cycles and r.best.cost == ex.best.cost
+        assert r.evaluations < ex.evaluations
+        if budget is not None:
+            assert r.best.cost <= budget
+
+
+def test_search_repeats_exactly_with_a_seed(level0s):
+    sp = load_space(SMALL)
+    ev = level0s["tetra"]
+    f = lambda pts: [ev.run(p.design) for p in pts]  # noqa: E731
+    runs = []
+    for _ in range(2):
+        p = Problem(sp, f, "time", 400.0)
+        search(p, "crs2", "lattice", max_evals=30, seed=7)
+        runs.append(p.history())
+    assert runs[0] == runs[1]
+    p = Problem(sp, f, "time", 400.0)
+    search(p, "crs2", "lattice", max_evals=30, seed=8)
+    assert p.history() != runs[0]          # the seed reaches NLopt's random numbers
+
+
+def test_memo_counts_distinct_designs(level0s):
+    sp = load_space(SMALL)
+    ev = level0s["balls"]
+    calls = []
+
+    def f(pts):
+        calls.extend(pts)
+        return [ev.run(p.design) for p in pts]
+
+    p = Problem(sp, f, "time")
+    r = search(p, "direct-l", "sbplx", max_evals=25, seed=1)
+    assert len(calls) == r.evaluations == len({pt.key() for pt in calls})
+    assert r.calls > r.evaluations       # NLopt revisited cells, answered from the memo
+
+
+def test_pareto_front_is_nondominated(level0s):
+    from mprt.explore.search import pareto
+    sp = load_space(SMALL)
+    ev = level0s["mount"]
+    f = lambda pts: [ev.run(p.design) for p in pts]  # noqa: E731
+    ex = Problem(sp, f, "time")
+    exhaustive(ex)
+    true_front = [(e.cost, e.cycles) for e in ex.front()]
+    p = Problem(sp, f, "pareto")
+    r = pareto(p, np.geomspace(150, 900, 6), max_evals=40)
+    found = [(e.cost, e.cycles) for e in r.front]
+    assert found == sorted(found) and all(b[1] < a[1] for a, b in zip(found, found[1:]))
+    # every point found lies on the true front or is dominated by none of the found ones; most are on it
+    assert sum(pt in true_front for pt in found) >= 0.8 * len(found)
+
+
+def test_linear_pricing_equals_visit_costs(level0s):
+    """Level 0 prices new processors from per-pixel kernel runs; every figure
+    must equal pricing each visit with the cost model."""
+    designs = [paper_3mppe(), model_m(), model_s()]
+    for units in ({"int": 3, "fp": 1}, {"int": 1, "fp": 4}, {"general": 2}):
+        for mapping in ("OS|IC|SC", "OS+SC|IC", "OS|IC+SC"):
+            d = paper_3mppe().to_dict()
+            d.update(mapping=mapping, pes=3, units={"OS": units, "IC": {"int": 2, "fp": 2}, "SC": units})
+            designs.append(Design.from_dict(d))
+    for name, ev in level0s.items():
+        fast = Level0(ev.trace)
+        for d in designs:
+            slow = Level0(ev.trace, linear=False).run(d)
+            got = fast.run(d)
+            assert got.to_dict() == slow.to_dict(), (name, d.describe())
+        assert fast._linear_ok              # the linear pricing reproduced the first design exactly
+
+
+def test_machine_config_of_a_design():
+    """The machine-model configuration a design becomes at each level."""
+    from mprt.cost import packet_flits
+    from mprt.explore.machine_adapter import machine_config
+    d = Design.from_dict({"mapping": "OS+SC|IC", "replication": {"OS": 2, "IC": 3, "SC": 1}, "fifo": 256,
+                          "units": {"OS": {"int": 3, "fp": 1}, "IC": {"int": 1, "fp": 4}, "SC": {"general": 1}},
+                          "cache": {"IC": 16, "SC": 0}, "resident": {"IC": 0, "SC": 4}, "pes": 2})
+    c1 = machine_config(d, 1)
+    assert [s["subtasks"] for s in c1["stage"]] == [["OS", "SC"], ["IC"]]
+    assert [s["replicas"] for s in c1["stage"]] == [2, 3]
+    assert c1["stage"][0]["processor"] == {"units": {"int": 3, "fp": 1}}       # OS+SC takes OS's units
+    assert "ring" not in c1 and "send_fifo" not in c1["stage"][0] and c1["pes"] == 2
+    c2 = machine_config(d, 2)
+    biggest = max(packet_flits(0, 1, k) for k in range(4))
+    assert "ring" in c2 and 1 <= c2["stage"][1]["receive_fifo"] <= 256 // biggest
+    c3 = machine_config(d, 3)
+    assert c3["ic_memory"] == {"resident": 0, "cache": {"size": 16384, "line": 32, "ways": 4}}
+    assert c3["sc_memory"] == {"resident": 4096} and "icgm" in c3 and "scgm" in c3
+    s = machine_config(model_s(), 3)
+    assert len(s["stage"]) == 1 and "ring" not in s and "send_fifo" not in s["stage"][0]

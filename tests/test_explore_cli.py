@@ -1,0 +1,112 @@
+"""mprt explore and mprt prepass from the command line, and the prepass's search."""
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import mprt
+from mprt.explore import paper_3mppe
+from mprt.explore.cli import add_parsers
+from mprt.explore.evaluate import Level0, grid_dims
+from mprt.explore.prepass import prepass
+
+SMALL = Path(__file__).parent / "data" / "explore" / "small_space.toml"
+
+
+def run(*argv):
+    p = argparse.ArgumentParser(prog="mprt")
+    add_parsers(p.add_subparsers(dest="cmd", required=True))
+    a = p.parse_args([str(x) for x in argv])
+    return a.func(a)
+
+
+def test_explore_json_report(tmp_path, capsys):
+    out, png = tmp_path / "e.json", tmp_path / "e.png"
+    assert run("explore", "tetra:1", "--res", "24x24", "--space", SMALL, "--budget", "400", "--json", out,
+               "--plot", png, "--max-evals", "40", "--threads", "1") == 0
+    r = json.loads(out.read_text())
+    best = r["best"]
+    assert len(best["subdivision"]) == 3 and all(isinstance(n, int) for n in best["subdivision"])
+    assert best["cost"] <= 400
+    assert r["level"] == 0 and r["seconds"] > 0 and r["evaluations"] == len(r["history"])
+    # the best is the least-cycles feasible design of the history
+    feas = [h for h in r["history"] if h["feasible"]]
+    assert best["cycles"] == min(h["cycles"] for h in feas)
+    assert best["speedup_over_S"] == pytest.approx(r["references"]["S"]["cycles"] / best["cycles"])
+    # the design replays to the same cycles on its own
+    tr = mprt.Scene.spd("tetra", 1).grid(tuple(best["subdivision"])).trace(24, 24)[1]
+    from mprt.explore import Design
+    assert Level0(tr).run(Design.from_dict(best["design"])).cycles == best["cycles"]
+    assert png.stat().st_size > 10000
+    text = capsys.readouterr().out
+    assert "best" in text and "model S" in text and "utilisation" in text
+
+
+def test_explore_pareto_front(tmp_path):
+    out = tmp_path / "p.json"
+    assert run("explore", "balls:1", "--res", "16x16", "--space", SMALL, "--objective", "pareto", "--json", out,
+               "--max-evals", "60") == 0
+    r = json.loads(out.read_text())
+    front = r["front"]
+    assert len(front) >= 2
+    costs = [f["cost"] for f in front]
+    cycles = [f["cycles"] for f in front]
+    assert costs == sorted(costs) and all(b < a for a, b in zip(cycles, cycles[1:]))
+    # nothing evaluated beats a front point in both cost and cycles
+    for f in front:
+        assert not any(h["cost"] <= f["cost"] and h["cycles"] < f["cycles"] for h in r["history"])
+
+
+@pytest.mark.parametrize("argv, message", [
+    (["explore", "balls:1", "--space", "nowhere.toml"], "cannot read the space file"),
+    (["explore", "balls:1", "--json", "no/such/dir/x.json"], "does not exist"),
+    (["prepass", "balls:1", "--json", "no/such/dir/x.json"], "does not exist"),
+])
+def test_errors_before_work(argv, message, capsys):
+    with pytest.raises((mprt.MprtError, OSError), match=message):
+        run(*argv)
+
+
+def test_level_without_machine_model_fails_before_work(monkeypatch):
+    import sys
+    monkeypatch.setitem(sys.modules, "mprt.machine", None)       # as in a build without mprt.machine
+    with pytest.raises(mprt.MprtError, match="level 2 needs the machine model"):
+        run("explore", "balls:1", "--level", "2")
+
+
+@pytest.mark.parametrize("argv", [["explore", "balls", "--res", "0x64"], ["explore", "balls", "--budget", "-3"],
+                                  ["explore", "balls", "--tolerance", "150%"], ["prepass", "balls", "--range", "9:3"],
+                                  ["prepass", "balls", "--candidates", "4,x"], ["explore", "balls", "--level", "7"]])
+def test_bad_options_exit_2(argv, capsys):
+    with pytest.raises(SystemExit) as e:
+        run(*argv)
+    assert e.value.code == 2
+    assert "error" in capsys.readouterr().err
+
+
+def test_prepass_search_finds_the_best_of_every_candidate():
+    """The ladder-then-golden search over n finds the n that evaluating every
+    n in the range finds (on the same low-resolution traces)."""
+    scene = mprt.Scene.spd("tetra", 1)
+    r = prepass(scene, 64, 64, n_range=(2, 30), fraction=4)
+    every = prepass(scene, 64, 64, candidates=[(n,) for n in range(2, 31)], fraction=4)
+    assert r["subdivision"] == every["subdivision"]
+    assert len(r["candidates"]) < len(every["candidates"]) / 2
+    # predictions are the low-resolution cycles scaled by the pixel ratio
+    dims = tuple(r["subdivision"])
+    low = Level0(scene.grid(dims).trace(16, 16)[1]).run(paper_3mppe()).cycles
+    assert r["predicted_cycles"] == pytest.approx(low * 16)
+
+
+def test_prepass_cli_json(tmp_path):
+    out = tmp_path / "p.json"
+    assert run("prepass", "balls:1", "--res", "64x64", "--candidates", "3,6,12/8x8x2", "--json", out) == 0
+    r = json.loads(out.read_text())
+    scene = mprt.Scene.spd("balls", 1)
+    want = [list(grid_dims(scene, (n,), "proportional")) for n in (3, 6, 12)] + [[8, 8, 2]]
+    assert sorted(c["subdivision"] for c in r["candidates"]) == sorted(want)
+    best = min(r["candidates"], key=lambda c: c["predicted_cycles"])
+    assert r["subdivision"] == best["subdivision"]
+    assert np.all(np.array([c["predicted_cycles"] for c in r["candidates"]]) > 0)

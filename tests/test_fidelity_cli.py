@@ -1,0 +1,75 @@
+"""``mprt simulate``'s fidelity options (--level, --engine, --sample, --tolerance)."""
+import json
+import os
+
+import pytest
+
+import mprt
+from mprt.fidelity.cli import main
+from mprt.machine import builtin, simulate
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+BALLS = os.path.join(HERE, "data", "golden", "balls-g9.npz")
+
+
+def run(tmp_path, *args):
+    out = tmp_path / "out.json"
+    rc = main(["simulate", *args, "--json", str(out)])
+    return rc, (json.loads(out.read_text()) if rc == 0 else None)
+
+
+def test_default_is_the_configurations_own_level_on_the_compiled_engine(tmp_path):
+    rc, d = run(tmp_path, BALLS, "--model", "M")
+    assert rc == 0
+    assert (d["level"], d["engine"], d["sampled"]) == (1, "compiled", 1.0)
+    truth = simulate(mprt.load_trace(BALLS), "M")
+    assert d["cycles"] == truth.cycles and d["cycles_interval"] == [truth.cycles, truth.cycles]
+    assert d["stages"]["IC"]["waiting"] == truth.stages["IC"]["waiting"]
+
+
+def test_engines_give_the_same_cycles(tmp_path):
+    _, a = run(tmp_path, BALLS, "--model", "3mppe", "--level", "1", "--engine", "simpy")
+    _, b = run(tmp_path, BALLS, "--model", "3mppe", "--level", "1", "--engine", "compiled")
+    assert a["engine"] == "simpy" and b["engine"] == "compiled" and a["cycles"] == b["cycles"]
+    _, c = run(tmp_path, BALLS, "--model", "3mppe")
+    assert (c["level"], c["engine"]) == (3, "simpy")
+    assert c["cycles"] == simulate(mprt.load_trace(BALLS), builtin("3mppe")).cycles
+
+
+def test_compiled_engine_refuses_the_ring_with_exit_2(tmp_path, capsys):
+    rc, _ = run(tmp_path, BALLS, "--model", "3mppe", "--engine", "compiled")
+    assert rc == 2
+    err = capsys.readouterr().err
+    assert "invalid configuration: level 3: configuration '3mppe' has a ring network" in err
+
+
+def test_level0_and_auto(tmp_path, capsys):
+    _, z = run(tmp_path, BALLS, "--model", "S", "--level", "0")
+    assert (z["level"], z["engine"]) == (0, "analytical")
+    assert z["cycles"] == simulate(mprt.load_trace(BALLS), "S").cycles     # exact for one processor
+    rc, a = run(tmp_path, BALLS, "--model", "3mppe", "--level", "auto", "--tolerance", "50%")
+    assert rc == 0 and a["level"] in (0, 1)     # every level is within 50% here: the faster of 0 and 1
+    rc, b = run(tmp_path, BALLS, "--model", "3mppe", "--level", "auto", "--tolerance", "0")
+    assert rc == 0 and b["level"] in (2, 3)     # only the ring's level is exact
+    assert "cheapest within 0%" in capsys.readouterr().out
+
+
+def test_sample_of_a_scene(tmp_path):
+    rc, d = run(tmp_path, "tetra", "--grid", "4", "--res", "32x32", "--tile", "8", "--model", "M",
+                "--sample", "stratified:4:1")
+    assert rc == 0
+    assert d["sampled"] == pytest.approx(0.25) and d["tiles"] == [4, 16]
+    lo, hi = d["cycles_interval"]
+    assert lo <= d["cycles"] <= hi and d["sample_cycles"] < d["cycles"]
+
+
+@pytest.mark.parametrize("args,msg", [(["--sample", "random:3"], "sample must be"),
+                                      (["--tolerance", "2"], "tolerance must be in"),
+                                      (["--level", "5"], "invalid choice"),
+                                      (["--level", "auto", "--engine", "simpy"], "leave --engine out")])
+def test_bad_options_exit_2(tmp_path, capsys, args, msg):
+    with pytest.raises(SystemExit) as e:
+        rc = main(["simulate", BALLS, *args])
+        raise SystemExit(rc)
+    assert e.value.code == 2
+    assert msg in capsys.readouterr().err
