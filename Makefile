@@ -63,9 +63,16 @@ test: ctest pytest fuzz-replay
 demo: $(VENV)/.installed
 	$(PY) -m mprt explore balls --res 48x48 --budget 1000 --plot explore.png --json explore.json
 
+# make bench: this checkout against BEFORE (a git revision, default main), built
+# from a clean export into $(B)/before; BEFORE= (empty) benchmarks this checkout alone.
+BEFORE ?= main
 bench: $(VENV)/.installed
 	$(PY) -m pip install -q embreex
-	$(PY) studies/03_bench/run.py
+	@if [ -n "$(BEFORE)" ]; then \
+	    rm -rf $(B)/before && mkdir -p $(B)/before && git archive $(BEFORE) | tar -x -C $(B)/before && \
+	    (cd $(B)/before && $(abspath $(PY)) setup.py -q build_ext --inplace > build_ext.log 2>&1) || \
+	    { echo "could not build $(BEFORE) in $(B)/before (see $(B)/before/build_ext.log)" >&2; exit 1; }; fi
+	$(PY) studies/03_bench/run.py $(if $(BEFORE),--before $(B)/before/python) $(BENCH_ARGS)
 
 # The C tests under AddressSanitizer and UndefinedBehaviorSanitizer.
 asan:

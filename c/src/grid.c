@@ -7,7 +7,14 @@
  * tests against the voxel box grown by a small relative margin, so that
  * rounding in the 3DDDA's voxel boundaries can never hide a primitive; or,
  * with MPRT_LIST_BOX, in every voxel its bounding box (so grown) touches,
- * and with MPRT_LIST_BOX_OUTWARD one voxel more on each axis's high side. */
+ * and with MPRT_LIST_BOX_OUTWARD one voxel more on each axis's high side.
+ *
+ * Empty space: the grid is also split into macro cells of whole voxels,
+ * about cubic in space (one voxel each on a grid of cubic voxels), and each
+ * empty voxel holds the chessboard distance from its macro cell to the
+ * nearest macro cell with primitives (grid.h, empty), which lets the walk
+ * jump across the block of empty macro cells around it (dda.h) with the
+ * same counts. */
 #include "grid.h"
 
 #include <stdio.h>
@@ -37,7 +44,8 @@ void mprt_grid_destroy(mprt_grid *g)
     if (!g) return;
     if (g->counted) mprt__scene_count_grid(g->scene, -1);
     free(g->start);
-    free(g->flag);
+    free(g->empty);
+    free(g->macro_lo[0]);
     free(g->ids);
     pthread_mutex_destroy(&g->errlock);
     free(g);
@@ -71,6 +79,159 @@ static int axis_cell(const mprt_grid *g, int a, real x)
 vec3 mprt__grid_voxel_lo(const mprt_grid *g, int i, int j, int k)
 {
     return v3(g->lo.x + (real)i * g->cell.x, g->lo.y + (real)j * g->cell.y, g->lo.z + (real)k * g->cell.z);
+}
+
+/* ---- Distance to the nearest voxel with primitives -------------------------
+ * The chessboard (L-infinity) distance in voxels, capped at 255: two chamfer
+ * passes over the 26 neighbours with unit weights, the first in raster
+ * order from the neighbours already visited, the second in reverse.  This
+ * is exact for the chessboard metric: between any two voxels there is a
+ * shortest king's path whose steps go first forward then backward in
+ * raster order (tests/c/test_skip.c compares it with brute force). */
+
+static unsigned min_u(unsigned a, unsigned b) { return a < b ? a : b; }
+
+/* o[x] = the minimum of r over x - 1 .. x + 1 (within 0 .. n - 1). */
+static void min3_row(const uint8_t *r, uint8_t *o, int n)
+{
+    int x;
+    if (n == 1) {
+        o[0] = r[0];
+        return;
+    }
+    o[0] = (uint8_t)min_u(r[0], r[1]);
+    for (x = 1; x < n - 1; x++) o[x] = (uint8_t)min_u(min_u(r[x - 1], r[x]), r[x + 1]);
+    o[n - 1] = (uint8_t)min_u(r[n - 2], r[n - 1]);
+}
+
+/* One pass: dir +1 forward, -1 backward.  Scratch: p3, n[0] * n[1] bytes
+ * (the 3x3 minimum of the slice before), and cand, 2 n[0] bytes. */
+static void chamfer_pass(const int n[3], uint8_t *d, uint8_t *p3, uint8_t *cand, int dir)
+{
+    const int nx = n[0], ny = n[1], nz = n[2];
+    const size_t slice = (size_t)nx * (size_t)ny;
+    uint8_t *rowmin = cand + nx;
+    int i, j, k, x, y, z;
+    for (k = 0; k < nz; k++) {
+        uint8_t *cur;
+        int have_prev;
+        z = dir > 0 ? k : nz - 1 - k;
+        cur = d + (size_t)z * slice;
+        have_prev = dir > 0 ? z > 0 : z < nz - 1;
+        if (have_prev) {
+            /* p3: the 3x3 minimum, across x then y, of the slice before */
+            const uint8_t *prev = d + (size_t)(z - dir) * slice;
+            for (y = 0; y < ny; y++) min3_row(prev + (size_t)y * (size_t)nx, p3 + (size_t)y * (size_t)nx, nx);
+            /* across y row by row, keeping the row above as it was (in cand) */
+            for (y = 0; y < ny; y++) {
+                uint8_t *o = p3 + (size_t)y * (size_t)nx;
+                const uint8_t *below = y < ny - 1 ? o + nx : o;
+                for (x = 0; x < nx; x++) {
+                    unsigned here = o[x], m = min_u(here, below[x]);
+                    if (y > 0) m = min_u(m, cand[x]);
+                    cand[x] = (uint8_t)here;
+                    o[x] = (uint8_t)m;
+                }
+            }
+        }
+        for (j = 0; j < ny; j++) {
+            uint8_t *row;
+            unsigned left = 255;
+            y = dir > 0 ? j : ny - 1 - j;
+            row = cur + (size_t)y * (size_t)nx;
+            /* the neighbours in the slice before and the row before */
+            if (have_prev) memcpy(cand, p3 + (size_t)y * (size_t)nx, (size_t)nx);
+            else memset(cand, 255, (size_t)nx);
+            if (dir > 0 ? y > 0 : y < ny - 1) {
+                min3_row(row - (ptrdiff_t)dir * nx, rowmin, nx);
+                for (x = 0; x < nx; x++) cand[x] = (uint8_t)min_u(cand[x], rowmin[x]);
+            }
+            /* then along the row, from the voxel just done */
+            for (i = 0; i < nx; i++) {
+                unsigned m, v;
+                x = dir > 0 ? i : nx - 1 - i;
+                m = min_u(cand[x], left);
+                v = min_u(row[x], m + 1);
+                row[x] = (uint8_t)v;
+                left = v;
+            }
+        }
+    }
+}
+
+int mprt__chessboard_distance(const int n[3], uint8_t *d)
+{
+    uint8_t *p3 = malloc((size_t)n[0] * (size_t)n[1]), *cand = malloc(2 * (size_t)n[0]);
+    if (!p3 || !cand) {
+        free(p3);
+        free(cand);
+        return MPRT_ERR_OUT_OF_MEMORY;
+    }
+    chamfer_pass(n, d, p3, cand, +1);
+    chamfer_pass(n, d, p3, cand, -1);
+    free(p3);
+    free(cand);
+    return MPRT_OK;
+}
+
+/* Macro cells: m[a] voxels on axis a, the nearest whole number to the
+ * largest voxel extent over this axis's extent, so that macro cells are
+ * about cubic; macro_lo maps each voxel index to its macro cell's first. */
+static int macro_cells(mprt_grid *g)
+{
+    real big = g->cell.x > g->cell.y ? g->cell.x : g->cell.y;
+    int a, i, *lo;
+    if (g->cell.z > big) big = g->cell.z;
+    lo = malloc((size_t)(g->n[0] + g->n[1] + g->n[2]) * sizeof *lo);
+    if (!lo) return MPRT_ERR_OUT_OF_MEMORY;
+    for (a = 0; a < 3; a++) {
+        real r = big / vget(g->cell, a) + R(0.5);
+        g->macro[a] = r >= (real)g->n[a] ? g->n[a] : r < 1 ? 1 : (int)r;
+        g->macro_lo[a] = lo;
+        for (i = 0; i < g->n[a]; i++) lo[i] = i - i % g->macro[a];
+        lo += g->n[a];
+    }
+    return MPRT_OK;
+}
+
+/* Mark the voxels the walk may jump from (empty values 2 and up): the
+ * chessboard distance of each macro cell to the nearest one holding
+ * primitives, given to the empty voxels it contains.  A block that is a
+ * single voxel is not worth a jump: those voxels stay at 1. */
+static int mark_jumps(mprt_grid *g)
+{
+    int M[3], a, i, x, y, z, single = g->macro[0] == 1 && g->macro[1] == 1 && g->macro[2] == 1;
+    size_t *of[3] = {NULL, NULL, NULL}; /* per axis and voxel index: macro cell offset in md */
+    uint8_t *md = NULL, *e = g->empty;
+    int st = MPRT_ERR_OUT_OF_MEMORY;
+    if (macro_cells(g) != MPRT_OK) return st;
+    for (a = 0; a < 3; a++) M[a] = (g->n[a] + g->macro[a] - 1) / g->macro[a];
+    md = malloc((size_t)M[0] * (size_t)M[1] * (size_t)M[2]);
+    for (a = 0; a < 3; a++) of[a] = malloc((size_t)g->n[a] * sizeof *of[a]);
+    if (!md || !of[0] || !of[1] || !of[2]) goto done;
+    for (a = 0; a < 3; a++)
+        for (i = 0; i < g->n[a]; i++)
+            of[a][i] = (size_t)(i / g->macro[a]) * (a == 0 ? 1 : a == 1 ? (size_t)M[0] : (size_t)M[0] * (size_t)M[1]);
+    memset(md, 255, (size_t)M[0] * (size_t)M[1] * (size_t)M[2]);
+    /* a macro cell holds primitives when one of its voxels does */
+    for (z = 0; z < g->n[2]; z++)
+        for (y = 0; y < g->n[1]; y++)
+            for (x = 0; x < g->n[0]; x++, e++)
+                if (*e == 0) md[of[2][z] + of[1][y] + of[0][x]] = 0;
+    if (mprt__chessboard_distance(M, md) != MPRT_OK) goto done;
+    /* distance d >= 1: the macro cells within d - 1 are empty; empty = d + 1 */
+    e = g->empty;
+    for (z = 0; z < g->n[2]; z++)
+        for (y = 0; y < g->n[1]; y++)
+            for (x = 0; x < g->n[0]; x++, e++) {
+                unsigned d = md[of[2][z] + of[1][y] + of[0][x]];
+                if (*e && d >= (single ? 2u : 1u)) *e = (uint8_t)(d > 254 ? 255 : d + 1);
+            }
+    st = MPRT_OK;
+done:
+    free(md);
+    for (a = 0; a < 3; a++) free(of[a]);
+    return st;
 }
 
 /* (voxel, primitive) pairs, filled while testing, then sorted by voxel. */
@@ -178,18 +339,45 @@ static int build(mprt_grid *g, size_t max_bytes)
     memcpy(count, g->start, (size_t)nvox * sizeof *count);
     for (i = 0; i < (long long)P.n; i++) g->ids[count[P.vox[i]]++] = P.prim[i];
     g->refs = (long long)P.n;
-    g->flag = malloc((size_t)nvox);
-    if (!g->flag) {
+    g->empty = malloc((size_t)nvox);
+    if (!g->empty) {
         st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %lld voxel flags", nvox);
         goto done;
     }
-    for (i = 0; i < nvox; i++) g->flag[i] = g->start[i + 1] > g->start[i];
+    for (i = 0; i < nvox; i++) g->empty[i] = g->start[i + 1] > g->start[i] ? 0 : 1;
+    if (g->jump_min <= 255 && mark_jumps(g) != MPRT_OK)
+        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the macro cells of %lld voxels", nvox);
 
 done:
     free(count);
     free(P.vox);
     free(P.prim);
     return st;
+}
+
+/* Empty values from which the walk jumps by default: smaller blocks are
+ * cheaper to step through voxel by voxel (studies/03_bench measures it). */
+#define DEFAULT_JUMP_MIN 16
+
+/* The jump threshold the environment asks for: MPRT_NO_SKIP set to
+ * anything but "" or "0" turns jumps off (the plain voxel-by-voxel walk);
+ * MPRT_JUMP_MIN=k (2..255) jumps from smaller blocks than the default (the
+ * tests use 2, to jump wherever the grid allows).  Read once per grid, when
+ * it is made.  Returns MPRT_OK or fails the grid naming the variable. */
+static int jump_threshold(mprt_grid *g)
+{
+    const char *off = getenv("MPRT_NO_SKIP"), *k = getenv("MPRT_JUMP_MIN");
+    g->jump_min = DEFAULT_JUMP_MIN;
+    if (off && *off && strcmp(off, "0") != 0) {
+        g->jump_min = 256;
+    } else if (k && *k) {
+        char *end;
+        long v = strtol(k, &end, 10);
+        if (*end || v < 2 || v > 255)
+            return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: environment MPRT_JUMP_MIN=%.40s is not a whole number in 2..255", k);
+        g->jump_min = (unsigned)v;
+    }
+    return MPRT_OK;
 }
 
 int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, mprt_grid **out)
@@ -245,6 +433,7 @@ int mprt_grid_create_listing(const mprt_scene *s, int nx, int ny, int nz, size_t
     }
     g->cell = v3((g->hi.x - g->lo.x) / (real)nx, (g->hi.y - g->lo.y) / (real)ny, (g->hi.z - g->lo.z) / (real)nz);
     g->inv_cell = v3(1 / g->cell.x, 1 / g->cell.y, 1 / g->cell.z);
+    if ((st = jump_threshold(g)) != MPRT_OK) return st;
     st = build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES);
     if (st == MPRT_OK) {
         /* The scene now refuses changes until this grid is destroyed */
@@ -269,10 +458,12 @@ int mprt_grid_get_stats(const mprt_grid *g, mprt_grid_stats *st)
         long long len = (long long)(g->start[v + 1] - g->start[v]);
         if (len) st->nonempty++;
         if (len > st->max_len) st->max_len = len;
+        if (g->empty[v] >= g->jump_min) st->jump_voxels++;
     }
     st->mean_len = st->nonempty ? (double)st->refs / (double)st->nonempty : 0;
     st->bytes = (long long)((g->voxels + 1) * (long long)sizeof *g->start + g->voxels +
-                            g->refs * (long long)sizeof *g->ids);
+                            g->refs * (long long)sizeof *g->ids +
+                            (g->macro_lo[0] ? (long long)(g->n[0] + g->n[1] + g->n[2]) * (long long)sizeof(int) : 0));
     st->lo[0] = g->lo.x; st->lo[1] = g->lo.y; st->lo[2] = g->lo.z;
     st->hi[0] = g->hi.x; st->hi[1] = g->hi.y; st->hi[2] = g->hi.z;
     st->listing = g->listing;

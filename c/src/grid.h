@@ -14,7 +14,15 @@ struct mprt_grid {
     vec3 lo, hi, cell, inv_cell;
     real pad;          /* the walk clips rays to the box grown by pad */
     uint32_t *start;   /* voxels + 1 offsets into ids */
-    uint8_t *flag;     /* per voxel: 1 when its list is not empty (the OS flag) */
+    uint8_t *empty;    /* per voxel: 0 when its list is not empty (the OS flag is
+                        * empty == 0); 1 when empty; k >= 2 when empty and so is
+                        * every macro cell within k - 2 of the voxel's own (chessboard
+                        * distance in macro cells): the walk may jump that block */
+    int macro[3];      /* voxels per macro cell on each axis: about cubic macro cells */
+    int *macro_lo[3];  /* per axis, per voxel index: the first index of its macro cell */
+    unsigned jump_min; /* the walk jumps from voxels whose empty value is at least this
+                        * (dda.h); above 255 (environment MPRT_NO_SKIP=1 when the grid
+                        * was made): never, voxel by voxel, and empty is never above 1 */
     int32_t *ids;      /* primitive ids, voxel by voxel */
     long long refs;
     int listing;       /* mprt_listing */
@@ -33,5 +41,10 @@ int mprt__grid_fail(mprt_grid *g, int status, const char *fmt, ...)
 
 /* Lower corner of voxel (i, j, k); i == n gives the upper boundary. */
 vec3 mprt__grid_voxel_lo(const mprt_grid *g, int i, int j, int k);
+
+/* Chessboard (L-infinity) distance in cells to the nearest cell holding 0,
+ * over an n[0] x n[1] x n[2] array of cells (x fastest) holding 0 or 255,
+ * capped at 255.  MPRT_ERR_OUT_OF_MEMORY when scratch memory runs out. */
+int mprt__chessboard_distance(const int n[3], uint8_t *d);
 
 #endif

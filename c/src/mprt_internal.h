@@ -224,6 +224,17 @@ void mprt__ray_prepare(mprt__ray *ray, vec3 o, vec3 d);
  * else 0.  *_normal: unit outward/geometric normal at point p on the surface
  * (not flipped toward the ray).  *_box: nonzero when the primitive's surface
  * may touch the closed box [lo, hi]; never zero when it does (conservative). */
+/* Cheap rejection: 1 when the line o + t d certainly passes farther than
+ * sqrt(r2) from a point p with om = p - o, for no division and whatever
+ * the rounding: |om x d|^2 against dd = d.d times r2 with room for the
+ * rounding of this test and of the callers' own distance tests (those
+ * keep every decision; this only spares them on clear misses). */
+static inline int mprt__line_misses(vec3 om, vec3 d, real dd, real r2)
+{
+    vec3 c = vcross(om, d);
+    return vdot(c, c) > dd * (R(1.07) * r2 + R(4096.0) * REAL_EPS * REAL_EPS * vdot(om, om));
+}
+
 int mprt__sphere_hit(const mprt__sphere *s, const mprt__ray *ray, real tmin, real tmax, real *t);
 vec3 mprt__sphere_normal(const mprt__sphere *s, vec3 p);
 int mprt__sphere_box(const mprt__sphere *s, vec3 lo, vec3 hi);

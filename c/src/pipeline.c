@@ -61,12 +61,12 @@ static int test_prim(const mprt_scene *s, int32_t id, const mprt__ray *ray, real
  * return 1 on any hit in (tmin, tmax].  Otherwise update the nearest hit
  * *best and return 1 when it lies within this voxel's stretch, or with
  * accept_listed wherever it lies (accepted). */
-static int ic_visit(const mprt_grid *g, const mprt__dda *walk, const mprt__ray *ray, real tmin, real tmax, int shadow,
-                    int accept_listed, mprt__hit *best, mailbox *mb, mprt__visit *ic, mprt__sink *sink)
+static int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt__ray *ray, real tmin, real tmax,
+                    int shadow, int accept_listed, mprt__hit *best, mailbox *mb, mprt__visit *ic, mprt__sink *sink)
 {
     const mprt_scene *s = g->scene;
-    uint32_t k, end = g->start[walk->voxel + 1];
-    for (k = g->start[walk->voxel]; k < end; k++) {
+    uint32_t k, end = g->start[voxel + 1];
+    for (k = g->start[voxel]; k < end; k++) {
         int32_t id = g->ids[k];
         real t;
         real limit = shadow ? tmax : best->t;
@@ -85,7 +85,7 @@ static int ic_visit(const mprt_grid *g, const mprt__dda *walk, const mprt__ray *
             best->prim = id;
         }
     }
-    return !shadow && best->prim >= 0 && (accept_listed || best->t <= walk->t_exit);
+    return !shadow && best->prim >= 0 && (accept_listed || best->t <= t_exit);
 }
 
 /* ---- OS + IC ----------------------------------------------------------------- */
@@ -113,7 +113,6 @@ int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real
 {
     mprt__dda walk;
     mailbox mb, *pmb = NULL;
-    const uint8_t *flag = g->flag;
     int32_t steps;  /* voxels the walk entered since OS last had the ray */
     int left = shadow ? MPRT_OUT_TO_SC : MPRT_OUT_LEFT;
     best->t = tmax;
@@ -127,24 +126,22 @@ int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real
         pmb = &mb;
     }
     steps = 1;
-    for (;;) {
-        if (flag[walk.voxel]) {
-            /* OS hands the ray to IC */
-            mprt__visit ic;
-            int accepted;
-            emit_os(sink, ray_id, ray_kind, MPRT_OUT_TO_IC, steps, walk.voxel, -1);
-            mprt__visit_init(&ic, ray_id, ray_kind, MPRT_STAGE_IC, MPRT_OUT_RETURN);
-            ic.voxel_id = walk.voxel;
-            accepted = ic_visit(g, &walk, ray, tmin, tmax, shadow, accept_listed, best, pmb, &ic, sink);
-            if (accepted) {
-                ic.outcome = shadow ? MPRT_OUT_BLOCKED : MPRT_OUT_HIT;
-                ic.prim = best->prim;
-            }
-            mprt__emit_visit(sink, &ic);
-            if (accepted) return 1;
-            /* a return ray: back to OS */
-            steps = 0;
+    while (mprt__dda_seek(g, &walk, &steps)) {
+        /* OS hands the ray to IC */
+        mprt__visit ic;
+        int accepted;
+        emit_os(sink, ray_id, ray_kind, MPRT_OUT_TO_IC, steps, walk.voxel, -1);
+        mprt__visit_init(&ic, ray_id, ray_kind, MPRT_STAGE_IC, MPRT_OUT_RETURN);
+        ic.voxel_id = walk.voxel;
+        accepted = ic_visit(g, walk.voxel, walk.t_exit, ray, tmin, tmax, shadow, accept_listed, best, pmb, &ic, sink);
+        if (accepted) {
+            ic.outcome = shadow ? MPRT_OUT_BLOCKED : MPRT_OUT_HIT;
+            ic.prim = best->prim;
         }
+        mprt__emit_visit(sink, &ic);
+        if (accepted) return 1;
+        /* a return ray: back to OS, which walks on */
+        steps = 0;
         if (!mprt__dda_next(g, &walk)) break;
         steps++;
     }

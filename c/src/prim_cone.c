@@ -91,11 +91,12 @@ static int cone_local(const mprt__cone *c, const mprt__ray *ray, real *tc, real 
     om = vsub(m, ray->o);
     dd = vdot(ray->d, ray->d);
     if (!(dd > 0)) return 0;
+    r2 = half * half + rmax * rmax;
+    if (mprt__line_misses(om, ray->d, dd, r2)) return 0; /* a clear miss of the bounding sphere */
     s = vdot(om, ray->d) / dd;
     e = vsub(vscale(ray->d, s), om);
 
     /* Bounding sphere of the frustum */
-    r2 = half * half + rmax * rmax;
     if (vdot(e, e) > r2 * (1 + R(64.0) * REAL_EPS)) return 0;
 
     /* Local coordinates, origin at the base */

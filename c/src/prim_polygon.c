@@ -120,32 +120,61 @@ int mprt__polygon_prepare(mprt__polygon *p, const vec3 *verts, char *err, size_t
     return 0;
 }
 
+/* Shear-space coordinates of vertex v (the ray along +z through the origin). */
+#define SHEAR(v, x, y)                 \
+    do {                               \
+        vec3 q_ = vsub((v), o);        \
+        (x) = vdot(q_, mx);            \
+        (y) = vdot(q_, my);            \
+    } while (0)
+
+/* Edge a->b's share of the winding number, half-open in y: an upward
+ * crossing counts +1 when the origin is left of a->b, a downward one -1
+ * when it is right (E(a, b) = ax by - ay bx).  Without branches: every
+ * edge's E is computed and the conditions combined. */
+static inline int edge_winding(real ax, real ay, real bx, real by)
+{
+    real e = ax * by - ay * bx;
+    return ((ay <= 0) & (by > 0) & (e > 0)) - (!(ay <= 0) & (by <= 0) & (e < 0));
+}
+
 int mprt__polygon_hit(const mprt__polygon *p, const vec3 *verts, const mprt__ray *ray, real tmin,
                       real tmax, real *t)
 {
     const vec3 *v = verts + p->first;
     const int n = p->n;
     const vec3 o = ray->o, mx = ray->mx, my = ray->my;
-    vec3 q;
     real dn, tt, ax, ay, bx, by, e;
     int i, wn = 0;
 
-    /* Plane: reject parallel rays and hits outside (tmin, tmax] first */
+    /* Parallel rays never hit */
     dn = vdot(p->normal, ray->d);
     if (dn == 0) return 0;
+
+    if (n == 3) {
+        /* A triangle: the winding number first, without a branch per edge;
+         * most tests end on a winding number of 0 and need no division */
+        real x0, y0, x1, y1, x2, y2;
+        SHEAR(v[0], x0, y0);
+        SHEAR(v[1], x1, y1);
+        SHEAR(v[2], x2, y2);
+        wn = edge_winding(x2, y2, x0, y0) + edge_winding(x0, y0, x1, y1) + edge_winding(x1, y1, x2, y2);
+        if (wn == 0) return 0;
+        tt = (p->d - vdot(p->normal, o)) / dn;
+        if (!(tt > tmin && tt <= tmax)) return 0;
+        *t = tt;
+        return 1;
+    }
+
+    /* Other polygons: hits outside (tmin, tmax] first, before the edges */
     tt = (p->d - vdot(p->normal, o)) / dn;
     if (!(tt > tmin && tt <= tmax)) return 0;
 
-    /* Shear-space coordinates of the last vertex (start of the first edge) */
-    q = vsub(v[n - 1], o);
-    ax = vdot(q, mx);
-    ay = vdot(q, my);
-
-    /* Winding number of the ray (the origin of shear space); half-open in y */
+    /* Winding number of the ray (the origin of shear space), starting with
+     * the edge from the last vertex; E only where an edge crosses y = 0 */
+    SHEAR(v[n - 1], ax, ay);
     for (i = 0; i < n; i++) {
-        q = vsub(v[i], o);
-        bx = vdot(q, mx);
-        by = vdot(q, my);
+        SHEAR(v[i], bx, by);
         if (ay <= 0) {
             if (by > 0) { /* upward crossing: count when the origin is left of a->b */
                 e = ax * by - ay * bx;
@@ -162,6 +191,8 @@ int mprt__polygon_hit(const mprt__polygon *p, const vec3 *verts, const mprt__ray
     *t = tt;
     return 1;
 }
+
+#undef SHEAR
 
 /* Weights of p in triangle (a, b, c) measured along n; returns the sum (0 if degenerate). */
 static real tri_weights(vec3 a, vec3 b, vec3 c, vec3 n, vec3 p, real w[3])

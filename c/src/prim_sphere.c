@@ -10,8 +10,9 @@ int mprt__sphere_hit(const mprt__sphere *s, const mprt__ray *ray, real tmin, rea
     /* Quadratic a t^2 + 2 b t + c = 0 with oc = o - centre */
     oc = vsub(ray->o, s->c);
     a = vdot(ray->d, ray->d);
-    b = vdot(oc, ray->d);
     r2 = s->r * s->r;
+    if (mprt__line_misses(oc, ray->d, a, r2)) return 0; /* a clear miss */
+    b = vdot(oc, ray->d);
     c = vdot(oc, oc) - r2;
 
     /* Outside and moving away: both roots are negative */

@@ -215,7 +215,7 @@ typedef struct {
     pthread_mutex_t lock;
 } tile_queue;
 
-/* One worker thread: its counters and errors (in its sink). */
+/* One worker thread: its counters and errors (its sink), copied here when it ends. */
 typedef struct {
     tile_queue *queue;
     mprt__sink sink;
@@ -223,10 +223,14 @@ typedef struct {
     pthread_t thread;
 } worker;
 
+/* A worker counts into a sink in its own stack frame, not into the worker
+ * array: the counters change at every stage visit, and neighbouring
+ * workers' entries share cache lines. */
 static void *work(void *arg)
 {
     worker *self = arg;
     tile_queue *queue = self->queue;
+    mprt__sink sink = self->sink;
     mprt__tree_ray *stack = malloc(mprt__tree_stack_size(queue->setup) * sizeof *stack);
     if (!stack) {
         pthread_mutex_lock(&queue->lock);
@@ -240,8 +244,8 @@ static void *work(void *arg)
         tile = queue->out_of_memory || queue->stop ? queue->ntiles : queue->next_tile++;
         pthread_mutex_unlock(&queue->lock);
         if (tile >= queue->ntiles) break;
-        render_tile(queue->setup, tile, &queue->samples, stack, &self->sink);
-        if (self->sink.over_budget >= 0) {
+        render_tile(queue->setup, tile, &queue->samples, stack, &sink);
+        if (sink.over_budget >= 0) {
             /* Tiles are handed out in order and the tiles being traced are
              * finished, so the lowest failing tile is found whatever the
              * thread count: the error names the same sample every time */
@@ -253,6 +257,7 @@ static void *work(void *arg)
         }
     }
     free(stack);
+    self->sink = sink;
     return NULL;
 }
 

@@ -1,25 +1,35 @@
-"""Benchmark (make bench): intersect throughput against Embree, render and trace times.
+"""Benchmark (make bench): intersect throughput against Embree, render and trace times, before and after.
 
-For each SPD scene at its default size, one thread:
+For each SPD scene at its default size:
   1. finds the fastest grid subdivision for the scene's 512x512 primary rays
      among cubic and shape-following (pbrt-rule) candidates;
   2. measures rays per second of ``Grid.intersect`` on those primary rays and
-     on random rays, and, for the triangle scenes (tetra; mount's 8192
-     triangles without its 4 spheres), Embree's single-ray ``rtcIntersect1``
-     loop (via the embreex package) on the same rays, side by side;
-  3. times full 512x512 renders under both rule sets with that grid, and the
-     cost of tracing: the untraced render, the tracer alone (every tile traced
-     into reused buffers, records not kept) and the whole ``grid.trace``.
-Every figure is a best-of-N wall-clock time measured in this one run; the
-ratios are the point, since the machine may be shared.  Writes bench.csv to
-studies/out/03_bench/ (--quick: scenes at size 2, 32x32, the default grid,
-one repeat; the work figures only (visits, bytes per visit), to ref/).
+     on random rays, with empty-space jumps and without (MPRT_NO_SKIP=1),
+     and, for the triangle scenes (tetra; mount's 8192 triangles without its
+     4 spheres), Embree's single-ray ``rtcIntersect1`` loop (the embreex
+     package) on the same rays, side by side;
+  3. times 512x512 renders under both rule sets, on 1 and on 2 threads, and
+     the cost of tracing: the untraced render, the tracer alone (every tile
+     traced into reused buffers, records not kept) and the whole
+     ``grid.trace``.
+With --before DIR (a ``python`` folder holding another build of the mprt
+package, e.g. main's: ``make bench`` builds one), every timing is also made
+with that build in a worker process, interleaved with this one's, so each
+before/after figure is a ratio measured in one run.  One-thread figures are
+thread CPU times, two-thread ones wall-clock times; each is the best of N.
+Writes bench.csv to studies/out/03_bench/ (--quick: scenes at size 2, 32x32,
+the default grid, one repeat; the work figures only (visits, bytes per
+visit), to ref/).
 
-    python studies/03_bench/run.py [--scenes balls,tetra] [--repeat 3] [--quick]
+    python studies/03_bench/run.py [--scenes balls,tetra] [--repeat 3] [--before DIR] [--quick]
 """
 from __future__ import annotations
 
+import argparse
+import contextlib
+import json
 import os
+import subprocess
 import sys
 import time
 
@@ -27,7 +37,7 @@ import numpy as np
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import mprt  # noqa: E402
-from _common import best_time, log, random_rays, study_args, write_csv  # noqa: E402
+from _common import log, md_rows, random_rays, study_args, write_csv  # noqa: E402
 from mprt.grid import render_desc  # noqa: E402
 from mprt.trace import RAY_DTYPE, VISIT_DTYPE  # noqa: E402
 
@@ -38,6 +48,18 @@ except ImportError:  # optional
     _ers = None
 
 WORK = ("scene", "grid", "rays", "visits", "bytes_per_visit")  # the columns that do not depend on timing
+RES, NRAND = 512, 262144
+
+
+# ---- the measurements (run in this process and, with --before, in the worker) ------------------
+
+_cache: dict = {}
+
+
+def cached(key, make):
+    if key not in _cache:
+        _cache[key] = make()
+    return _cache[key]
 
 
 def triangles(scene) -> np.ndarray:
@@ -47,130 +69,290 @@ def triangles(scene) -> np.ndarray:
     return p["vertices"][p["vstart"][tri][:, None] + np.arange(3)]
 
 
-def triangle_scene(tris):
-    """A Scene holding only the given triangles (like-for-like with Embree)."""
-    s = mprt.Scene()
-    for t in tris:
-        s.add_polygon(t)
-    return s
+def scene_of(name, size, tris_only=False):
+    def make():
+        s = mprt.Scene.spd(name, size)
+        if not tris_only:
+            return s
+        t = mprt.Scene()  # the triangles alone (like-for-like with Embree)
+        for tri in triangles(s):
+            t.add_polygon(tri)
+        return t
+    return cached(("scene", name, size, tris_only), make)
 
 
-def trace_cost(grid, res, repeat):
-    """Traced/untraced time, side by side: (untraced, tracer alone, whole grid.trace, visits, rays)."""
-    desc = grid.resolve(render_desc(res, res))
-    ntiles = grid.tiling(desc)[2] * grid.tiling(desc)[3]
+@contextlib.contextmanager
+def skipping(on: bool):
+    """Grids made inside jump over empty space (on) or walk voxel by voxel."""
+    old = os.environ.pop("MPRT_NO_SKIP", None)
+    if not on:
+        os.environ["MPRT_NO_SKIP"] = "1"
+    try:
+        yield
+    finally:
+        os.environ.pop("MPRT_NO_SKIP", None)
+        if old is not None:
+            os.environ["MPRT_NO_SKIP"] = old
+
+
+def grid_of(name, size, n, tris_only=False, skip=True):
+    def make():
+        with skipping(skip):
+            return scene_of(name, size, tris_only).grid(tuple(n))
+    return cached(("grid", name, size, tuple(n), tris_only, skip), make)
+
+
+def rays_of(name, size, which, res=RES, nrand=NRAND):
+    """The scene's primary rays (its view, res x res) or random rays; the same in every build."""
+    def make():
+        s = scene_of(name, size)
+        return s.grid(1).camera_rays(res, res) if which == "primary" else random_rays(s, nrand)
+    return cached(("rays", name, size, which, res, nrand), make)
+
+
+def thread_clock(fn):
+    t = time.thread_time()
+    out = fn()
+    return time.thread_time() - t, out
+
+
+def t_intersect(name, size, n, which, tris_only=False, skip=True, res=RES, nrand=NRAND):
+    """CPU time of one intersect call; and the hit count."""
+    g = grid_of(name, size, n, tris_only, skip)
+    o, d = rays_of(name, size, which, res, nrand)
+    t, (_, prim) = thread_clock(lambda: g.intersect(o, d))
+    return t, int(np.count_nonzero(prim >= 0))
+
+
+def t_render(name, size, n, res, rules, threads=0):
+    """CPU time of one render on this thread; with threads, the wall-clock time on that many."""
+    g = grid_of(name, size, n)
+    if not threads:
+        return thread_clock(lambda: g.render(res, res, rules=rules))[0]
+    t = time.perf_counter()
+    g.render(res, res, rules=rules, threads=threads)
+    return time.perf_counter() - t
+
+
+def t_trace(name, size, n, res):
+    """Untraced render, the tracer alone (tiles into reused buffers) and the whole grid.trace, one each:
+    (times..., visits, rays)."""
+    g = grid_of(name, size, n)
+    desc = g.resolve(render_desc(res, res))
+    tiling = g.tiling(desc)
     smp = np.empty(desc["tile"] ** 2 * 3)
     rays = np.empty(1 << 16, dtype=RAY_DTYPE)
     visits = np.empty(1 << 20, dtype=VISIT_DTYPE)
 
     def c_only():
         total = 0
-        for t in range(ntiles):
-            nr, nv, fitted = grid.trace_tile(desc, t, smp, rays, visits)
+        for tile in range(tiling[2] * tiling[3]):
+            _, nv, fitted = g.trace_tile(desc, tile, smp, rays, visits)
             assert fitted, "bench buffers too small"
             total += nv
         return total
 
-    t_render = t_c = t_py = float("inf")
-    for _ in range(repeat):  # interleaved, so load changes hit all three alike
-        t0 = time.perf_counter()
-        grid.render(res, res)
-        t1 = time.perf_counter()
-        nvis = c_only()
-        t2 = time.perf_counter()
-        _, tr = grid.trace(res, res)
-        t3 = time.perf_counter()
-        t_render, t_c, t_py = min(t_render, t1 - t0), min(t_c, t2 - t1), min(t_py, t3 - t2)
-    return t_render, t_c, t_py, nvis, len(tr.rays)
+    t_u = thread_clock(lambda: g.render(res, res))[0]
+    t_c, nvis = thread_clock(c_only)
+    t_p, (_, tr) = thread_clock(lambda: g.trace(res, res))
+    return t_u, t_c, t_p, nvis, len(tr.rays)
 
+
+MEASURES = {f.__name__: f for f in (t_intersect, t_render, t_trace)}
+
+
+def serve() -> int:
+    """Worker mode: one JSON request per line on stdin ([name, args]), one JSON answer per line."""
+    out = sys.stdout
+    sys.stdout = sys.stderr  # nothing else may write to the answers
+    for line in sys.stdin:
+        name, args = json.loads(line)
+        out.write(json.dumps(MEASURES[name](*args)) + "\n")
+        out.flush()
+    return 0
+
+
+class Before:
+    """The other build, in a worker process running this file with its package first on the path."""
+
+    def __init__(self, python_dir: str):
+        env = dict(os.environ, PYTHONPATH=os.path.abspath(python_dir))
+        self.proc = subprocess.Popen([sys.executable, os.path.abspath(__file__), "--serve"], env=env,
+                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
+        self.version = self("t_version")
+
+    def __call__(self, name, *args):
+        self.proc.stdin.write(json.dumps([name, list(args)]) + "\n")
+        self.proc.stdin.flush()
+        return json.loads(self.proc.stdout.readline())
+
+    def close(self):
+        self.proc.stdin.close()
+        self.proc.wait()
+
+
+def t_version():
+    return f"{mprt.__version__} from {os.path.dirname(mprt.__file__)}"
+
+
+MEASURES["t_version"] = t_version
+
+
+def best_of(a, b):
+    """The smaller of two measurements; of tuples, item by item (times; counts are equal anyway)."""
+    if a is None:
+        return b
+    if isinstance(a, (int, float)):
+        return min(a, b)
+    return [min(x, y) for x, y in zip(a, b)]
+
+
+def side_by_side(before, repeat, name, *args):
+    """Best of repeat runs of measure `name` here and (if given) in the before build, interleaved."""
+    here = there = None
+    for _ in range(repeat):
+        here = best_of(here, MEASURES[name](*args))
+        if before is not None:
+            there = best_of(there, before(name, *args))
+    return here, there
+
+
+# ---- per scene ------------------------------------------------------------------------------------
 
 def candidates(scene):
     cands = [(n, n, n) for n in (16, 24, 32, 48, 64, 96, 128)]
     for density in (1, 2, 3, 4, 6, 8, 12):
-        g = scene.default_grid(density=density, limit=512)
+        g = tuple(scene.default_grid(density=density, limit=512))
         if g not in cands:
             cands.append(g)
     return cands
 
 
-def fastest_grid(scene, o, d, repeat):
+def fastest_grid(name, size, tris_only=False):
+    """The candidate subdivision with the fastest primary rays (this build), and its build time."""
     best = None
-    for n in candidates(scene):
-        t_build, grid = best_time(lambda: scene.grid(n), 1)
-        t, _ = best_time(lambda: grid.intersect(o, d), repeat)
+    for n in candidates(scene_of(name, size, tris_only)):
+        t_build = thread_clock(lambda: grid_of(name, size, n, tris_only))[0]
+        t = min(t_intersect(name, size, n, "primary", tris_only)[0] for _ in range(2))
         if best is None or t < best[1]:
             best = (n, t, t_build)
-    return best
+        _cache.pop(("grid", name, size, n, tris_only, True))
+    return best[0], best[2]
 
 
-def embree_row(scene, po, pd, ro, rd, repeat) -> dict:
+def ratio(a, b):
+    return a / b if a and b else None
+
+
+def embree_row(name, size, before, repeat) -> dict:
     """mprt on the scene's triangles alone against Embree on the same triangles and rays."""
-    tris = triangles(scene)
-    tscene = triangle_scene(tris)
-    tn, tt_prim, _ = fastest_grid(tscene, po, pd, repeat)
-    tgrid = tscene.grid(tn)
-    tt_rand, (tt, tp) = best_time(lambda: tgrid.intersect(ro, rd), repeat)
+    tris = triangles(scene_of(name, size))
+    n, _ = fastest_grid(name, size, tris_only=True)
     es = _ers.EmbreeScene()
     _emc.TriangleMesh(es, tris.astype(np.float32))
-    po32, pd32, ro32, rd32 = (x.astype(np.float32) for x in (po, pd, ro, rd))
-    es.run(po32[:1], pd32[:1])  # commit (BVH build) outside the timing
-    te_prim, _ = best_time(lambda: es.run(po32, pd32), repeat)
-    te_rand, ep = best_time(lambda: es.run(ro32, rd32), repeat)
-    row = {"tri_grid": "x".join(map(str, tn)),
-           "tri_primary_Mrays": len(po) / tt_prim / 1e6, "embree_primary_Mrays": len(po) / te_prim / 1e6,
-           "tri_random_Mrays": len(ro) / tt_rand / 1e6, "embree_random_Mrays": len(ro) / te_rand / 1e6,
-           "hit_agreement": float(np.mean((ep >= 0) == (tp >= 0)))}
-    log(f"       triangles only, grid {row['tri_grid']}: primary mprt {row['tri_primary_Mrays']:.2f} vs "
-        f"Embree {row['embree_primary_Mrays']:.2f} Mrays/s; random mprt {row['tri_random_Mrays']:.2f} vs Embree "
-        f"{row['embree_random_Mrays']:.2f}; hit/miss agreement {row['hit_agreement']:.5f}")
+    row = {"tri_grid": "x".join(map(str, n))}
+    for which in ("primary", "random"):
+        o, d = (x.astype(np.float32) for x in rays_of(name, size, which))
+        es.run(o[:1], d[:1])  # commit (BVH build) outside the timing
+        t_e = min(thread_clock(lambda: es.run(o, d))[0] for _ in range(repeat))
+        (t_m, hits), there = side_by_side(before, repeat, "t_intersect", name, size, n, which, True)
+        _, ep = thread_clock(lambda: es.run(o, d))
+        rows = len(o)
+        row[f"tri_{which}_Mrays"] = rows / t_m / 1e6
+        row[f"embree_{which}_Mrays"] = rows / t_e / 1e6
+        row[f"tri_{which}_vs_embree"] = t_e / t_m
+        if there:
+            row[f"tri_{which}_before_vs_embree"] = t_e / there[0]
+        row[f"tri_{which}_hit_agreement"] = 1 - abs(hits - int(np.count_nonzero(ep >= 0))) / rows
+    log(f"       triangles only, grid {row['tri_grid']}: primary mprt {row['tri_primary_Mrays']:.2f} vs Embree "
+        f"{row['embree_primary_Mrays']:.2f} Mrays/s ({row['tri_primary_vs_embree']:.2f}x); random mprt "
+        f"{row['tri_random_Mrays']:.2f} vs Embree {row['embree_random_Mrays']:.2f} "
+        f"({row['tri_random_vs_embree']:.2f}x)")
     return row
 
 
-def bench_scene(name, size, res, nrand, repeat, quick) -> dict:
-    scene = mprt.Scene.spd(name, size)
-    probe = scene.grid(1)
-    po, pd = probe.camera_rays(res, res)
-    ro, rd = random_rays(scene, nrand)
-    if quick:
-        n, t_build = scene.default_grid(), best_time(lambda: scene.grid(scene.default_grid()), 1)[0]
-    else:
-        n, _, t_build = fastest_grid(scene, po, pd, repeat)
-    grid = scene.grid(n)
-    t_prim, _ = best_time(lambda: grid.intersect(po, pd), repeat)
-    t_rand, _ = best_time(lambda: grid.intersect(ro, rd), repeat)
-    row = {"scene": name, "grid": "x".join(map(str, n)), "build_s": t_build,
-           "primary_Mrays": len(po) / t_prim / 1e6, "random_Mrays": len(ro) / t_rand / 1e6}
+def bench_scene(name, size, before, repeat) -> dict:
+    n, t_build = fastest_grid(name, size)
+    row = {"scene": name, "grid": "x".join(map(str, n)), "build_s": t_build}
+    for which in ("primary", "random"):
+        (t, _), there = side_by_side(before, repeat, "t_intersect", name, size, n, which)
+        t0 = min(t_intersect(name, size, n, which, skip=False)[0] for _ in range(repeat))
+        rays = len(rays_of(name, size, which)[0])
+        row[f"{which}_Mrays"] = rays / t / 1e6
+        row[f"{which}_jumps_gain"] = t0 / t  # >1: jumping over empty space pays
+        if there:
+            row[f"{which}_before_Mrays"] = rays / there[0] / 1e6
+            row[f"{which}_speedup"] = there[0] / t
     for rules in ("paper", "spd"):
-        row[f"render_{rules}_s"], _ = best_time(lambda: grid.render(res, res, rules=rules), 1)
-    t_u, t_c, t_p, nvis, nrays = trace_cost(grid, res, repeat)
-    row.update({"rays": nrays, "visits": nvis, "trace_c_ratio": t_c / t_u, "trace_ratio": t_p / t_u,
+        t, there = side_by_side(before, repeat, "t_render", name, size, n, RES, rules)
+        row[f"render_{rules}_s"] = t
+        if there:
+            row[f"render_{rules}_before_s"], row[f"render_{rules}_speedup"] = there, there / t
+    for threads in (1, 2):  # wall-clock times, interleaved
+        row[f"wall_{threads}"], row[f"wall_{threads}_before"] = side_by_side(before, repeat, "t_render", name, size,
+                                                                               n, RES, "paper", threads)
+    row["threads2_speedup"] = row.pop("wall_1") / row.pop("wall_2")
+    w1, w2 = row.pop("wall_1_before"), row.pop("wall_2_before")
+    if w1:
+        row["threads2_before_speedup"] = w1 / w2
+    (t_u, t_c, t_p, nvis, nrays), there = side_by_side(before, repeat, "t_trace", name, size, n, RES)
+    row.update({"rays": nrays, "visits": nvis, "tracer_alone_vs_render": t_c / t_u, "trace_vs_render": t_p / t_u,
                 "bytes_per_visit": round((nrays * RAY_DTYPE.itemsize + nvis * VISIT_DTYPE.itemsize) / nvis, 2)})
-    log(f"{name:6s} grid {row['grid']:>11s} (build {t_build:.2f} s)  intersect: primary {row['primary_Mrays']:.2f} "
-        f"Mrays/s, random {row['random_Mrays']:.2f} Mrays/s;  render {res}^2: paper {row['render_paper_s']:.2f} s, "
-        f"spd {row['render_spd_s']:.2f} s")
-    log(f"       trace {res}^2 (paper): {nvis} visits, {row['bytes_per_visit']:.1f} bytes per visit (rays included); "
-        f"traced/untraced time: tracer alone {row['trace_c_ratio']:.2f}, whole grid.trace {row['trace_ratio']:.2f}")
-    if _ers is not None and not quick and name in ("tetra", "mount"):
-        row.update(embree_row(scene, po, pd, ro, rd, repeat))
+    if there:
+        row["trace_before_vs_render"] = there[2] / there[0]
+        row["trace_speedup"] = there[2] / t_p
+    log(f"{name:6s} grid {row['grid']:>11s}: primary {row['primary_Mrays']:.2f} Mrays/s "
+        f"(x{row.get('primary_speedup', 0):.2f} before), random {row['random_Mrays']:.2f} "
+        f"(x{row.get('random_speedup', 0):.2f}); render paper {row['render_paper_s']:.2f} s "
+        f"(x{row.get('render_paper_speedup', 0):.2f}), spd {row['render_spd_s']:.2f} s; 2 threads "
+        f"x{row['threads2_speedup']:.2f}; grid.trace/render {row['trace_vs_render']:.2f}")
+    if _ers is not None and name in ("tetra", "mount"):
+        row.update(embree_row(name, size, before, repeat))
+    _cache.clear()
     return row
+
+
+def quick_row(name) -> dict:
+    """Work figures at size 2, 32x32, the default grid (deterministic)."""
+    n = tuple(scene_of(name, 2).default_grid())
+    _, _, _, nvis, nrays = t_trace(name, 2, n, 32)
+    return {"scene": name, "grid": "x".join(map(str, n)), "rays": nrays, "visits": nvis,
+            "bytes_per_visit": round((nrays * RAY_DTYPE.itemsize + nvis * VISIT_DTYPE.itemsize) / nvis, 2)}
+
+
+SUMMARY = ("scene", "grid", "primary_Mrays", "primary_speedup", "random_Mrays", "random_speedup", "primary_jumps_gain",
+           "render_paper_s", "render_paper_speedup", "render_spd_speedup", "threads2_speedup",
+           "threads2_before_speedup", "tracer_alone_vs_render", "trace_vs_render", "trace_speedup",
+           "tri_primary_vs_embree", "tri_primary_before_vs_embree", "tri_random_vs_embree")
 
 
 def options(ap):
     ap.add_argument("--scenes", default=",".join(mprt.SPD_SCENES))
     ap.add_argument("--repeat", type=int, default=3)
-    ap.add_argument("--random", type=int, default=262144, help="random rays per scene")
+    ap.add_argument("--before", default=None, help="python folder of another mprt build to compare with")
+    ap.add_argument("--serve", action="store_true", help=argparse.SUPPRESS)
 
 
 def main(argv=None) -> int:
+    if "--serve" in (sys.argv[1:] if argv is None else argv):
+        return serve()
     a, out = study_args(__file__, __doc__.splitlines()[0],
                         "scenes at size 2, 32x32, default grid, one repeat, work figures only", argv, options)
-    size, res, repeat, nrand = (2, 32, 1, 2000) if a.quick else (None, 512, a.repeat, a.random)
-    log(f"mprt {mprt.__version__}; one thread; best of {repeat}; Embree: "
-        + ("embreex" if _ers else "not installed (pip install embreex)"))
-    rows = [bench_scene(name, size, res, nrand, repeat, a.quick) for name in a.scenes.split(",")]
+    names = a.scenes.split(",")
     if a.quick:  # timings are not reproducible: the reference keeps the work figures
-        rows = [{k: r[k] for k in WORK} for r in rows]
+        write_csv(os.path.join(out, "bench.csv"), [quick_row(name) for name in names])
+        return 0
+    before = Before(a.before) if a.before else None
+    log(f"mprt {t_version()}; before: {before.version if before else 'none'}; best of {a.repeat}; Embree: "
+        + ("embreex" if _ers else "not installed (pip install embreex)"))
+    try:
+        rows = [bench_scene(name, None, before, a.repeat) for name in names]
+    finally:
+        if before:
+            before.close()
     write_csv(os.path.join(out, "bench.csv"), rows)
+    log(md_rows([{k: (round(r[k], 2) if isinstance(r[k], float) else r[k]) for k in SUMMARY if k in r}
+                 for r in rows]))
     return 0
 
 

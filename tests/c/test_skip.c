@@ -1,0 +1,224 @@
+/* test_skip.c: empty-space skipping changes no count.  The jump across a
+ * block of voxels (mprt__dda_jump) ends in the state the step-by-step walk
+ * reaches when it first leaves the cube, having entered as many voxels;
+ * the distance field the jumps rely on is the exact chessboard distance to
+ * the nearest voxel with primitives; and a walk that jumps wherever the
+ * field allows visits the same voxels with primitives, with the same counts
+ * in between, as the plain walk. */
+#include "check.h"
+#include "dda.h"
+#include "geom.h"
+
+#include <stdint.h>
+
+/* A scene whose bounding box is exactly [0,8]^3: two spheres at opposite corners. */
+static mprt_scene *corner_scene(void)
+{
+    mprt_scene *s;
+    double c0[3] = {1, 1, 1}, c1[3] = {7, 7, 7};
+    mprt_scene_create(&s);
+    mprt_scene_add_sphere(s, c0, 1);
+    mprt_scene_add_sphere(s, c1, 1);
+    return s;
+}
+
+static mprt_grid *make_grid(const mprt_scene *s, int nx, int ny, int nz)
+{
+    mprt_grid *g;
+    int st = mprt_grid_create(s, nx, ny, nz, 0, &g);
+    CHECK_MSG(st == MPRT_OK, "%s", mprt_grid_errmsg(g));
+    return g;
+}
+
+/* Same walk state, bit for bit. */
+static int same_state(const mprt__dda *a, const mprt__dda *b)
+{
+    int k;
+    for (k = 0; k < 3; k++)
+        if (a->cell[k] != b->cell[k] || a->tnext[k] != b->tnext[k]) return 0;
+    return a->voxel == b->voxel && a->t_enter == b->t_enter && a->t_exit == b->t_exit;
+}
+
+/* A random ray that is often hard: origins snapped onto voxel boundaries,
+ * directions along axes, face diagonals and the main diagonal. */
+static void hard_ray(rng *r, const mprt_grid *g, vec3 *o, vec3 *d)
+{
+    double p[3], v[3];
+    int a, kind = rnd_int(r, 0, 3);
+    for (a = 0; a < 3; a++) {
+        double lo = (double)vget(g->lo, a), ext = (double)vget(g->hi, a) - lo;
+        p[a] = lo + rnd_in(r, -0.3, 1.3) * ext;
+        if (rnd_int(r, 0, 2) == 0) /* onto a voxel boundary */
+            p[a] = lo + (double)rnd_int(r, 0, g->n[a]) * (double)vget(g->cell, a);
+        v[a] = rnd_in(r, -1, 1);
+        if (kind == 1 && a > 0) v[a] = 0;                                   /* along an axis */
+        if (kind == 2) v[a] = a == 2 ? 0 : (rnd_int(r, 0, 1) ? 1 : -1);     /* a face diagonal */
+        if (kind == 3) v[a] = rnd_int(r, 0, 1) ? 1 : -1;                    /* a main diagonal */
+    }
+    if (kind == 1 && v[0] == 0) v[0] = 1;
+    *o = vd(p[0], p[1], p[2]);
+    *d = vd(v[0], v[1], v[2]);
+}
+
+/* Whether the plain walk from w, taking n steps, stays in the block whose
+ * last voxel per axis in the ray's direction is last[] for all but the last
+ * voxel it enters; *out is its state after the n steps, *ended whether the
+ * walk ended right there (a further step fails). */
+static int plain_steps(const mprt_grid *g, const mprt__dda *w, const int last[3], int32_t n, mprt__dda *out,
+                       int *ended)
+{
+    int a, inside = 1;
+    int32_t k;
+    mprt__dda probe;
+    *out = *w;
+    for (k = 0; k < n; k++) {
+        for (a = 0; a < 3; a++)
+            if ((out->cell[a] - last[a]) * out->step[a] > 0) inside = 0; /* left the block too early */
+        if (!mprt__dda_next(g, out)) return 0;
+    }
+    probe = *out;
+    *ended = !mprt__dda_next(g, &probe);
+    return inside;
+}
+
+static void test_a_jump_ends_where_the_plain_walk_leaves_the_block(void)
+{
+    mprt_scene *s = corner_scene();
+    static const int dims[][3] = {{8, 8, 8}, {13, 5, 9}, {1, 7, 30}, {40, 40, 40}};
+    rng r;
+    int gi, i, bad = 0, jumps = 0, ended = 0, longest = 0;
+    rng_seed(&r, 11);
+    for (gi = 0; gi < 4; gi++) {
+        mprt_grid *g = make_grid(s, dims[gi][0], dims[gi][1], dims[gi][2]);
+        for (i = 0; i < 20000; i++) {
+            mprt__ray ray;
+            mprt__dda w, plain, jumped;
+            int ok, plain_ended = 0;
+            vec3 o, d;
+            int32_t n_jump = 0, k, skip = rnd_int(&r, 0, 6), h = rnd_int(&r, 1, 12);
+            real tmax = rnd_int(&r, 0, 3) == 0 ? (real)rnd_in(&r, 0, 12) : (real)INFINITY;
+            int more_jump, last[3], a;
+            hard_ray(&r, g, &o, &d);
+            mprt__ray_prepare(&ray, o, d);
+            if (!mprt__dda_start(g, &ray, 0, tmax, &w)) continue;
+            /* start the jump somewhere along the walk (not past its end) */
+            for (k = 0; k < skip; k++) {
+                mprt__dda next = w;
+                if (!mprt__dda_next(g, &next)) break;
+                w = next;
+            }
+            /* a block of up to h voxels ahead on each axis, clipped to the grid */
+            for (a = 0; a < 3; a++) {
+                int c = w.cell[a] + w.step[a] * rnd_int(&r, 0, h);
+                last[a] = c < 0 ? 0 : c >= g->n[a] ? g->n[a] - 1 : c;
+            }
+            jumped = w;
+            more_jump = mprt__dda_jump(g, &jumped, last, &n_jump);
+            jumps++;
+            ended += !more_jump;
+            /* the jump moved as the plain walk does, within the block, and
+             * either landed on a voxel (past at least one crossing) or ended
+             * where the plain walk ends */
+            ok = plain_steps(g, &w, last, more_jump ? n_jump - 1 : n_jump, &plain, &plain_ended);
+            if (ok && more_jump) {
+                ok = mprt__dda_next(g, &plain) && same_state(&plain, &jumped) && n_jump >= 1;
+                for (a = 0; a < 3; a++) /* the landing voxel lies outside the block or at a run's end */
+                    longest += (jumped.cell[a] - last[a]) * jumped.step[a] > 0;
+            } else if (ok) {
+                ok = plain_ended;
+            }
+            if (!ok && bad++ < 5)
+                fprintf(stderr, "grid %d ray %d h %d: jump %d (%d voxels)\n", gi, i, (int)h, more_jump, (int)n_jump);
+        }
+        mprt_grid_destroy(g);
+    }
+    CHECK_MSG(bad == 0, "%d of %d jumps differ from the plain walk", bad, jumps);
+    /* every way out was exercised: walks ending in the block, leaving it,
+     * and stopping short of it at the end of a run */
+    CHECK(ended > 1000 && longest > 1000 && jumps - ended - longest > 1000);
+    mprt_scene_destroy(s);
+}
+
+/* Sums of d from s made one by one and by runs: every run start gives
+ * s + k inc equal to k rounded additions for every k it covers, including
+ * exact ties (d an odd number of half ulps of s) and binade ends. */
+static void test_runs_sum_as_the_walk_sums(void)
+{
+    rng r;
+    int i, bad = 0, runs = 0, ties = 0, long_runs = 0;
+    rng_seed(&r, 5);
+    for (i = 0; i < 20000; i++) {
+        real s = (real)ldexp(1 + rnd(&r), rnd_int(&r, -20, 20)), d, t;
+        mprt__run run;
+        int k;
+        if (i % 4 == 0) { /* an exact tie: d = (q + 1/2) ulps of s */
+            int e;
+            double u;
+            frexp((double)s, &e);
+            u = ldexp(1.0, e - MPRT__MANT);
+            d = (real)(((double)rnd_int(&r, 0, 1000) + 0.5) * u);
+            ties++;
+        } else {
+            d = (real)((double)s * ldexp(rnd(&r), -rnd_int(&r, 0, 30)));
+        }
+        if (!(d > 0) || !mprt__run_start(s, d, &run)) continue;
+        runs++;
+        t = s;
+        for (k = 1; k <= 5000 && s + (real)(k - 1) * run.inc <= run.last; k++) {
+            t += d;
+            if (t != s + (real)k * run.inc) {
+                if (bad++ < 5)
+                    fprintf(stderr, "s %a d %a: %d additions give %a, the run %a\n", (double)s, (double)d, k, (double)t,
+                            (double)(s + (real)k * run.inc));
+                break;
+            }
+        }
+        long_runs += k > 100;
+    }
+    CHECK_MSG(bad == 0, "%d runs differ from the additions", bad);
+    CHECK(runs > 10000 && ties > 1000 && long_runs > 1000);
+}
+
+/* The chessboard distance transform equals the brute-force minimum over the
+ * cells holding 0 of the largest per-axis distance (255 when there are none). */
+static void test_chessboard_distance_matches_brute_force(void)
+{
+    static const int dims[][3] = {{7, 5, 9}, {12, 12, 3}, {1, 1, 20}, {16, 1, 16}, {9, 9, 9}};
+    rng r;
+    int di, bad = 0;
+    rng_seed(&r, 3);
+    for (di = 0; di < 5; di++) {
+        const int *n = dims[di];
+        int count = n[0] * n[1] * n[2], v, w, trial;
+        uint8_t *d = malloc((size_t)count), *ref = malloc((size_t)count);
+        for (trial = 0; trial < 20; trial++) {
+            int dens = rnd_int(&r, 0, 40); /* per mille of cells holding 0; trial 0 holds none */
+            for (v = 0; v < count; v++) d[v] = trial > 0 && rnd_int(&r, 0, 999) < dens ? 0 : 255;
+            if (trial == 1) d[count / 2] = 0;
+            for (v = 0; v < count; v++) {
+                int best = 255, c[3] = {v % n[0], v / n[0] % n[1], v / (n[0] * n[1])};
+                for (w = 0; w < count; w++)
+                    if (d[w] == 0) {
+                        int o[3] = {w % n[0], w / n[0] % n[1], w / (n[0] * n[1])}, m = 0, a;
+                        for (a = 0; a < 3; a++)
+                            if (abs(o[a] - c[a]) > m) m = abs(o[a] - c[a]);
+                        if (m < best) best = m;
+                    }
+                ref[v] = (uint8_t)best;
+            }
+            CHECK(mprt__chessboard_distance(n, d) == MPRT_OK);
+            for (v = 0; v < count; v++) bad += d[v] != ref[v];
+        }
+        free(d);
+        free(ref);
+    }
+    CHECK_MSG(bad == 0, "%d cells differ from brute force", bad);
+}
+
+int main(void)
+{
+    RUN(test_a_jump_ends_where_the_plain_walk_leaves_the_block);
+    RUN(test_runs_sum_as_the_walk_sums);
+    RUN(test_chessboard_distance_matches_brute_force);
+    return CHECK_DONE();
+}
