@@ -65,7 +65,7 @@ PAPER = {s: {k: tuple(round(x * 1000) for x in v) for k, v in _PAPER_K[s].items(
 
 DEFAULT = {"listing": "exact", "camera": "centres", **{k: v[0] for k, v in CONVENTIONS.items()}}
 # the conventions the combinations range over; the camera and the outward box listing are
-# measured one at a time only (the latter multiplies balls' tests by 4 to 16: see effects.csv)
+# measured one at a time only (the latter multiplies balls' tests by about 6: see effects.csv)
 SEARCHED = {"listing": ("exact", "box"), **CONVENTIONS}
 ONE_AT_A_TIME = {**SEARCHED, "listing": tuple(LISTINGS), "camera": ("centres", "edges")}
 DEFAULT_THRESHOLD = 1 / 512
