@@ -131,3 +131,16 @@ def test_unknown_conventions_are_refused_by_name():
         g.render(8, 8, conventions={"behind": "ignore"})
     with pytest.raises(mprt.InvalidArgument, match="'exact' or 'box'"):
         mprt.Scene.spd("balls", 1).grid(4, listing="boxes")
+
+
+def test_a_paper1992_trace_agrees_with_its_render_and_names_its_conventions():
+    """A trace under paper1992 has the render's image and counts, keeps its invariants, and its
+    meta records the rules, the listing and every convention by name."""
+    g = mprt.Scene.spd("balls", 1).grid(5)
+    ref, c = g.render(16, 16, rules="paper1992")
+    img, tr = g.trace(16, 16, rules="paper1992")
+    assert np.array_equal(img, ref)
+    st = tr.check()
+    assert st["suppressed"] == c["suppressed_rays"] and st["sc_made_shadow"] == c["shadow_rays"]
+    assert tr.meta["rules"] == "paper1992" and tr.meta["listing"] == "exact"
+    assert tr.meta["conventions"]["behind"] == "skip" and tr.meta["conventions"]["candidates"] == "specular"

@@ -71,8 +71,9 @@ typedef enum {
 typedef enum {
     MPRT_RULES_PAPER = 0, /* 3MPRT: one ray per pixel centre, contribution cutoff */
     MPRT_RULES_SPD = 1,   /* SPD test procedure: pixel corners, depth 5, no cutoff */
-    MPRT_RULES_PAPER1992 = 2 /* paper rules with the workload conventions that reproduce
-                              * the 1992 paper's counts (see mprt_render_desc) */
+    MPRT_RULES_PAPER1992 = 2 /* paper rules with the workload conventions closest to the
+                              * 1992 paper's counts: behind = skip, candidates = specular
+                              * (see mprt_render_desc; studies/12_paper_workload) */
 } mprt_rules;
 
 typedef struct mprt_scene mprt_scene;
@@ -267,10 +268,11 @@ typedef struct {
     int mailbox;         /* 1: IC skips primitives this ray already tested in an
                           * earlier voxel (fewer tests, same image); 0: test every
                           * listed primitive in every voxel, as the paper's IC does */
-    /* Workload conventions; 0 selects the rule set's choice (MPRT_CONV_*
-     * below).  Each is one way a tracer may do a thing the paper leaves
-     * open; paper and spd rules pick the first of each, paper1992 the
-     * combination that reproduces the paper's counts best. */
+    /* Workload conventions; 0 selects the rule set's choice (the MPRT_OFFSET_*,
+     * MPRT_ACCEPT_*, MPRT_BEHIND_*, MPRT_CANDIDATES_* and MPRT_SHADOW_*
+     * values below).  Each is one way a tracer may do a thing the paper
+     * leaves open; paper rules pick the first of each, spd rules too except
+     * behind (skip), paper1992 skip and specular. */
     int offset;          /* where secondary and shadow rays start */
     int accept;          /* which hit IC accepts in a voxel */
     int behind;          /* a light behind the surface */
