@@ -365,7 +365,7 @@ def markdown(title, cal_rows, residuals, rows, cmp_rows, decomposition, best, fi
 COLOURS = {"processing": "#4878a8", "communication": "#e0a040", "waiting": "#c8c8c8"}
 
 
-def figure6(rows, subdivisions, path, rules) -> dict:
+def figure6(rows, subdivisions, path, rules="paper1992") -> dict:
     """Per-stage load bars of model M (processing, communication, waiting), one panel per scene,
     a group of three bars (OS, IC, SC) per subdivision.  Returns {(scene, n, stage): bar length in
     cycles} as drawn."""
