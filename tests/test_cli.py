@@ -103,7 +103,7 @@ def test_a_resolution_out_of_range_is_refused_not_replaced(tmp_path, capsys, cmd
 def test_threshold_with_spd_rules_is_refused(capsys):
     """--threshold under --rules spd (which has no cutoff) used to be ignored."""
     code, out, err = mprt_main(capsys, "render", "balls:1", "--res", "8x8", "--rules", "spd", "--threshold", "0.5")
-    assert code == 2 and "--threshold applies to the paper rules only" in err and out == ""
+    assert code == 2 and "--threshold applies to the paper and paper1992 rules only" in err and out == ""
 
 
 def test_a_jpg_name_is_refused_rather_than_given_png_data(tmp_path, capsys):

@@ -144,3 +144,18 @@ def test_a_paper1992_trace_agrees_with_its_render_and_names_its_conventions():
     assert st["suppressed"] == c["suppressed_rays"] and st["sc_made_shadow"] == c["shadow_rays"]
     assert tr.meta["rules"] == "paper1992" and tr.meta["listing"] == "exact"
     assert tr.meta["conventions"]["behind"] == "skip" and tr.meta["conventions"]["candidates"] == "specular"
+
+
+def test_the_cost_model_calibrates_on_paper1992_traces_not_spd():
+    """The reproduction study calibrates on paper1992 traces (the paper's own workload, reproduced);
+    spd traces are another workload and are refused, naming the rules."""
+    from mprt.cost.calibrate import counts_row
+    from mprt.errors import MprtError
+    grid = mprt.Scene.spd("balls", 4).grid(20)
+    _, t1992 = grid.trace(8, 8, rules="paper1992")
+    _, tpaper = grid.trace(8, 8, rules="paper")
+    a, b = counts_row(t1992), counts_row(tpaper)
+    assert a["scene"] == "balls" and a.keys() == b.keys()
+    _, tspd = grid.trace(8, 8, rules="spd")
+    with pytest.raises(MprtError, match="uses rules 'spd'"):
+        counts_row(tspd)

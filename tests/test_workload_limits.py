@@ -67,3 +67,41 @@ def test_a_scene_of_dropped_primitives_names_them(tmp_path):
     with pytest.raises(mprt.SceneStateError, match=r"no primitives: 1 was dropped while reading it "
                                                    r"\(.*flat.nff:2: polygon with zero area dropped\)"):
         scene.grid(4)
+
+
+def test_max_rays_sets_the_budget_of_a_sample():
+    """A budget below what a sample's tree needs stops the render, naming the budget; one that
+    covers the tree gives the same image and counts as the default budget."""
+    grid = mprt.Scene.from_text(ENDLESS, "endless.nff").grid(4)
+    img, c = grid.render(8, 8)
+    with pytest.raises(WorkLimitError, match=r"needs more than 3 rays"):
+        grid.render(8, 8, max_rays=3)
+    img2, c2 = grid.render(8, 8, max_rays=100000)
+    assert (img == img2).all() and c == c2
+
+
+def test_cli_max_rays_and_paper1992(capsys, tmp_path):
+    """mprt render --max-rays N reaches the library (the error names it and exits 1), is checked
+    for range (exit 2), and is recorded in --stats; --rules paper1992 takes --threshold."""
+    from mprt import cli
+    nff = tmp_path / "endless.nff"
+    nff.write_text(ENDLESS)
+
+    def run(*args):
+        try:
+            code = cli.main([str(x) for x in args])
+        except SystemExit as e:
+            code = e.code
+        return code, capsys.readouterr()
+
+    code, out = run("render", nff, "--res", "8x8", "--max-rays", "3")
+    assert code == 1 and "needs more than 3 rays" in out.err
+    code, out = run("render", nff, "--res", "8x8", "--max-rays", "0")
+    assert code == 2 and "max-rays 0 is not in 1..16777216" in out.err
+    stats = tmp_path / "s.json"
+    code, out = run("render", "balls:1", "--res", "8x8", "--rules", "paper1992", "--threshold", "0.01",
+                    "--max-rays", "500", "--stats", stats)
+    assert code == 0
+    import json
+    settings = json.loads(stats.read_text())["settings"]
+    assert settings["rules"] == "paper1992" and settings["threshold"] == 0.01 and settings["max_rays"] == 500

@@ -259,8 +259,8 @@ typedef struct {
 
 typedef struct {
     int width, height;   /* image size; 0 = the scene's view resolution */
-    int rules;           /* MPRT_RULES_PAPER or MPRT_RULES_SPD */
-    double threshold;    /* contribution cutoff (paper rules only) */
+    int rules;           /* MPRT_RULES_PAPER, MPRT_RULES_SPD or MPRT_RULES_PAPER1992 */
+    double threshold;    /* contribution cutoff (paper and paper1992 rules only) */
     int max_depth;       /* deepest ray tree level, eye ray = 1 (0 = rules' default) */
     int threads;         /* worker threads; 0 = 1 */
     int tile;            /* tile edge in pixels for the thread work split */

@@ -22,7 +22,9 @@ def _cdef_text():
         text = f.read()
     text = re.sub(r"/\*.*?\*/", "", text, flags=re.S)
     text = re.sub(r'extern "C" \{|^\}\s*$', "", text, flags=re.M)
-    lines = [ln for ln in text.splitlines() if not ln.lstrip().startswith("#")]
+    # Preprocessor lines are dropped, except integer constants (cffi checks them against C).
+    const = re.compile(r"#define MPRT_[A-Z0-9_]+ \d+$")
+    lines = [ln for ln in text.splitlines() if not ln.lstrip().startswith("#") or const.match(ln.strip())]
     return "\n".join(lines) + "\nconst char *mprt_ext_version(void);\n"
 
 

@@ -44,15 +44,17 @@ def convention_fields(conventions: dict | None) -> dict:
 
 def render_desc(width: int = 0, height: int = 0, rules: str = "paper", threshold: float | None = None,
                 max_depth: int = 0, threads: int = 1, tile: int | None = None, ambient: float | None = None,
-                mailbox: bool = False, conventions: dict | None = None) -> dict:
+                mailbox: bool = False, conventions: dict | None = None, max_rays: int | None = None) -> dict:
     """A render description from keyword options: the fields of ``mprt_render_desc`` to set
     (None leaves the library's default; width/height/max_depth 0 mean the scene's or the rules'
-    default, resolved by the library; ``conventions`` sets workload conventions by name)."""
+    default, resolved by the library; ``conventions`` sets workload conventions by name;
+    ``max_rays`` is the ray budget of one sample)."""
     if rules not in RULES:
         raise InvalidArgument(f"rules must be {' or '.join(repr(r) for r in RULES)}, not {rules!r}")
     desc = {"width": int(width), "height": int(height), "rules": RULES[rules], "max_depth": int(max_depth),
             "threads": int(threads), "mailbox": 1 if mailbox else 0, **convention_fields(conventions)}
-    for key, value, kind in (("threshold", threshold, float), ("ambient", ambient, float), ("tile", tile, int)):
+    for key, value, kind in (("threshold", threshold, float), ("ambient", ambient, float), ("tile", tile, int),
+                             ("max_rays", max_rays, int)):
         if value is not None:
             desc[key] = kind(value)
     return desc
@@ -125,15 +127,17 @@ class Grid:
     # -- rendering and intersection ----------------------------------------------------------
     def render(self, width: int = 0, height: int = 0, rules: str = "paper", threshold: float | None = None,
                threads: int = 1, max_depth: int = 0, ambient: float | None = None, tile: int | None = None,
-               mailbox: bool = False, conventions: dict | None = None):
+               mailbox: bool = False, conventions: dict | None = None, max_rays: int | None = None):
         """Render; returns (image as float32 array (H, W, 3), counters dict).
 
         width/height 0 use the scene's view resolution.  rules is 'paper'
         (pixel centres, contribution cutoff at ``threshold``) or 'spd' (SPD's
         procedure: pixel corners averaged, depth 5, no cutoff) or 'paper1992' (paper rules with
         the workload conventions that reproduce the paper's counts); ``conventions`` overrides
-        single conventions by name (``CONVENTIONS``)."""
-        desc = render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox, conventions)
+        single conventions by name (``CONVENTIONS``); ``max_rays`` bounds the rays of one sample
+        (a sample needing more raises ``WorkLimitError`` naming it)."""
+        desc = render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox, conventions,
+                           max_rays)
         full = self.resolve(desc)
         img = np.zeros((full["height"], full["width"], 3), dtype=np.float32)
         return img, self._ll.grid_render(self._h, desc, img)

@@ -48,6 +48,8 @@ RES_MAX = 65536          # width and height: 1..RES_MAX
 GRID_MAX = 1024          # voxels per axis: 1..GRID_MAX
 THREADS_MAX = 64         # threads: 1..THREADS_MAX
 TILE_MAX = 256           # tile edge in samples: 1..TILE_MAX
+MAX_RAYS_MAX = 1 << 24   # ray budget of a sample: 1..MAX_RAYS_MAX (the library: any positive int)
+CUTOFF_RULES = ("paper", "paper1992")   # rule sets with a contribution cutoff (--threshold)
 SPD_MAX_SIZES = {"balls": 8, "gears": 69, "mount": 12, "rings": 135, "tetra": 12, "tree": 23}
 
 OUTPUT_SUFFIX = {"png": ".png", "plot": ".png", "npz": ".npz"}   # outputs whose format mprt fixes
@@ -76,6 +78,11 @@ def default_threads() -> int:
 def default_threshold() -> float:
     """The library's default contribution cutoff (paper rules)."""
     return binding().render_desc_init()["threshold"]
+
+
+def default_max_rays() -> int:
+    """The library's default ray budget of a sample (MPRT_DEFAULT_MAX_RAYS)."""
+    return int(binding().lib.MPRT_DEFAULT_MAX_RAYS)
 
 
 def default_tile() -> int:
@@ -214,16 +221,21 @@ def add_render_options(p: argparse.ArgumentParser, trace: bool = False) -> argpa
     g.add_argument("--res", type=resolution_arg, default=None, metavar="WxH",
                    help=f"image size, each 1..{RES_MAX} (default: the scene's view resolution)")
     g.add_argument("--rules", choices=tuple(RULES), default="paper",
-                   help="shading rules: paper (pixel centres, contribution cutoff) or spd (SPD's procedure: "
-                        "pixel corners, depth 5, no cutoff) (default: paper)")
+                   help="shading rules: paper (pixel centres, contribution cutoff), spd (SPD's procedure: "
+                        "pixel corners, depth 5, no cutoff) or paper1992 (paper with the workload conventions "
+                        "that reproduce the 1992 paper's counts: docs/workload.md) (default: paper)")
     g.add_argument("--threshold", type=threshold_arg, default=None,
-                   help=f"contribution cutoff in [0, 1), paper rules only (default: {fraction_text(default_threshold())})")
+                   help=f"contribution cutoff in [0, 1), paper and paper1992 rules only (default: {fraction_text(default_threshold())})")
     g.add_argument("--threads", type=threads_arg, default=default_threads(),
                    help=f"threads, 1..{THREADS_MAX} (default: {default_threads()}, the machine's cores); "
                         "results are the same bits for any number")
     g.add_argument("--tile", type=tile_arg, default=None,
                    help=f"tile edge in samples, 1..{TILE_MAX}: the unit of work{' and of --tiles/--sample' if trace else ''}"
                         f" (default: {default_tile()})")
+    g.add_argument("--max-rays", type=int_range_arg("max-rays", 1, MAX_RAYS_MAX), default=None, metavar="N",
+                   help=f"ray budget of one sample (its eye ray and all its descendants), 1..{MAX_RAYS_MAX}: a "
+                        "sample needing more stops the render with an error naming it, so no scene runs away "
+                        f"(default: {default_max_rays()})")
     g.add_argument("--mailbox", action="store_true",
                    help="IC skips primitives the ray already tested (fewer tests, same image; default: off, as the "
                         "paper's IC)")
@@ -232,16 +244,16 @@ def add_render_options(p: argparse.ArgumentParser, trace: bool = False) -> argpa
 
 def check_render_options(a) -> None:
     """Combinations of the render options that would be silently ignored."""
-    if getattr(a, "threshold", None) is not None and a.rules != "paper":
-        raise UsageError(f"--threshold applies to the paper rules only (the {a.rules} rules have no cutoff); "
-                         "leave it out or use --rules paper")
+    if getattr(a, "threshold", None) is not None and a.rules not in CUTOFF_RULES:
+        raise UsageError(f"--threshold applies to the paper and paper1992 rules only (the {a.rules} rules have "
+                         "no cutoff); leave it out or use --rules paper")
 
 
 def render_kwargs(a) -> dict:
     """The keyword options of Grid.render / tracing.trace from parsed render options."""
     w, h = a.res or (0, 0)
     return dict(width=w, height=h, rules=a.rules, threshold=a.threshold, threads=a.threads, tile=a.tile,
-                mailbox=a.mailbox)
+                mailbox=a.mailbox, max_rays=getattr(a, "max_rays", None))
 
 
 # -- scenes -------------------------------------------------------------------------------------
@@ -328,7 +340,7 @@ def run_settings(scene=None, grid=None, desc: dict | None = None, how: str | Non
                  **extra) -> dict:
     """The settings that made a result, for its JSON: ``base_settings``, the scene (name, how it
     was read, NFF SHA-256), grid, resolution, rules, threshold (None under rules without a
-    cutoff), threads, tile, max depth, mailbox; ``extra`` adds more."""
+    cutoff), threads, tile, max depth, mailbox, ray budget; ``extra`` adds more."""
     s = base_settings(argv)
     if scene is not None:
         s.update(scene=scene.name, scene_source=how, scene_sha256=scene.content_hash(),
@@ -338,8 +350,9 @@ def run_settings(scene=None, grid=None, desc: dict | None = None, how: str | Non
     if desc is not None:
         rules = next(k for k, v in RULES.items() if v == desc["rules"])
         s.update(resolution=[desc["width"], desc["height"]], rules=rules,
-                 threshold=desc["threshold"] if rules == "paper" else None, threads=desc["threads"],
-                 tile=desc["tile"], max_depth=desc["max_depth"], mailbox=bool(desc["mailbox"]))
+                 threshold=desc["threshold"] if rules in CUTOFF_RULES else None, threads=desc["threads"],
+                 tile=desc["tile"], max_depth=desc["max_depth"], mailbox=bool(desc["mailbox"]),
+                 max_rays=desc["max_rays"])
     s.update(extra)
     return s
 

@@ -168,7 +168,8 @@ def _run_tiles(grid, desc, sel, rects, sink, samples, covered, bar):
 
 
 def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_depth=0, mailbox=False, ambient=None,
-          tile=None, threads=1, tiles=None, sample=None, path=None, progress=False, conventions=None):
+          tile=None, threads=1, tiles=None, sample=None, path=None, progress=False, conventions=None,
+          max_rays=None):
     """Trace (a subset of) the image recording every stage visit; returns (image, Trace).
 
     The render options are those of ``Grid.render``; ``tile`` is the tile edge in samples (the
@@ -177,7 +178,7 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
     to disk tile batch by tile batch and the trace is saved there (memory stays bounded by the
     batch and the image); ``progress`` shows a progress bar."""
     desc = grid.resolve(render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox,
-                                    conventions))
+                                    conventions, max_rays))
     tiling = grid.tiling(desc)
     sw, sh, tx, ty = tiling
     sel = select_tiles(tx * ty, tiles, sample)
@@ -236,6 +237,7 @@ def _meta(grid: Grid, desc: dict, tiling, sel, tiles, sample) -> dict:
         "rules": Rules(desc["rules"]).name.lower(),
         "threshold": desc["threshold"],
         "max_depth": desc["max_depth"],
+        "max_rays": desc["max_rays"],
         "ambient": desc["ambient"],
         "mailbox": bool(desc["mailbox"]),
         "listing": grid.listing,

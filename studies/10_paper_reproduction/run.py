@@ -2,7 +2,9 @@
 
 The cost model is calibrated on balls only (the digest's per-unit averages at
 subdivisions 20, 50, 100).  Then balls, mount, rings, tetra and tree (SPD
-default sizes, 512x512, paper rules) at subdivisions 20, 50 and 100 are
+default sizes, 512x512, the paper1992 workload preset: paper rules with the
+conventions of study 12 that reproduce the paper's counts; --rules paper for
+the clean rules) at subdivisions 20, 50 and 100 are
 traced to a temporary folder one at a time, costed on the sequential
 processor of models S and M, and replayed whole by the compiled engine
 (exact for these ideal-network configurations); each trace is deleted after
@@ -19,6 +21,7 @@ fits on the shipped balls counts, since the paper's cells exist only at the
 SPD default sizes and subdivisions 20, 50, 100.
 
     python studies/10_paper_reproduction/run.py [--quick] [--out DIR] [--threads 2] [--tmp DIR]
+                                                [--rules paper1992|paper]
 
 Writes calibration.csv, residuals.csv, table2.csv, balls_vs_paper.csv,
 best_subdivision.csv, fidelity.csv, checks.csv, table2.md (and, in the full
@@ -68,9 +71,9 @@ LARGE_WINDOW = 1 << 20      # model M with (practically) no bound on the rays in
 
 # ---- tracing, costing, replaying ------------------------------------------------------------------
 
-def trace_to(grid, res, path, threads, progress):
+def trace_to(grid, res, rules, path, threads, progress):
     """A whole frame streamed to `path` (bounded memory), opened memory-mapped."""
-    _, tr = grid.trace(res, res, rules="paper", threads=threads, path=path, progress=progress)
+    _, tr = grid.trace(res, res, rules=rules, threads=threads, path=path, progress=progress)
     return tr
 
 
@@ -96,11 +99,11 @@ def _comparable(result) -> dict:
     return d
 
 
-def verify_sample(grid, res, cm, threads, ntiles, seed=1) -> dict:
+def verify_sample(grid, res, rules, cm, threads, ntiles, seed=1) -> dict:
     """SimPy against the compiled engine on a random sample of about 1/64 of the frame's `ntiles`
     tiles: same result (every figure) and same event log (start and end of every visit), for S and M."""
     k = max(2, ntiles // 64)
-    _, tr = grid.trace(res, res, rules="paper", threads=threads, sample=f"random:{k}:{seed}")
+    _, tr = grid.trace(res, res, rules=rules, threads=threads, sample=f"random:{k}:{seed}")
     costs = cm.visit_costs(tr, builtin("M").processors())
     engine = Compiled(tr, costs)
     row = {"tiles": k, "tiles_total": ntiles, "visits": len(tr.visits)}
@@ -362,7 +365,7 @@ def markdown(title, cal_rows, residuals, rows, cmp_rows, decomposition, best, fi
 COLOURS = {"processing": "#4878a8", "communication": "#e0a040", "waiting": "#c8c8c8"}
 
 
-def figure6(rows, subdivisions, path) -> dict:
+def figure6(rows, subdivisions, path, rules="paper1992") -> dict:
     """Per-stage load bars of model M (processing, communication, waiting), one panel per scene,
     a group of three bars (OS, IC, SC) per subdivision.  Returns {(scene, n, stage): bar length in
     cycles} as drawn."""
@@ -394,7 +397,7 @@ def figure6(rows, subdivisions, path) -> dict:
                      + " M cycles", fontsize=9)
     axes[-1].set_xlabel("million cycles")
     fig.legend(loc="lower center", fontsize=8, ncol=3)
-    fig.suptitle("Figure 6 (ours): per-stage load under model M, 512x512, paper rules", fontsize=10)
+    fig.suptitle(f"Figure 6 (ours): per-stage load under model M, 512x512, {rules} rules", fontsize=10)
     fig.tight_layout(rect=(0, 0.03, 1, 0.98))
     fig.savefig(path, dpi=100)
     plt.close(fig)
@@ -441,8 +444,8 @@ def residual_rows(residuals) -> list:
 class Study:
     """The cells' results as they come: Table-2 rows, sample checks, invariants, timings."""
 
-    def __init__(self, res, threads):
-        self.res, self.threads = res, threads
+    def __init__(self, res, rules, threads):
+        self.res, self.rules, self.threads = res, rules, threads
         self.rows, self.fidelity, self.checks, self.timing = [], [], {}, []
 
     def replay(self, cell, cm) -> None:
@@ -457,7 +460,7 @@ class Study:
         self.rows.append(table2_row(name, n, counts, runs))
         for k, v in cell_checks(counts, runs).items():
             self.checks[k] = self.checks.get(k, True) and v
-        fid = verify_sample(grid, self.res, cm, self.threads, counts["tiles_total"])
+        fid = verify_sample(grid, self.res, self.rules, cm, self.threads, counts["tiles_total"])
         self.fidelity.append({"scene": name, "subdivision": n, **fid})
         t3 = time.perf_counter()
         self.timing.append({"scene": name, "subdivision": n, "visits": counts["visits"], "trace_s": f"{t_trace:.1f}",
@@ -469,7 +472,7 @@ class Study:
 def run_cells(a, tmp, res, size, subdivisions):
     """Trace, replay and check every scene and subdivision; returns (study, calibration, counts rows
     of the traces behind the calibration, or [] in quick mode)."""
-    study = Study(res, a.threads)
+    study = Study(res, a.rules, a.threads)
     cal = CostModel.calibrate(scenes=("balls",)) if a.quick else None
     calib_counts, pending = [], []
     for name in SCENES:
@@ -478,7 +481,7 @@ def run_cells(a, tmp, res, size, subdivisions):
             grid = scene.grid(n)
             t0 = time.perf_counter()
             path = os.path.join(tmp, f"{name}-{n}.npz")
-            tr = trace_to(grid, res, path, a.threads, not a.quick and sys.stderr.isatty())
+            tr = trace_to(grid, res, a.rules, path, a.threads, not a.quick and sys.stderr.isatty())
             counts = stage_rows(tr)
             if not a.quick:
                 calib_counts.append(counts_row(tr))
@@ -529,6 +532,9 @@ def per_unit_agrees(rows, residuals) -> bool:
 def main(argv=None) -> int:
     def extra(ap):
         ap.add_argument("--tmp", default=None, help="folder for the temporary traces (default: the system's)")
+        ap.add_argument("--rules", choices=("paper1992", "paper"), default="paper1992",
+                        help="workload: the paper1992 preset (paper rules with the conventions that reproduce "
+                             "the paper's counts, docs/workload.md; default) or the clean paper rules")
 
     a, out = study_args(__file__, "the paper's Table 2 and figure 6 from a cost model calibrated on balls only",
                         "64x64, scenes at size 2, subdivisions 8 and 16, shipped balls counts, no plot", argv, extra)
@@ -544,11 +550,11 @@ def main(argv=None) -> int:
         f["S_equal"] and f["M_equal"] for f in study.fidelity)
     if not a.quick:
         study.checks["per-unit cycles of the replay equal the calibration's"] = per_unit_agrees(study.rows, residuals)
-    title = (f"Paper reproduction ({'quick: ' if a.quick else ''}{res}x{res}, paper rules, "
+    title = (f"Paper reproduction ({'quick: ' if a.quick else ''}{res}x{res}, {a.rules} rules, "
              f"{'SPD size 2' if a.quick else 'SPD default sizes'})")
     write_outputs(out, title, study, cal, residuals, subdivisions)
     if not a.quick:
-        figure6(study.rows, subdivisions, os.path.join(out, "figure6.png"))
+        figure6(study.rows, subdivisions, os.path.join(out, "figure6.png"), a.rules)
         write_csv(os.path.join(out, "timing.csv"), study.timing + [
             {"scene": "all", "visits": sum(t["visits"] for t in study.timing),
              "wall_s": f"{time.perf_counter() - t_start:.1f}"}])

@@ -102,8 +102,9 @@ def counts_row(trace) -> dict:
     if scene not in PAPER or not size or int(size) != SPD_DEFAULT_SIZES[scene]:
         raise CostModelError(f"trace of {meta['scene']!r}: the paper measured balls, mount, rings, tetra, tree "
                              "at the SPD default sizes only")
-    if meta.get("rules") != "paper":
-        raise CostModelError(f"trace of {meta['scene']!r} uses rules {meta.get('rules')!r}; the paper's are 'paper'")
+    if meta.get("rules") not in ("paper", "paper1992"):
+        raise CostModelError(f"trace of {meta['scene']!r} uses rules {meta.get('rules')!r}; the paper's workload "
+                             "is 'paper' or its reproduction 'paper1992'")
     c = trace_kernel_counts(trace)
     row = {"scene": scene, "grid": int(g[0]), "width": int(meta["width"]), "height": int(meta["height"])}
     row.update(c["units"])
