@@ -355,19 +355,23 @@ done:
     return st;
 }
 
-/* Empty values from which the walk jumps by default: smaller blocks are
- * cheaper to step through voxel by voxel (studies/03_bench measures it). */
+/* Empty values from which the walk jumps by default, and how far from the
+ * ray's origin (in voxels) it must be: smaller blocks, and jumps near the
+ * origin, cost more than the voxels they pass (studies/03_bench measures
+ * it). */
 #define DEFAULT_JUMP_MIN 16
+#define DEFAULT_JUMP_FAR 8
 
 /* The jump threshold the environment asks for: MPRT_NO_SKIP set to
  * anything but "" or "0" turns jumps off (the plain voxel-by-voxel walk);
- * MPRT_JUMP_MIN=k (2..255) jumps from smaller blocks than the default (the
- * tests use 2, to jump wherever the grid allows).  Read once per grid, when
+ * MPRT_JUMP_MIN=k (2..255) jumps from blocks of empty value k and up
+ * wherever the walk is (the tests use 2, to jump wherever the grid allows).  Read once per grid, when
  * it is made.  Returns MPRT_OK or fails the grid naming the variable. */
 static int jump_threshold(mprt_grid *g)
 {
     const char *off = getenv("MPRT_NO_SKIP"), *k = getenv("MPRT_JUMP_MIN");
     g->jump_min = DEFAULT_JUMP_MIN;
+    g->jump_far = DEFAULT_JUMP_FAR;
     if (off && *off && strcmp(off, "0") != 0) {
         g->jump_min = 256;
     } else if (k && *k) {
@@ -376,6 +380,7 @@ static int jump_threshold(mprt_grid *g)
         if (*end || v < 2 || v > 255)
             return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: environment MPRT_JUMP_MIN=%.40s is not a whole number in 2..255", k);
         g->jump_min = (unsigned)v;
+        g->jump_far = 0;
     }
     return MPRT_OK;
 }

@@ -23,6 +23,8 @@ struct mprt_grid {
     unsigned jump_min; /* the walk jumps from voxels whose empty value is at least this
                         * (dda.h); above 255 (environment MPRT_NO_SKIP=1 when the grid
                         * was made): never, voxel by voxel, and empty is never above 1 */
+    int jump_far;      /* ... and only once the walk is this many voxels from the ray's
+                        * origin on every axis (runs of the walk's sums are short before) */
     int32_t *ids;      /* primitive ids, voxel by voxel */
     long long refs;
     int listing;       /* mprt_listing */

@@ -5,6 +5,7 @@ For each SPD scene at its default size:
      among cubic and shape-following (pbrt-rule) candidates;
   2. measures rays per second of ``Grid.intersect`` on those primary rays and
      on random rays, with empty-space jumps and without (MPRT_NO_SKIP=1),
+     there and on a fine 256^3 grid,
      and, for the triangle scenes (tetra; mount's 8192 triangles without its
      4 spheres), Embree's single-ray ``rtcIntersect1`` loop (the embreex
      package) on the same rays, side by side;
@@ -16,7 +17,7 @@ With --before DIR (a ``python`` folder holding another build of the mprt
 package, e.g. main's: ``make bench`` builds one), every timing is also made
 with that build in a worker process, interleaved with this one's, so each
 before/after figure is a ratio measured in one run.  One-thread figures are
-thread CPU times, two-thread ones wall-clock times; each is the best of N.
+process CPU times, two-thread ones wall-clock times; each is the best of N.
 Writes bench.csv to studies/out/03_bench/ (--quick: scenes at size 2, 32x32,
 the default grid, one repeat; the work figures only (visits, bytes per
 visit), to ref/).
@@ -49,6 +50,7 @@ except ImportError:  # optional
 
 WORK = ("scene", "grid", "rays", "visits", "bytes_per_visit")  # the columns that do not depend on timing
 RES, NRAND = 512, 262144
+FINE = (256, 256, 256)  # a fine grid for the effect of jumps
 
 
 # ---- the measurements (run in this process and, with --before, in the worker) ------------------
@@ -110,17 +112,19 @@ def rays_of(name, size, which, res=RES, nrand=NRAND):
     return cached(("rays", name, size, which, res, nrand), make)
 
 
-def thread_clock(fn):
-    t = time.thread_time()
+def cpu_clock(fn):
+    """(process CPU time of fn(), its result): immune to other processes' load, and it counts the
+    helper threads grid.trace uses even on one thread."""
+    t = time.process_time()
     out = fn()
-    return time.thread_time() - t, out
+    return time.process_time() - t, out
 
 
 def t_intersect(name, size, n, which, tris_only=False, skip=True, res=RES, nrand=NRAND):
     """CPU time of one intersect call; and the hit count."""
     g = grid_of(name, size, n, tris_only, skip)
     o, d = rays_of(name, size, which, res, nrand)
-    t, (_, prim) = thread_clock(lambda: g.intersect(o, d))
+    t, (_, prim) = cpu_clock(lambda: g.intersect(o, d))
     return t, int(np.count_nonzero(prim >= 0))
 
 
@@ -128,7 +132,7 @@ def t_render(name, size, n, res, rules, threads=0):
     """CPU time of one render on this thread; with threads, the wall-clock time on that many."""
     g = grid_of(name, size, n)
     if not threads:
-        return thread_clock(lambda: g.render(res, res, rules=rules))[0]
+        return cpu_clock(lambda: g.render(res, res, rules=rules))[0]
     t = time.perf_counter()
     g.render(res, res, rules=rules, threads=threads)
     return time.perf_counter() - t
@@ -152,9 +156,9 @@ def t_trace(name, size, n, res):
             total += nv
         return total
 
-    t_u = thread_clock(lambda: g.render(res, res))[0]
-    t_c, nvis = thread_clock(c_only)
-    t_p, (_, tr) = thread_clock(lambda: g.trace(res, res))
+    t_u = cpu_clock(lambda: g.render(res, res))[0]
+    t_c, nvis = cpu_clock(c_only)
+    t_p, (_, tr) = cpu_clock(lambda: g.trace(res, res))
     return t_u, t_c, t_p, nvis, len(tr.rays)
 
 
@@ -232,7 +236,7 @@ def fastest_grid(name, size, tris_only=False):
     """The candidate subdivision with the fastest primary rays (this build), and its build time."""
     best = None
     for n in candidates(scene_of(name, size, tris_only)):
-        t_build = thread_clock(lambda: grid_of(name, size, n, tris_only))[0]
+        t_build = cpu_clock(lambda: grid_of(name, size, n, tris_only))[0]
         t = min(t_intersect(name, size, n, "primary", tris_only)[0] for _ in range(2))
         if best is None or t < best[1]:
             best = (n, t, t_build)
@@ -254,9 +258,9 @@ def embree_row(name, size, before, repeat) -> dict:
     for which in ("primary", "random"):
         o, d = (x.astype(np.float32) for x in rays_of(name, size, which))
         es.run(o[:1], d[:1])  # commit (BVH build) outside the timing
-        t_e = min(thread_clock(lambda: es.run(o, d))[0] for _ in range(repeat))
+        t_e = min(cpu_clock(lambda: es.run(o, d))[0] for _ in range(repeat))
         (t_m, hits), there = side_by_side(before, repeat, "t_intersect", name, size, n, which, True)
-        _, ep = thread_clock(lambda: es.run(o, d))
+        _, ep = cpu_clock(lambda: es.run(o, d))
         rows = len(o)
         row[f"tri_{which}_Mrays"] = rows / t_m / 1e6
         row[f"embree_{which}_Mrays"] = rows / t_e / 1e6
@@ -283,6 +287,12 @@ def bench_scene(name, size, before, repeat) -> dict:
         if there:
             row[f"{which}_before_Mrays"] = rays / there[0] / 1e6
             row[f"{which}_speedup"] = there[0] / t
+    # jumps on a fine grid, where empty blocks are many voxels wide
+    t_on = min(t_intersect(name, size, FINE, "primary")[0] for _ in range(repeat))
+    t_off = min(t_intersect(name, size, FINE, "primary", skip=False)[0] for _ in range(repeat))
+    row["fine_primary_jumps_gain"] = t_off / t_on
+    _cache.pop(("grid", name, size, FINE, False, True))
+    _cache.pop(("grid", name, size, FINE, False, False))
     for rules in ("paper", "spd"):
         t, there = side_by_side(before, repeat, "t_render", name, size, n, RES, rules)
         row[f"render_{rules}_s"] = t
@@ -321,6 +331,7 @@ def quick_row(name) -> dict:
 
 
 SUMMARY = ("scene", "grid", "primary_Mrays", "primary_speedup", "random_Mrays", "random_speedup", "primary_jumps_gain",
+           "random_jumps_gain", "fine_primary_jumps_gain",
            "render_paper_s", "render_paper_speedup", "render_spd_speedup", "threads2_speedup",
            "threads2_before_speedup", "tracer_alone_vs_render", "trace_vs_render", "trace_speedup",
            "tri_primary_vs_embree", "tri_primary_before_vs_embree", "tri_random_vs_embree")
