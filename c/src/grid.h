@@ -2,6 +2,7 @@
 #ifndef MPRT_GRID_H
 #define MPRT_GRID_H
 
+#include "ic.h"
 #include "mprt_internal.h"
 
 #include <pthread.h>
@@ -26,6 +27,7 @@ struct mprt_grid {
     int jump_far;      /* ... and only once the walk is this many voxels from the ray's
                         * origin on every axis (runs of the walk's sums are short before) */
     int32_t *ids;      /* primitive ids, voxel by voxel */
+    mprt__ic ic;       /* the primitives as IC tests them (ic.h) */
     long long refs;
     int listing;       /* mprt_listing */
     int failed;
