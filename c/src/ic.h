@@ -134,4 +134,45 @@ static inline int mprt__tri_hit(const mprt__tri *p, const mprt__ray *ray, real t
     return 1;
 }
 
+/* The scene's kind (mprt_kind) of primitive id as IC holds it: a hit
+ * counts only when the scene still holds that kind under the id. */
+static inline int mprt__ic_scene_kind(const mprt__ic *ic, int32_t id)
+{
+    static const int kind[] = {MPRT_SPHERE, MPRT_POLYGON, MPRT_POLYGON, MPRT_CYLINDER, MPRT_CONE};
+    return kind[ic->ref[id] & ((1u << MPRT__IC_KIND_BITS) - 1)];
+}
+
+/* IC's test of primitive id of scene s over (tmin, tmax]; dd = d.d of the
+ * ray.  Counts the test in tests[kind] and the polygon vertices it touches
+ * in *vertices.  Returns 1 with *t for a hit: the same decision and the
+ * same t as the scene-level routine of the kind (tests/c/test_ic.c). */
+static inline int mprt__ic_test(const mprt__ic *ic, const mprt_scene *s, int32_t id, const mprt__ray *ray, real dd,
+                                real tmin, real tmax, real *t, int32_t tests[MPRT_NKINDS], int32_t *vertices)
+{
+    const uint32_t ref = ic->ref[id], index = ref >> MPRT__IC_KIND_BITS;
+    const mprt__ball *ball = &ic->ball[id];
+    switch (ref & ((1u << MPRT__IC_KIND_BITS) - 1)) {
+    case MPRT__IC_SPHERE:
+        tests[MPRT_SPHERE]++;
+        return mprt__ball_hit(ball, ray, dd, tmin, tmax, t);
+    case MPRT__IC_TRIANGLE:
+        tests[MPRT_POLYGON]++;
+        *vertices += 3;
+        return mprt__tri_hit(&ic->tri[index], ray, tmin, tmax, t);
+    case MPRT__IC_POLYGON:
+        tests[MPRT_POLYGON]++;
+        *vertices += s->polygons[index].n;
+        return mprt__polygon_hit(&s->polygons[index], s->verts, ray, tmin, tmax, t);
+    case MPRT__IC_CYLINDER:
+        /* the bounding ball first, as mprt__cylinder_hit tests it */
+        tests[MPRT_CYLINDER]++;
+        return !mprt__line_misses(vsub(ball->c, ray->o), ray->d, dd, ball->r2) &&
+               mprt__cylinder_hit(&s->cones[index], ray, tmin, tmax, t);
+    default: /* MPRT__IC_CONE */
+        tests[MPRT_CONE]++;
+        return !mprt__line_misses(vsub(ball->c, ray->o), ray->d, dd, ball->r2) &&
+               mprt__cone_hit(&s->cones[index], ray, tmin, tmax, t);
+    }
+}
+
 #endif

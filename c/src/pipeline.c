@@ -31,43 +31,6 @@ typedef struct {
     int32_t id[MAILBOX_SIZE];
 } mailbox;
 
-/* Test primitive id against ray over (tmin, tmax] on IC's copy of it
- * (ic.h); dd = d.d of the ray.  The test is counted in the IC visit.
- * Returns 1 with *t for a hit. */
-static inline int test_prim(const mprt_grid *g, int32_t id, const mprt__ray *ray, real dd, real tmin, real tmax,
-                            real *t, mprt__visit *ic)
-{
-    const mprt_scene *s = g->scene;
-    const uint32_t ref = g->ic.ref[id], index = ref >> MPRT__IC_KIND_BITS;
-    const mprt__ball *ball = &g->ic.ball[id];
-    switch (ref & ((1u << MPRT__IC_KIND_BITS) - 1)) {
-    case MPRT__IC_SPHERE:
-        ic->tests[MPRT_SPHERE]++;
-        return mprt__ball_hit(ball, ray, dd, tmin, tmax, t);
-    case MPRT__IC_TRIANGLE:
-        ic->tests[MPRT_POLYGON]++;
-        ic->vertices += 3;
-        return mprt__tri_hit(&g->ic.tri[index], ray, tmin, tmax, t);
-    case MPRT__IC_POLYGON:
-        ic->tests[MPRT_POLYGON]++;
-        ic->vertices += s->polygons[index].n;
-        return mprt__polygon_hit(&s->polygons[index], s->verts, ray, tmin, tmax, t);
-    case MPRT__IC_CYLINDER:
-        /* the bounding ball first, as mprt__cylinder_hit tests it */
-        ic->tests[MPRT_CYLINDER]++;
-        return !mprt__line_misses(vsub(ball->c, ray->o), ray->d, dd, ball->r2) &&
-               mprt__cylinder_hit(&s->cones[index], ray, tmin, tmax, t);
-    default: /* MPRT__IC_CONE */
-        ic->tests[MPRT_CONE]++;
-        return !mprt__line_misses(vsub(ball->c, ray->o), ray->d, dd, ball->r2) &&
-               mprt__cone_hit(&s->cones[index], ray, tmin, tmax, t);
-    }
-}
-
-/* The scene's kind of each IC kind: a hit counts only when the scene still
- * holds a primitive of that kind under the id. */
-static const int scene_kind[] = {MPRT_SPHERE, MPRT_POLYGON, MPRT_POLYGON, MPRT_CYLINDER, MPRT_CONE};
-
 /* IC visit: test the voxel's list, counting into ic.  For a shadow ray
  * return 1 on any hit in (tmin, tmax].  Otherwise update the nearest hit
  * *best and return 1 when it lies within this voxel's stretch, or with
@@ -85,8 +48,8 @@ static int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt
             if (mb->id[id & (MAILBOX_SIZE - 1)] == id) continue;
             mb->id[id & (MAILBOX_SIZE - 1)] = id;
         }
-        if (!test_prim(g, id, ray, dd, tmin, limit, &t, ic)) continue;
-        if (g->scene->prims[id].kind != scene_kind[g->ic.ref[id] & ((1u << MPRT__IC_KIND_BITS) - 1)]) {
+        if (!mprt__ic_test(&g->ic, g->scene, id, ray, dd, tmin, limit, &t, ic->tests, &ic->vertices)) continue;
+        if (g->scene->prims[id].kind != mprt__ic_scene_kind(&g->ic, id)) {
             /* the scene no longer holds what IC tested (a corrupted scene): no hit, an error */
             sink->bad_prim = id;
             continue;
