@@ -14,7 +14,11 @@
  * empty voxel holds the chessboard distance from its macro cell to the
  * nearest macro cell with primitives (grid.h, empty), which lets the walk
  * jump across the block of empty macro cells around it (dda.h) with the
- * same counts. */
+ * same counts.
+ *
+ * IC's copy of the primitives (ic.h) is made with the grid and counts
+ * against its memory bound; mprt_grid_stats.bytes reports the voxel table
+ * and lists alone, the grid as the paper's machine holds it. */
 #include "grid.h"
 
 #include <stdio.h>
