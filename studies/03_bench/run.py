@@ -437,7 +437,7 @@ def main(argv=None) -> int:
         return 0
     before = Before(a.before) if a.before else None
     log(f"mprt {t_version()}; before: {before.version if before else 'none'}; best of {a.repeat}; Embree: "
-        + ("embreex" if _ers else "not installed (pip install embreex)"))
+        + ("embreex" if _ers else "UNAVAILABLE, embreex is not installed (pip install embreex): no Embree columns"))
     try:
         rows = [bench_scene(name, None, before, a.repeat) for name in names]
     finally:
