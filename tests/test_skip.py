@@ -3,7 +3,8 @@ give the same traces, hits and counters as the voxel-by-voxel walk.
 
 Grids read two environment variables when they are made: MPRT_NO_SKIP=1 (the
 plain walk) and MPRT_JUMP_MIN=2 (jump from every block of empty voxels the
-grid knows, the smallest included; the default jumps from large ones only).
+grid knows, the smallest included, wherever the walk is; the default jumps
+from large ones only, away from the ray's origin).
 Each comparison runs the same work under both, and the default, on grids of
 their own."""
 import os

@@ -7,11 +7,14 @@
  * voxel by voxel (tnext += tdelta), and each step takes the axis whose
  * boundary comes first, the lowest axis on ties.  The walk is therefore the
  * merge of three sequences of crossings, each depending on its own axis
- * alone, so the crossings taken across a stretch of empty voxels can be
- * found axis by axis, by the same additions in the same order, without the
- * three-way choice at every voxel: mprt__dda_jump leaves a cube of empty
- * voxels in one go and ends in exactly the state, with exactly the voxel
- * count, of the step-by-step walk (tests/c/test_skip.c compares the two). */
+ * alone, so the crossings taken across a block of empty voxels can be
+ * found axis by axis, without the three-way choice at every voxel, and the
+ * sums themselves in closed form (runs, below): mprt__dda_jump crosses a
+ * block of empty voxels in one go and ends in exactly the state, with
+ * exactly the voxel count, of the step-by-step walk (tests/c/test_skip.c
+ * compares the two; tests/test_skip.py whole traces).  mprt__dda_seek is the
+ * OS loop: voxel by voxel, or by jumps where the grid marks large empty
+ * blocks (grid.h, empty and jump_min). */
 #ifndef MPRT_DDA_H
 #define MPRT_DDA_H
 
@@ -33,6 +36,7 @@ typedef struct {
     real run_inc[3];   /* per axis, a run of the sums (below): what each addition adds */
     real run_last[3];  /* ... and the largest sum from which an addition still adds it (-inf: none yet) */
     real run_rinc[3];  /* ... and 1 / run_inc (0 when run_inc is 0) */
+    real t_jump;       /* no jumps before the crossings reach this t (runs are short there) */
     real t_start;      /* where the walk starts: the first voxel's t_enter */
     real t_enter;      /* start of the current voxel's stretch */
     real t_exit;       /* end of the current voxel's stretch */
@@ -93,6 +97,14 @@ static inline int mprt__dda_start(const mprt_grid *g, const mprt__ray *ray, real
         w->run_last[a] = -(real)INFINITY;
     }
     w->t_start = w->t_enter = t0;
+    /* A run holds about s / d additions of d to s: jump once the crossings
+     * are jump_far voxels out on every axis */
+    {
+        real far = 0;
+        for (a = 0; a < 3; a++)
+            if (w->tdelta[a] != (real)INFINITY && w->tdelta[a] > far) far = w->tdelta[a];
+        w->t_jump = far * (real)g->jump_far;
+    }
     w->t_end = t1;
     w->t_exit = w->tnext[0] < w->tnext[1] ? (w->tnext[0] < w->tnext[2] ? w->tnext[0] : w->tnext[2])
                                           : (w->tnext[1] < w->tnext[2] ? w->tnext[1] : w->tnext[2]);
@@ -336,7 +348,7 @@ static inline int mprt__dda_seek(const mprt_grid *g, mprt__dda *w, int32_t *step
         unsigned e;
         if (w->t_exit >= te) return empty[v] == 0;
         /* voxel by voxel while the voxels are empty and no jump pays */
-        while ((e = empty[v]) != 0 && e < jump_min) {
+        while ((e = empty[v]) != 0 && (e < jump_min || mprt__min3(t0, t1, t2) < w->t_jump)) {
             if (t0 <= t1 && t0 <= t2) {
                 last = t0;
                 if (t0 >= te || (unsigned)(c0 += w->step[0]) >= n0) break;
@@ -356,7 +368,7 @@ static inline int mprt__dda_seek(const mprt_grid *g, mprt__dda *w, int32_t *step
             n++;
         }
         *steps += n;
-        if (e != 0 && e < jump_min) return 0; /* the walk ended */
+        if (e != 0 && (e < jump_min || mprt__min3(t0, t1, t2) < w->t_jump)) return 0; /* the walk ended */
         w->tnext[0] = t0;
         w->tnext[1] = t1;
         w->tnext[2] = t2;

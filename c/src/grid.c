@@ -14,7 +14,11 @@
  * empty voxel holds the chessboard distance from its macro cell to the
  * nearest macro cell with primitives (grid.h, empty), which lets the walk
  * jump across the block of empty macro cells around it (dda.h) with the
- * same counts. */
+ * same counts.
+ *
+ * IC's copy of the primitives (ic.h) is made with the grid and counts
+ * against its memory bound; mprt_grid_stats.bytes reports the voxel table
+ * and lists alone, the grid as the paper's machine holds it. */
 #include "grid.h"
 
 #include <stdio.h>
@@ -47,6 +51,9 @@ void mprt_grid_destroy(mprt_grid *g)
     free(g->empty);
     free(g->macro_lo[0]);
     free(g->ids);
+    free(g->ic.ref);
+    free(g->ic.ball);
+    free(g->ic.tri);
     pthread_mutex_destroy(&g->errlock);
     free(g);
 }
@@ -263,6 +270,65 @@ static int pairs_push(pairs *p, uint32_t v, int32_t id, size_t limit)
     return 0;
 }
 
+/* Bytes of IC's copy of the primitives (ic.h). */
+static size_t ic_bytes(const mprt_scene *s, long long *ntri)
+{
+    long long i;
+    *ntri = 0;
+    for (i = 0; i < s->npolygons; i++) *ntri += s->polygons[i].n == 3;
+    return (size_t)s->nprims * (sizeof(uint32_t) + sizeof(mprt__ball)) + (size_t)*ntri * sizeof(mprt__tri);
+}
+
+/* IC's copy of the primitives: per id its kind and index, its ball, and
+ * the triangles' records, from the scene's values as they are. */
+static int build_ic(mprt_grid *g, long long ntri)
+{
+    const mprt_scene *s = g->scene;
+    mprt__ic *ic = &g->ic;
+    long long i;
+    if ((unsigned long long)s->nprims >= MPRT__IC_MAX_INDEX)
+        return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: %lld primitives, more than IC can index (%lu)", s->nprims,
+                         (unsigned long)MPRT__IC_MAX_INDEX - 1);
+    ic->ref = malloc((size_t)s->nprims * sizeof *ic->ref);
+    ic->ball = calloc((size_t)s->nprims, sizeof *ic->ball);
+    ic->tri = malloc((size_t)(ntri ? ntri : 1) * sizeof *ic->tri);
+    if (!ic->ref || !ic->ball || !ic->tri)
+        return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the intersection data of %lld primitives",
+                         s->nprims);
+    for (i = 0; i < s->nprims; i++) {
+        const mprt__prim *p = &s->prims[i];
+        uint32_t kind, index = (uint32_t)p->index;
+        switch (p->kind) {
+        case MPRT_SPHERE:
+            kind = MPRT__IC_SPHERE;
+            ic->ball[i].c = s->spheres[p->index].c;
+            ic->ball[i].r2 = s->spheres[p->index].r * s->spheres[p->index].r;
+            break;
+        case MPRT_POLYGON: {
+            const mprt__polygon *q = &s->polygons[p->index];
+            kind = MPRT__IC_POLYGON;
+            if (q->n == 3) {
+                mprt__tri *t = &ic->tri[ic->ntri];
+                kind = MPRT__IC_TRIANGLE;
+                index = (uint32_t)ic->ntri++;
+                t->v[0] = s->verts[q->first];
+                t->v[1] = s->verts[q->first + 1];
+                t->v[2] = s->verts[q->first + 2];
+                t->normal = q->normal;
+                t->d = q->d;
+            }
+            break;
+        }
+        default: /* MPRT_CYLINDER, MPRT_CONE (build checked the kinds) */
+            kind = p->kind == MPRT_CYLINDER ? MPRT__IC_CYLINDER : MPRT__IC_CONE;
+            mprt__cone_ball(&s->cones[p->index], &ic->ball[i]);
+            break;
+        }
+        ic->ref[i] = index << MPRT__IC_KIND_BITS | kind;
+    }
+    return MPRT_OK;
+}
+
 static int build(mprt_grid *g, size_t max_bytes)
 {
     const mprt_scene *s = g->scene;
@@ -271,12 +337,14 @@ static int build(mprt_grid *g, size_t max_bytes)
     size_t pair_limit, fixed;
     uint32_t *count = NULL;
     real margin;
+    long long ntri;
     int st = MPRT_OK;
 
-    fixed = (size_t)(nvox + 1) * sizeof *g->start + (size_t)nvox;
+    fixed = (size_t)(nvox + 1) * sizeof *g->start + (size_t)nvox + ic_bytes(s, &ntri);
     if (fixed > max_bytes)
         return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY,
-                         "grid %dx%dx%d needs %zu bytes for its voxel table alone, more than the %zu allowed",
+                         "grid %dx%dx%d needs %zu bytes for its voxel table and intersection data alone, more "
+                         "than the %zu allowed",
                          g->n[0], g->n[1], g->n[2], fixed, max_bytes);
     /* Pairs cost 8 bytes while building and 4 in the final list. */
     pair_limit = (max_bytes - fixed) / 8;
@@ -345,8 +413,11 @@ static int build(mprt_grid *g, size_t max_bytes)
         goto done;
     }
     for (i = 0; i < nvox; i++) g->empty[i] = g->start[i + 1] > g->start[i] ? 0 : 1;
-    if (g->jump_min <= 255 && mark_jumps(g) != MPRT_OK)
+    if (g->jump_min <= 255 && mark_jumps(g) != MPRT_OK) {
         st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the macro cells of %lld voxels", nvox);
+        goto done;
+    }
+    st = build_ic(g, ntri);
 
 done:
     free(count);
@@ -355,19 +426,23 @@ done:
     return st;
 }
 
-/* Empty values from which the walk jumps by default: smaller blocks are
- * cheaper to step through voxel by voxel (studies/03_bench measures it). */
+/* Empty values from which the walk jumps by default, and how far from the
+ * ray's origin (in voxels) it must be: smaller blocks, and jumps near the
+ * origin, cost more than the voxels they pass (studies/03_bench measures
+ * it). */
 #define DEFAULT_JUMP_MIN 16
+#define DEFAULT_JUMP_FAR 8
 
 /* The jump threshold the environment asks for: MPRT_NO_SKIP set to
  * anything but "" or "0" turns jumps off (the plain voxel-by-voxel walk);
- * MPRT_JUMP_MIN=k (2..255) jumps from smaller blocks than the default (the
- * tests use 2, to jump wherever the grid allows).  Read once per grid, when
+ * MPRT_JUMP_MIN=k (2..255) jumps from blocks of empty value k and up
+ * wherever the walk is (the tests use 2, to jump wherever the grid allows).  Read once per grid, when
  * it is made.  Returns MPRT_OK or fails the grid naming the variable. */
 static int jump_threshold(mprt_grid *g)
 {
     const char *off = getenv("MPRT_NO_SKIP"), *k = getenv("MPRT_JUMP_MIN");
     g->jump_min = DEFAULT_JUMP_MIN;
+    g->jump_far = DEFAULT_JUMP_FAR;
     if (off && *off && strcmp(off, "0") != 0) {
         g->jump_min = 256;
     } else if (k && *k) {
@@ -376,6 +451,7 @@ static int jump_threshold(mprt_grid *g)
         if (*end || v < 2 || v > 255)
             return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: environment MPRT_JUMP_MIN=%.40s is not a whole number in 2..255", k);
         g->jump_min = (unsigned)v;
+        g->jump_far = 0;
     }
     return MPRT_OK;
 }

@@ -2,6 +2,7 @@
 #ifndef MPRT_GRID_H
 #define MPRT_GRID_H
 
+#include "ic.h"
 #include "mprt_internal.h"
 
 #include <pthread.h>
@@ -23,7 +24,10 @@ struct mprt_grid {
     unsigned jump_min; /* the walk jumps from voxels whose empty value is at least this
                         * (dda.h); above 255 (environment MPRT_NO_SKIP=1 when the grid
                         * was made): never, voxel by voxel, and empty is never above 1 */
+    int jump_far;      /* ... and only once the walk is this many voxels from the ray's
+                        * origin on every axis (runs of the walk's sums are short before) */
     int32_t *ids;      /* primitive ids, voxel by voxel */
+    mprt__ic ic;       /* the primitives as IC tests them (ic.h) */
     long long refs;
     int listing;       /* mprt_listing */
     int failed;

@@ -31,40 +31,14 @@ typedef struct {
     int32_t id[MAILBOX_SIZE];
 } mailbox;
 
-/* Test primitive id against ray over (tmin, tmax]; the test is counted in
- * the IC visit.  Returns 1 with *t for a hit. */
-static int test_prim(const mprt_scene *s, int32_t id, const mprt__ray *ray, real tmin, real tmax, real *t,
-                     mprt__visit *ic, mprt__sink *sink)
-{
-    const mprt__prim *p = &s->prims[id];
-    switch (p->kind) {
-    case MPRT_SPHERE:
-        ic->tests[MPRT_SPHERE]++;
-        return mprt__sphere_hit(&s->spheres[p->index], ray, tmin, tmax, t);
-    case MPRT_POLYGON:
-        ic->tests[MPRT_POLYGON]++;
-        ic->vertices += s->polygons[p->index].n;
-        return mprt__polygon_hit(&s->polygons[p->index], s->verts, ray, tmin, tmax, t);
-    case MPRT_CYLINDER:
-        ic->tests[MPRT_CYLINDER]++;
-        return mprt__cylinder_hit(&s->cones[p->index], ray, tmin, tmax, t);
-    case MPRT_CONE:
-        ic->tests[MPRT_CONE]++;
-        return mprt__cone_hit(&s->cones[p->index], ray, tmin, tmax, t);
-    default:
-        sink->bad_prim = id;
-        return 0;
-    }
-}
-
 /* IC visit: test the voxel's list, counting into ic.  For a shadow ray
  * return 1 on any hit in (tmin, tmax].  Otherwise update the nearest hit
  * *best and return 1 when it lies within this voxel's stretch, or with
  * accept_listed wherever it lies (accepted). */
-static int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt__ray *ray, real tmin, real tmax,
-                    int shadow, int accept_listed, mprt__hit *best, mailbox *mb, mprt__visit *ic, mprt__sink *sink)
+static int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt__ray *ray, real dd, real tmin,
+                    real tmax, int shadow, int accept_listed, mprt__hit *best, mailbox *mb, mprt__visit *ic,
+                    mprt__sink *sink)
 {
-    const mprt_scene *s = g->scene;
     uint32_t k, end = g->start[voxel + 1];
     for (k = g->start[voxel]; k < end; k++) {
         int32_t id = g->ids[k];
@@ -74,7 +48,12 @@ static int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt
             if (mb->id[id & (MAILBOX_SIZE - 1)] == id) continue;
             mb->id[id & (MAILBOX_SIZE - 1)] = id;
         }
-        if (!test_prim(s, id, ray, tmin, limit, &t, ic, sink)) continue;
+        if (!mprt__ic_test(&g->ic, g->scene, id, ray, dd, tmin, limit, &t, ic->tests, &ic->vertices)) continue;
+        if (g->scene->prims[id].kind != mprt__ic_scene_kind(&g->ic, id)) {
+            /* the scene no longer holds what IC tested (a corrupted scene): no hit, an error */
+            sink->bad_prim = id;
+            continue;
+        }
         if (shadow) {
             best->t = t;
             best->prim = id;
@@ -114,6 +93,7 @@ int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real
     mprt__dda walk;
     mailbox mb, *pmb = NULL;
     int32_t steps;  /* voxels the walk entered since OS last had the ray */
+    const real dd = vdot(ray->d, ray->d);
     int left = shadow ? MPRT_OUT_TO_SC : MPRT_OUT_LEFT;
     best->t = tmax;
     best->prim = -1;
@@ -133,7 +113,7 @@ int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real
         emit_os(sink, ray_id, ray_kind, MPRT_OUT_TO_IC, steps, walk.voxel, -1);
         mprt__visit_init(&ic, ray_id, ray_kind, MPRT_STAGE_IC, MPRT_OUT_RETURN);
         ic.voxel_id = walk.voxel;
-        accepted = ic_visit(g, walk.voxel, walk.t_exit, ray, tmin, tmax, shadow, accept_listed, best, pmb, &ic, sink);
+        accepted = ic_visit(g, walk.voxel, walk.t_exit, ray, dd, tmin, tmax, shadow, accept_listed, best, pmb, &ic, sink);
         if (accepted) {
             ic.outcome = shadow ? MPRT_OUT_BLOCKED : MPRT_OUT_HIT;
             ic.prim = best->prim;

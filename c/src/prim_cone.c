@@ -7,7 +7,7 @@
  * origins (the discriminant does not change under that shift).  Roots use
  * q = -(b + sign(b) sqrt(disc)), s0 = q/A, s1 = C/q; A == 0 (a ray parallel
  * to a generator, or to a cylinder's axis) leaves only C/q. */
-#include "mprt_internal.h"
+#include "ic.h"
 
 #include <stdio.h>
 
@@ -76,28 +76,35 @@ int mprt__cone_prepare(mprt__cone *c, char *err, size_t errcap)
     return 0;
 }
 
+void mprt__cone_ball(const mprt__cone *c, mprt__ball *b)
+{
+    const real half = R(0.5) * c->len, rmax = c->rb > c->ra ? c->rb : c->ra;
+    b->c = vmadd(c->base, c->w, half);
+    b->r2 = half * half + rmax * rmax;
+}
+
 /* Shared set-up: shift the origin to the ray point nearest the frustum's
  * middle m, reject rays missing the bounding sphere about m, and express the
  * shifted origin (relative to the base) and the direction in (u, v, w).
  * Returns 0 on a reject; *tc is the shift. */
 static int cone_local(const mprt__cone *c, const mprt__ray *ray, real *tc, real o[3], real d[3])
 {
-    const real half = R(0.5) * c->len, rmax = c->rb > c->ra ? c->rb : c->ra;
-    vec3 m, om, e, p;
-    real dd, s, r2;
+    const real half = R(0.5) * c->len;
+    mprt__ball ball;
+    vec3 om, e, p;
+    real dd, s;
 
     /* Origin shift: tc = (m - o).d / d.d, e = o + tc d - m */
-    m = vmadd(c->base, c->w, half);
-    om = vsub(m, ray->o);
+    mprt__cone_ball(c, &ball);
+    om = vsub(ball.c, ray->o);
     dd = vdot(ray->d, ray->d);
     if (!(dd > 0)) return 0;
-    r2 = half * half + rmax * rmax;
-    if (mprt__line_misses(om, ray->d, dd, r2)) return 0; /* a clear miss of the bounding sphere */
+    if (mprt__line_misses(om, ray->d, dd, ball.r2)) return 0; /* a clear miss of the bounding sphere */
     s = vdot(om, ray->d) / dd;
     e = vsub(vscale(ray->d, s), om);
 
     /* Bounding sphere of the frustum */
-    if (vdot(e, e) > r2 * (1 + R(64.0) * REAL_EPS)) return 0;
+    if (vdot(e, e) > ball.r2 * (1 + R(64.0) * REAL_EPS)) return 0;
 
     /* Local coordinates, origin at the base */
     p = vmadd(e, c->w, half);

@@ -20,7 +20,7 @@
  * outline's: a ray through a shared edge or vertex inside a mesh hits at
  * least one face, whatever the faces' orientations.  The fill rule is
  * nonzero winding (the same as even-odd for simple polygons). */
-#include "mprt_internal.h"
+#include "ic.h"
 
 #include <stdio.h>
 
@@ -128,16 +128,6 @@ int mprt__polygon_prepare(mprt__polygon *p, const vec3 *verts, char *err, size_t
         (y) = vdot(q_, my);            \
     } while (0)
 
-/* Edge a->b's share of the winding number, half-open in y: an upward
- * crossing counts +1 when the origin is left of a->b, a downward one -1
- * when it is right (E(a, b) = ax by - ay bx).  Without branches: every
- * edge's E is computed and the conditions combined. */
-static inline int edge_winding(real ax, real ay, real bx, real by)
-{
-    real e = ax * by - ay * bx;
-    return ((ay <= 0) & (by > 0) & (e > 0)) - (!(ay <= 0) & (by <= 0) & (e < 0));
-}
-
 int mprt__polygon_hit(const mprt__polygon *p, const vec3 *verts, const mprt__ray *ray, real tmin,
                       real tmax, real *t)
 {
@@ -147,24 +137,19 @@ int mprt__polygon_hit(const mprt__polygon *p, const vec3 *verts, const mprt__ray
     real dn, tt, ax, ay, bx, by, e;
     int i, wn = 0;
 
+    if (n == 3) { /* a triangle: IC's test (ic.h) */
+        mprt__tri tri;
+        tri.v[0] = v[0];
+        tri.v[1] = v[1];
+        tri.v[2] = v[2];
+        tri.normal = p->normal;
+        tri.d = p->d;
+        return mprt__tri_hit(&tri, ray, tmin, tmax, t);
+    }
+
     /* Parallel rays never hit */
     dn = vdot(p->normal, ray->d);
     if (dn == 0) return 0;
-
-    if (n == 3) {
-        /* A triangle: the winding number first, without a branch per edge;
-         * most tests end on a winding number of 0 and need no division */
-        real x0, y0, x1, y1, x2, y2;
-        SHEAR(v[0], x0, y0);
-        SHEAR(v[1], x1, y1);
-        SHEAR(v[2], x2, y2);
-        wn = edge_winding(x2, y2, x0, y0) + edge_winding(x0, y0, x1, y1) + edge_winding(x1, y1, x2, y2);
-        if (wn == 0) return 0;
-        tt = (p->d - vdot(p->normal, o)) / dn;
-        if (!(tt > tmin && tt <= tmax)) return 0;
-        *t = tt;
-        return 1;
-    }
 
     /* Other polygons: hits outside (tmin, tmax] first, before the edges */
     tt = (p->d - vdot(p->normal, o)) / dn;

@@ -1,50 +1,12 @@
 /* prim_sphere.c: sphere intersection, normal, bounds and box overlap. */
-#include "mprt_internal.h"
-
+#include "ic.h"
 
 int mprt__sphere_hit(const mprt__sphere *s, const mprt__ray *ray, real tmin, real tmax, real *t)
 {
-    vec3 oc, f;
-    real a, b, c, r2, disc, q, t0, t1, tmp;
-
-    /* Quadratic a t^2 + 2 b t + c = 0 with oc = o - centre */
-    oc = vsub(ray->o, s->c);
-    a = vdot(ray->d, ray->d);
-    r2 = s->r * s->r;
-    if (mprt__line_misses(oc, ray->d, a, r2)) return 0; /* a clear miss */
-    b = vdot(oc, ray->d);
-    c = vdot(oc, oc) - r2;
-
-    /* Outside and moving away: both roots are negative */
-    if (c > 0 && b > 0 && tmin >= 0) return 0;
-
-    /* Discriminant b^2 - a c as a (r^2 - |f|^2), f = oc minus its projection
-     * on d: the vector from the centre to the line's closest point.  No
-     * cancellation between two large squares for far origins. */
-    f = vmadd(oc, ray->d, -b / a);
-    disc = a * (r2 - vdot(f, f));
-    if (disc < 0) return 0;
-
-    /* Stable roots: q = -(b + sign(b) sqrt(disc)), t0 = q/a, t1 = c/q */
-    q = b >= 0 ? -(b + SQRT(disc)) : -(b - SQRT(disc));
-    t0 = q / a;
-    t1 = q != 0 ? c / q : t0;
-    if (t0 > t1) {
-        tmp = t0;
-        t0 = t1;
-        t1 = tmp;
-    }
-
-    /* Nearest root in (tmin, tmax] */
-    if (t0 > tmin && t0 <= tmax) {
-        *t = t0;
-        return 1;
-    }
-    if (t1 > tmin && t1 <= tmax) {
-        *t = t1;
-        return 1;
-    }
-    return 0;
+    mprt__ball b;
+    b.c = s->c;
+    b.r2 = s->r * s->r;
+    return mprt__ball_hit(&b, ray, vdot(ray->d, ray->d), tmin, tmax, t);
 }
 
 vec3 mprt__sphere_normal(const mprt__sphere *s, vec3 p)

@@ -5,9 +5,12 @@ For each SPD scene at its default size:
      among cubic and shape-following (pbrt-rule) candidates;
   2. measures rays per second of ``Grid.intersect`` on those primary rays and
      on random rays, with empty-space jumps and without (MPRT_NO_SKIP=1),
+     there and on a fine 256^3 grid,
      and, for the triangle scenes (tetra; mount's 8192 triangles without its
      4 spheres), Embree's single-ray ``rtcIntersect1`` loop (the embreex
-     package) on the same rays, side by side;
+     package) on the same rays, side by side; for the scenes of spheres and
+     cones (tree, balls, rings), the whole scene against Embree on a
+     tessellation of it (spheres as 80 triangles, cones as 32), primary rays;
   3. times 512x512 renders under both rule sets, on 1 and on 2 threads, and
      the cost of tracing: the untraced render, the tracer alone (every tile
      traced into reused buffers, records not kept) and the whole
@@ -16,7 +19,7 @@ With --before DIR (a ``python`` folder holding another build of the mprt
 package, e.g. main's: ``make bench`` builds one), every timing is also made
 with that build in a worker process, interleaved with this one's, so each
 before/after figure is a ratio measured in one run.  One-thread figures are
-thread CPU times, two-thread ones wall-clock times; each is the best of N.
+process CPU times, two-thread ones wall-clock times; each is the best of N.
 Writes bench.csv to studies/out/03_bench/ (--quick: scenes at size 2, 32x32,
 the default grid, one repeat; the work figures only (visits, bytes per
 visit), to ref/).
@@ -33,7 +36,9 @@ import subprocess
 import sys
 import time
 
-import numpy as np
+# numpy's BLAS threads would spin beside the timed calls and count in the process CPU time
+os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
+import numpy as np  # noqa: E402
 
 sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 import mprt  # noqa: E402
@@ -49,6 +54,7 @@ except ImportError:  # optional
 
 WORK = ("scene", "grid", "rays", "visits", "bytes_per_visit")  # the columns that do not depend on timing
 RES, NRAND = 512, 262144
+FINE = (256, 256, 256)  # a fine grid for the effect of jumps
 
 
 # ---- the measurements (run in this process and, with --before, in the worker) ------------------
@@ -67,6 +73,52 @@ def triangles(scene) -> np.ndarray:
     p = scene.primitives()["polygons"]
     tri = np.flatnonzero(np.diff(p["vstart"]) == 3)
     return p["vertices"][p["vstart"][tri][:, None] + np.arange(3)]
+
+
+def _icosphere() -> np.ndarray:
+    """The unit icosahedron subdivided once: (80, 3, 3) triangles on the unit sphere."""
+    g = (1 + 5 ** 0.5) / 2
+    v = np.array([(-1, g, 0), (1, g, 0), (-1, -g, 0), (1, -g, 0), (0, -1, g), (0, 1, g), (0, -1, -g), (0, 1, -g),
+                  (g, 0, -1), (g, 0, 1), (-g, 0, -1), (-g, 0, 1)], float)
+    f = [(0, 11, 5), (0, 5, 1), (0, 1, 7), (0, 7, 10), (0, 10, 11), (1, 5, 9), (5, 11, 4), (11, 10, 2), (10, 7, 6),
+         (7, 1, 8), (3, 9, 4), (3, 4, 2), (3, 2, 6), (3, 6, 8), (3, 8, 9), (4, 9, 5), (2, 4, 11), (6, 2, 10),
+         (8, 6, 7), (9, 8, 1)]
+    t = v[np.array(f)]
+    a, b, c = t[:, 0], t[:, 1], t[:, 2]
+    ab, bc, ca = (a + b) / 2, (b + c) / 2, (c + a) / 2
+    t = np.concatenate([np.stack(x, 1) for x in ((a, ab, ca), (ab, b, bc), (ca, bc, c), (ab, bc, ca))])
+    return t / np.linalg.norm(t, axis=2)[..., None]
+
+
+TESS_SIDES = 16  # a cone's lateral surface as 2 * TESS_SIDES triangles
+
+
+def tessellation(scene) -> np.ndarray:
+    """The scene as triangles for Embree: spheres as 80-triangle icospheres, cones and cylinders as
+    32-triangle prisms, polygons as fans (an approximation: its hits differ near silhouettes)."""
+    p = scene.primitives()
+    out = [triangles(scene)]
+    pg = p["polygons"]
+    for i in np.flatnonzero(np.diff(pg["vstart"]) > 3):
+        v = pg["vertices"][pg["vstart"][i]:pg["vstart"][i + 1]]
+        out.append(np.stack([np.repeat(v[:1], len(v) - 2, 0), v[1:-1], v[2:]], 1))
+    sp = p["spheres"]
+    if len(sp["radius"]):
+        out.append((_icosphere()[None] * sp["radius"][:, None, None, None] + sp["center"][:, None, None]).reshape(-1, 3, 3))
+    c = p["cones"]
+    if len(c["base_radius"]):
+        w = c["apex"] - c["base"]
+        w /= np.linalg.norm(w, axis=1)[:, None]
+        u = np.cross(w, np.where(np.abs(w[:, :1]) < 0.9, [[1.0, 0, 0]], [[0, 1.0, 0]]))
+        u /= np.linalg.norm(u, axis=1)[:, None]
+        v = np.cross(w, u)
+        ang = 2 * np.pi * np.arange(TESS_SIDES + 1) / TESS_SIDES
+        ring = np.cos(ang)[None, :, None] * u[:, None] + np.sin(ang)[None, :, None] * v[:, None]
+        lo = c["base"][:, None] + c["base_radius"][:, None, None] * ring
+        hi = c["apex"][:, None] + c["apex_radius"][:, None, None] * ring
+        q = np.stack([lo[:, :-1], lo[:, 1:], hi[:, 1:], hi[:, :-1]], 2)  # quads (cones, sides, 4, 3)
+        out.append(np.concatenate([q[:, :, [0, 1, 2]], q[:, :, [0, 2, 3]]], 1).reshape(-1, 3, 3))
+    return np.concatenate(out)
 
 
 def scene_of(name, size, tris_only=False):
@@ -110,28 +162,31 @@ def rays_of(name, size, which, res=RES, nrand=NRAND):
     return cached(("rays", name, size, which, res, nrand), make)
 
 
-def thread_clock(fn):
-    t = time.thread_time()
+def cpu_clock(fn):
+    """(process CPU time of fn(), its result): immune to other processes' load, and it counts the
+    helper threads grid.trace uses even on one thread."""
+    t = time.process_time()
     out = fn()
-    return time.thread_time() - t, out
+    return time.process_time() - t, out
 
 
 def t_intersect(name, size, n, which, tris_only=False, skip=True, res=RES, nrand=NRAND):
     """CPU time of one intersect call; and the hit count."""
     g = grid_of(name, size, n, tris_only, skip)
     o, d = rays_of(name, size, which, res, nrand)
-    t, (_, prim) = thread_clock(lambda: g.intersect(o, d))
+    t, (_, prim) = cpu_clock(lambda: g.intersect(o, d))
     return t, int(np.count_nonzero(prim >= 0))
 
 
 def t_render(name, size, n, res, rules, threads=0):
-    """CPU time of one render on this thread; with threads, the wall-clock time on that many."""
+    """CPU time of one render on this thread; with threads, [wall-clock time, process CPU time] on that
+    many (the CPU time grows with the threads only when they get in each other's way)."""
     g = grid_of(name, size, n)
     if not threads:
-        return thread_clock(lambda: g.render(res, res, rules=rules))[0]
+        return cpu_clock(lambda: g.render(res, res, rules=rules))[0]
     t = time.perf_counter()
-    g.render(res, res, rules=rules, threads=threads)
-    return time.perf_counter() - t
+    cpu = cpu_clock(lambda: g.render(res, res, rules=rules, threads=threads))[0]
+    return [time.perf_counter() - t, cpu]
 
 
 def t_trace(name, size, n, res):
@@ -152,9 +207,9 @@ def t_trace(name, size, n, res):
             total += nv
         return total
 
-    t_u = thread_clock(lambda: g.render(res, res))[0]
-    t_c, nvis = thread_clock(c_only)
-    t_p, (_, tr) = thread_clock(lambda: g.trace(res, res))
+    t_u = cpu_clock(lambda: g.render(res, res))[0]
+    t_c, nvis = cpu_clock(c_only)
+    t_p, (_, tr) = cpu_clock(lambda: g.trace(res, res))
     return t_u, t_c, t_p, nvis, len(tr.rays)
 
 
@@ -232,7 +287,7 @@ def fastest_grid(name, size, tris_only=False):
     """The candidate subdivision with the fastest primary rays (this build), and its build time."""
     best = None
     for n in candidates(scene_of(name, size, tris_only)):
-        t_build = thread_clock(lambda: grid_of(name, size, n, tris_only))[0]
+        t_build = cpu_clock(lambda: grid_of(name, size, n, tris_only))[0]
         t = min(t_intersect(name, size, n, "primary", tris_only)[0] for _ in range(2))
         if best is None or t < best[1]:
             best = (n, t, t_build)
@@ -254,9 +309,9 @@ def embree_row(name, size, before, repeat) -> dict:
     for which in ("primary", "random"):
         o, d = (x.astype(np.float32) for x in rays_of(name, size, which))
         es.run(o[:1], d[:1])  # commit (BVH build) outside the timing
-        t_e = min(thread_clock(lambda: es.run(o, d))[0] for _ in range(repeat))
+        t_e = min(cpu_clock(lambda: es.run(o, d))[0] for _ in range(repeat))
         (t_m, hits), there = side_by_side(before, repeat, "t_intersect", name, size, n, which, True)
-        _, ep = thread_clock(lambda: es.run(o, d))
+        _, ep = cpu_clock(lambda: es.run(o, d))
         rows = len(o)
         row[f"tri_{which}_Mrays"] = rows / t_m / 1e6
         row[f"embree_{which}_Mrays"] = rows / t_e / 1e6
@@ -264,11 +319,39 @@ def embree_row(name, size, before, repeat) -> dict:
         if there:
             row[f"tri_{which}_before_vs_embree"] = t_e / there[0]
         row[f"tri_{which}_hit_agreement"] = 1 - abs(hits - int(np.count_nonzero(ep >= 0))) / rows
+    _log_tri(row)
+    return row
+
+
+def embree_tess_row(name, size, n, before, repeat) -> dict:
+    """mprt on the whole scene (analytic shapes, grid n) against Embree on a tessellation of it."""
+    tris = tessellation(scene_of(name, size))
+    es = _ers.EmbreeScene()
+    _emc.TriangleMesh(es, tris.astype(np.float32))
+    row = {"tess_triangles": len(tris)}
+    o, d = (x.astype(np.float32) for x in rays_of(name, size, "primary"))
+    es.run(o[:1], d[:1])
+    t_e = min(cpu_clock(lambda: es.run(o, d))[0] for _ in range(repeat))
+    (t_m, hits), there = side_by_side(before, repeat, "t_intersect", name, size, n, "primary")
+    ep = es.run(o, d)
+    row["embree_tess_primary_Mrays"] = len(o) / t_e / 1e6
+    row["primary_vs_embree_tess"] = t_e / t_m
+    if there:
+        row["primary_before_vs_embree_tess"] = t_e / there[0]
+    row["tess_hit_agreement"] = 1 - abs(hits - int(np.count_nonzero(ep >= 0))) / len(o)
+    log(f"       whole scene, grid {'x'.join(map(str, n))}: primary mprt {len(o) / t_m / 1e6:.2f} vs Embree on "
+        f"{len(tris)} triangles {row['embree_tess_primary_Mrays']:.2f} Mrays/s ({row['primary_vs_embree_tess']:.2f}x"
+        + (f", before {row['primary_before_vs_embree_tess']:.2f}x" if there else "") + ")")
+    return row
+
+
+def _log_tri(row):
     log(f"       triangles only, grid {row['tri_grid']}: primary mprt {row['tri_primary_Mrays']:.2f} vs Embree "
         f"{row['embree_primary_Mrays']:.2f} Mrays/s ({row['tri_primary_vs_embree']:.2f}x); random mprt "
         f"{row['tri_random_Mrays']:.2f} vs Embree {row['embree_random_Mrays']:.2f} "
-        f"({row['tri_random_vs_embree']:.2f}x)")
-    return row
+        f"({row['tri_random_vs_embree']:.2f}x)"
+        + (f"; before {row['tri_primary_before_vs_embree']:.2f}x and {row['tri_random_before_vs_embree']:.2f}x"
+           if "tri_primary_before_vs_embree" in row else ""))
 
 
 def bench_scene(name, size, before, repeat) -> dict:
@@ -283,18 +366,24 @@ def bench_scene(name, size, before, repeat) -> dict:
         if there:
             row[f"{which}_before_Mrays"] = rays / there[0] / 1e6
             row[f"{which}_speedup"] = there[0] / t
+    # jumps on a fine grid, where empty blocks are many voxels wide
+    t_on = min(t_intersect(name, size, FINE, "primary")[0] for _ in range(repeat))
+    t_off = min(t_intersect(name, size, FINE, "primary", skip=False)[0] for _ in range(repeat))
+    row["fine_primary_jumps_gain"] = t_off / t_on
+    _cache.pop(("grid", name, size, FINE, False, True))
+    _cache.pop(("grid", name, size, FINE, False, False))
     for rules in ("paper", "spd"):
         t, there = side_by_side(before, repeat, "t_render", name, size, n, RES, rules)
         row[f"render_{rules}_s"] = t
         if there:
             row[f"render_{rules}_before_s"], row[f"render_{rules}_speedup"] = there, there / t
-    for threads in (1, 2):  # wall-clock times, interleaved
-        row[f"wall_{threads}"], row[f"wall_{threads}_before"] = side_by_side(before, repeat, "t_render", name, size,
-                                                                               n, RES, "paper", threads)
-    row["threads2_speedup"] = row.pop("wall_1") / row.pop("wall_2")
-    w1, w2 = row.pop("wall_1_before"), row.pop("wall_2_before")
-    if w1:
-        row["threads2_before_speedup"] = w1 / w2
+    wall = {}
+    for threads in (1, 2):  # wall-clock and CPU times, interleaved
+        wall[threads] = side_by_side(before, repeat, "t_render", name, size, n, RES, "paper", threads)
+    row["threads2_speedup"] = wall[1][0][0] / wall[2][0][0]
+    row["threads2_cpu_ratio"] = wall[2][0][1] / wall[1][0][1]  # 1: the second thread adds no work
+    if wall[1][1]:
+        row["threads2_before_speedup"] = wall[1][1][0] / wall[2][1][0]
     (t_u, t_c, t_p, nvis, nrays), there = side_by_side(before, repeat, "t_trace", name, size, n, RES)
     row.update({"rays": nrays, "visits": nvis, "tracer_alone_vs_render": t_c / t_u, "trace_vs_render": t_p / t_u,
                 "bytes_per_visit": round((nrays * RAY_DTYPE.itemsize + nvis * VISIT_DTYPE.itemsize) / nvis, 2)})
@@ -305,9 +394,11 @@ def bench_scene(name, size, before, repeat) -> dict:
         f"(x{row.get('primary_speedup', 0):.2f} before), random {row['random_Mrays']:.2f} "
         f"(x{row.get('random_speedup', 0):.2f}); render paper {row['render_paper_s']:.2f} s "
         f"(x{row.get('render_paper_speedup', 0):.2f}), spd {row['render_spd_s']:.2f} s; 2 threads "
-        f"x{row['threads2_speedup']:.2f}; grid.trace/render {row['trace_vs_render']:.2f}")
+        f"x{row['threads2_speedup']:.2f} (CPU time x{row['threads2_cpu_ratio']:.3f}); grid.trace/render {row['trace_vs_render']:.2f}")
     if _ers is not None and name in ("tetra", "mount"):
         row.update(embree_row(name, size, before, repeat))
+    if _ers is not None and name in ("tree", "balls", "rings"):
+        row.update(embree_tess_row(name, size, n, before, repeat))
     _cache.clear()
     return row
 
@@ -321,9 +412,11 @@ def quick_row(name) -> dict:
 
 
 SUMMARY = ("scene", "grid", "primary_Mrays", "primary_speedup", "random_Mrays", "random_speedup", "primary_jumps_gain",
+           "random_jumps_gain", "fine_primary_jumps_gain",
            "render_paper_s", "render_paper_speedup", "render_spd_speedup", "threads2_speedup",
-           "threads2_before_speedup", "tracer_alone_vs_render", "trace_vs_render", "trace_speedup",
-           "tri_primary_vs_embree", "tri_primary_before_vs_embree", "tri_random_vs_embree")
+           "threads2_cpu_ratio", "threads2_before_speedup", "tracer_alone_vs_render", "trace_vs_render", "trace_speedup",
+           "tri_primary_vs_embree", "tri_primary_before_vs_embree", "tri_random_vs_embree",
+           "tri_random_before_vs_embree", "primary_vs_embree_tess", "primary_before_vs_embree_tess")
 
 
 def options(ap):
@@ -344,7 +437,7 @@ def main(argv=None) -> int:
         return 0
     before = Before(a.before) if a.before else None
     log(f"mprt {t_version()}; before: {before.version if before else 'none'}; best of {a.repeat}; Embree: "
-        + ("embreex" if _ers else "not installed (pip install embreex)"))
+        + ("embreex" if _ers else "UNAVAILABLE, embreex is not installed (pip install embreex): no Embree columns"))
     try:
         rows = [bench_scene(name, None, before, a.repeat) for name in names]
     finally:

@@ -1,24 +1,25 @@
-/* test_skip.c: empty-space skipping changes no count.  The jump across a
- * block of voxels (mprt__dda_jump) ends in the state the step-by-step walk
- * reaches when it first leaves the cube, having entered as many voxels;
- * the distance field the jumps rely on is the exact chessboard distance to
- * the nearest voxel with primitives; and a walk that jumps wherever the
- * field allows visits the same voxels with primitives, with the same counts
- * in between, as the plain walk. */
+/* test_skip.c: empty-space skipping changes no count.  A jump across a
+ * block of voxels (mprt__dda_jump) moves the walk exactly as the
+ * step-by-step walk moves it, never past the block: to the voxel where the
+ * walk leaves the block, or short of it where a run of the walk's sums
+ * ends, or to the walk's end, with the same count of voxels entered; the
+ * runs reproduce the walk's rounded additions bit for bit; and the
+ * chessboard distance transform the blocks come from is exact.  Whole
+ * traces with and without jumps: tests/test_skip.py. */
 #include "check.h"
 #include "dda.h"
 #include "geom.h"
 
 #include <stdint.h>
 
-/* A scene whose bounding box is exactly [0,8]^3: two spheres at opposite corners. */
+/* Three spheres: two at opposite corners of the box [0,8]^3, one inside. */
 static mprt_scene *corner_scene(void)
 {
+    static const double spheres[3][4] = {{1, 1, 1, 1}, {7, 7, 7, 1}, {5, 2, 6, 0.5}};
     mprt_scene *s;
-    double c0[3] = {1, 1, 1}, c1[3] = {7, 7, 7};
+    int i;
     mprt_scene_create(&s);
-    mprt_scene_add_sphere(s, c0, 1);
-    mprt_scene_add_sphere(s, c1, 1);
+    for (i = 0; i < 3; i++) mprt_scene_add_sphere(s, spheres[i], spheres[i][3]);
     return s;
 }
 
