@@ -89,7 +89,7 @@ def test_outputs_checked_before_any_work(tmp_path, capsys):
 def test_threshold_with_spd_rules_refused(capsys):
     """--threshold under spd rules would be ignored: refused (exit 2) instead."""
     assert main(["simulate", "tetra:1", "--res", "8x8", "--rules", "spd", "--threshold", "0.1"]) == 2
-    assert "paper rules only" in capsys.readouterr().err
+    assert "paper and paper1992 rules only" in capsys.readouterr().err
 
 
 def test_deadlock_exit_1(tmp_path, capsys):
