@@ -214,6 +214,14 @@ class CostModel:
             out.flits[a:a + len(v)] = packets["out"]
         return out
 
+    def counted(self, trace) -> "CostModel":
+        """This model, pricing ``trace`` from its kernel runs counted once
+        (``KernelCounts``): ``visit_costs`` on it is then a product per
+        stage, the same arrays to the cycle; other traces are priced in full."""
+        from .counts import CountedCostModel, KernelCounts
+
+        return CountedCostModel(self, KernelCounts(trace))
+
     def kernel_counts(self, trace, chunk: int = 1 << 20) -> dict:
         """Runs of each kernel over the whole trace, by stage, with each
         stage's visits ('visits') and SC's primary-ray generations
