@@ -64,6 +64,17 @@ def _range(text: str):
     return lo, hi
 
 
+def _sample(text: str):
+    if text in ("auto", "none"):
+        return None if text == "none" else text
+    from ..fidelity import Sampling
+    from ..errors import InvalidArgument
+    try:
+        return str(Sampling.parse(text))
+    except InvalidArgument as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def check_output(path) -> None:
     """Fail before any work if an output file cannot be written."""
     if path is None:
@@ -94,9 +105,18 @@ def add_parsers(sub) -> None:
     e.add_argument("--objective", choices=OBJECTIVES, default="time",
                    help="time: cycles (under --budget); time*cost; pareto: the front by a sweep of budgets")
     e.add_argument("--budget", type=_positive(float), default=None, help="hardware budget in kGE")
+    e.add_argument("--level", choices=("0", "1", "2", "3", "auto"), default="auto",
+                   help="fidelity level: auto (default) measures the ladder on this scene and takes the cheapest "
+                        "within --tolerance; the search runs at no more than level 1, the best designs are "
+                        "verified at the level chosen")
     e.add_argument("--tolerance", type=_percent, default=0.01,
-                   help="error the fidelity level may have (default 1%%; recorded; level 0 until the ladder)")
-    e.add_argument("--level", type=int, choices=(0, 1, 2, 3), default=0, help="fidelity level (default 0)")
+                   help="error the level may have against the most faithful one, with --level auto (default 1%%)")
+    e.add_argument("--sample", type=_sample, default="auto",
+                   help="trace only these tiles of the full-resolution frame for the final polish and scale up "
+                        "(stratified:K:SEED, random:N:SEED, regular:K, or none; default: stratified:16:1 above "
+                        "256x256)")
+    e.add_argument("--verify", type=_positive(int), default=4,
+                   help="designs re-evaluated at the verification level when it is above the search's (default 4)")
     e.add_argument("--algorithm", choices=[a for a in GLOBAL_ALGORITHMS if a != "none"], default="direct-l")
     e.add_argument("--polish", choices=POLISHES, default="lattice")
     e.add_argument("--max-evals", type=_positive(int), default=1000,
@@ -137,6 +157,8 @@ def _progress_printer(every: int = 25):
     start = time.perf_counter()
     tty = sys.stderr.isatty()
 
+    open_line = [False]
+
     def show(problem):
         n = len(problem.memo)
         if n % every and not tty:
@@ -145,6 +167,18 @@ def _progress_printer(every: int = 25):
         msg = (f"\r  {n:5d} evaluations, best {b.cycles:,.0f} cycles at cost {b.cost:.0f} kGE, "
                f"{time.perf_counter() - start:.1f} s")
         print(msg if tty else msg[1:], end="" if tty else "\n", file=sys.stderr, flush=True)
+        open_line[0] = tty
+
+    def end():
+        if open_line[0]:
+            print(file=sys.stderr)
+        open_line[0] = False
+
+    def line(text):
+        end()
+        print(text, file=sys.stderr, flush=True)
+
+    show.end, show.line = end, line
     return show
 
 
@@ -152,24 +186,21 @@ def run_explore(a) -> int:
     from .explorer import explore, plot
     from .space import default_space, load_space
 
-    from .machine_adapter import check_level
-
     opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"))
-    check_level(a.level)
     space = load_space(a.space) if a.space else default_space()
     scene = opt.load_scene(a.scene)[0]
     w, h = a.res
-    kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget, level=a.level,
-              algorithm=a.algorithm, polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads,
-              fraction=a.fraction)
+    kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget,
+              level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, algorithm=a.algorithm,
+              polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads, fraction=a.fraction,
+              sample=a.sample, verify=a.verify)
     if a.scheduler:
         from .distributed import run_remote
         rep = run_remote(a.scheduler, explore_spec, a.scene, kw)
     else:
-        rep = explore(scene, progress=_progress_printer(), **kw)
-        if sys.stderr.isatty():
-            print(file=sys.stderr)
-    rep["tolerance"] = a.tolerance
+        show = _progress_printer()
+        rep = explore(scene, progress=show, log=show.line, **kw)
+        show.end()
     print_report(rep)
     if a.json:
         with open(a.json, "w") as f:
@@ -192,8 +223,10 @@ def print_report(rep: dict) -> None:
     refs = rep["references"]
     print(f"explore {rep['scene']} at {rep['width']}x{rep['height']}, objective {rep['objective']}"
           + (f", budget {rep['budget']:g} kGE" if rep.get("budget") else "")
-          + f": {rep['evaluations']} designs evaluated at level {rep['level']} in {rep['seconds']:.1f} s"
-          + f" ({rep['costs']} costs)")
+          + f": {rep['evaluations']} designs evaluated in {rep['seconds']:.1f} s")
+    lv = rep["level"]
+    print(f"level   search at {lv['search']}, verified at {lv['verify']}"
+          + (f" (the ladder's choice within {100 * rep['tolerance']:g}%)" if lv["asked"] == "auto" else ""))
     print(f"best    {b['described']}")
     print(f"        subdivision {'x'.join(map(str, b['subdivision']))}; {b['cycles']:,.0f} cycles; "
           f"cost {b['cost']:.0f} kGE; {b['speedup_over_S']:.2f}x model S; bottleneck {b['bottleneck']}")

@@ -19,7 +19,7 @@ import time
 
 import numpy as np
 
-from .evaluate import Level0, grid_dims
+from .evaluate import TraceEvaluator, grid_dims
 from .hwcost import UnitCosts
 from .space import Design, paper_3mppe
 
@@ -51,11 +51,7 @@ class _Cands:
         dims = grid_dims(self.scene, (n,) if np.isscalar(n) else n, self.shape)
         if dims not in self.seen:
             _, tr = self.scene.grid(dims).trace(self.w, self.h, threads=self.threads)
-            if self.level == 0:
-                self.seen[dims] = Level0(tr, self.unit_costs).run(self.design).cycles
-            else:
-                from .evaluate import evaluate
-                self.seen[dims] = evaluate(tr, self.design, self.level, self.unit_costs).cycles
+            self.seen[dims] = TraceEvaluator(tr, self.unit_costs).run(self.design, self.level).cycles
         return self.seen[dims]
 
 
@@ -69,7 +65,7 @@ def default_range(scene, density=(1.0, 32.0), limit: int = 768) -> tuple[int, in
 
 
 def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 16,
-            design: Design | None = None, shape: str = "proportional", rungs: int = 7, level: int = 0,
+            design: Design | None = None, shape: str = "proportional", rungs: int = 7, level: int = 1,
             unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15) -> dict:
     """Predict the full-resolution cycles of candidate subdivisions from traces
     at width/fraction x height/fraction, and return the best.  ``candidates``:
