@@ -7,7 +7,6 @@ import numpy as np
 import pytest
 
 import mprt
-from mprt.explore import paper_3mppe
 from mprt.explore.cli import add_parsers
 from mprt.explore.evaluate import TraceEvaluator, grid_dims
 from mprt.explore.prepass import prepass
@@ -100,13 +99,14 @@ def test_prepass_search_finds_the_best_of_every_candidate():
     """The ladder-then-golden search over n finds the n that evaluating every
     n in the range finds (on the same low-resolution traces)."""
     scene = mprt.Scene.spd("tetra", 1)
-    r = prepass(scene, 64, 64, n_range=(2, 30), fraction=4)
-    every = prepass(scene, 64, 64, candidates=[(n,) for n in range(2, 31)], fraction=4)
+    r = prepass(scene, 64, 64, n_range=(2, 30), fraction=4, check=0)
+    every = prepass(scene, 64, 64, candidates=[(n,) for n in range(2, 31)], fraction=4, check=0)
     assert r["subdivision"] == every["subdivision"]
     assert len(r["candidates"]) < len(every["candidates"]) / 2
     # predictions are the low-resolution cycles scaled by the pixel ratio
     dims = tuple(r["subdivision"])
-    low = TraceEvaluator(scene.grid(dims).trace(16, 16)[1]).run(paper_3mppe(), 1).cycles
+    from mprt.machine.config import builtin
+    low = TraceEvaluator(scene.grid(dims).trace(16, 16)[1]).run_config(builtin("3mppe"), 1).cycles
     assert r["predicted_cycles"] == pytest.approx(low * 16)
 
 

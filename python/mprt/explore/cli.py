@@ -142,6 +142,9 @@ def add_parsers(sub) -> None:
     p.add_argument("--shape", choices=("proportional", "cube"), default="proportional",
                    help="one n as n along the longest axis, others in proportion (default), or n per axis")
     p.add_argument("--fraction", type=_positive(int), default=16, help="trace at 1/FRACTION of --res (default 16)")
+    p.add_argument("--check", type=int, default=3, metavar="K",
+                   help="trace the K best predictions at --res on a sixty-fourth of the tiles (stratified:64:1) "
+                        "and choose among them by that (default 3; 0: the low-resolution prediction alone)")
     p.set_defaults(func=run_prepass)
 
     w = sub.add_parser("sweep", help="scenes x subdivisions x designs on Dask, to a CSV and plots")
@@ -248,15 +251,19 @@ def run_prepass(a) -> int:
     opt.check_outputs(("--json", a.json, "json"))
     scene = opt.load_scene(a.scene)[0]
     w, h = a.res
+    if a.check < 0:
+        raise opt.UsageError(f"--check {a.check}: give 0 or more candidates")
     r = prepass(scene, w, h, candidates=a.candidates, n_range=a.n_range, fraction=a.fraction, shape=a.shape,
-                threads=a.threads)
+                threads=a.threads, check=a.check)
     lw, lh = r["low_resolution"]
     print(f"prepass {scene.name}: {len(r['candidates'])} subdivisions traced at {lw}x{lh} in {r['seconds']:.2f} s; "
-          f"cycles predicted for {w}x{h} on the paper's 3MPPE (level {r['level']})")
+          f"cycles predicted for {w}x{h} on the paper's 3MPPE (level {r['level']})"
+          + (f"; the best {a.check} checked on {r['check_sample']} at {w}x{h}" if r["check_sample"] else ""))
     best = r["subdivision"]
     for c in r["candidates"]:
         mark = "  <- best" if c["subdivision"] == best else ""
-        print(f"  {'x'.join(map(str, c['subdivision'])):>12s} {c['predicted_cycles']:16,.0f}{mark}")
+        checked = f" {c['sampled_cycles']:16,.0f} sampled" if "sampled_cycles" in c else ""
+        print(f"  {'x'.join(map(str, c['subdivision'])):>12s} {c['predicted_cycles']:16,.0f}{checked}{mark}")
     print(f"best    subdivision {'x'.join(map(str, best))}")
     if a.json:
         with open(a.json, "w") as f:

@@ -111,15 +111,19 @@ def machine_config(design: Design):
 
 class TraceEvaluator:
     """Designs on one trace at any fidelity level.  The trace's kernel runs are
-    counted once; ``keep`` sets of processors keep their costed forms."""
+    counted once (unless ``counted`` is false: for a trace that sees one set of
+    processors); ``keep`` sets of processors keep their costed forms."""
 
-    def __init__(self, trace, unit_costs: UnitCosts | None = None, cost_model=None, keep: int = 4):
+    def __init__(self, trace, unit_costs: UnitCosts | None = None, cost_model=None, keep: int = 4,
+                 counted: bool = True):
         from ..cost import CostModel
 
         self.trace = trace
         self.visits = len(trace.visits)
         self.unit_costs = unit_costs or UnitCosts()
-        self.cost_model = (cost_model or CostModel.default()).counted(trace)
+        self.cost_model = cost_model or CostModel.default()
+        if counted:             # worth it from the second set of processors on
+            self.cost_model = self.cost_model.counted(trace)
         self.keep = keep
         self._evaluators: OrderedDict = OrderedDict()
 
@@ -138,29 +142,31 @@ class TraceEvaluator:
 
     def run(self, design: Design, level: int = 1, scale: float = 1.0) -> Result:
         """The design at a level; ``scale`` multiplies the cycles (a sampled trace's frame)."""
+        cost = float(sum(cost_breakdown(design, self.unit_costs).values()))
+        return self.run_config(machine_config(design), level, scale, cost)
+
+    def run_config(self, cfg, level: int = 1, scale: float = 1.0, cost: float = 0.0) -> Result:
+        """A machine configuration (``SystemConfig``) at a level."""
         from ..machine.errors import DeadlockError
 
         if level not in LEVELS:
             raise ValueError(f"level must be 0, 1, 2 or 3, not {level!r}")
-        cfg = machine_config(design)
-        cost = float(sum(cost_breakdown(design, self.unit_costs).values()))
         try:
             e = self.evaluator(cfg).evaluate(cfg, level)
         except DeadlockError:
             return Result(cycles=DEADLOCK_CYCLES, level=level, cost=cost, bottleneck="deadlock")
-        return result_of(e, design, cost, scale)
+        return result_of(e, cfg, cost, scale)
 
 
-def result_of(e, design: Design, cost: float, scale: float = 1.0) -> Result:
-    """The explorer's figures of a fidelity ``Evaluation``."""
+def result_of(e, cfg, cost: float, scale: float = 1.0) -> Result:
+    """The explorer's figures of a fidelity ``Evaluation`` of a configuration."""
     r = e.result
     util, loads = {}, {}
-    for g in processors(design.mapping):
-        n = processor_name(g)
-        node = r.nodes.get(n)
+    for st in cfg.stages:
+        node = r.nodes.get(st.name)
         if node is not None:
-            util[n] = float(node["utilisation"])
-            loads[n] = float(node["busy"]) * scale / (node["replicas"] * design.pes)
+            util[st.name] = float(node["utilisation"])
+            loads[st.name] = float(node["busy"]) * scale / (node["replicas"] * cfg.pes)
     return Result(cycles=float(round(r.cycles * scale)), level=e.level, cost=cost, loads=loads, utilisation=util,
                   bottleneck=max(util, key=util.get) if util else "", engine=e.engine)
 
@@ -235,13 +241,15 @@ class SceneEvaluator:
 
     def run(self, point, level: int | None = None) -> Result:
         ev, scale = self.evaluator(grid_dims(self.scene, point.subdivision, self.shape))
-        return ev.run(point.design, self.level if level is None else level, scale)
+        level = self.level if level is None else level
+        if not isinstance(point.design, Design):          # a machine configuration
+            return ev.run_config(point.design, level, scale)
+        return ev.run(point.design, level, scale)
 
     def __call__(self, points) -> list[Result]:
         # grouped by grid (each trace made once per batch), then by processors (each costed once)
         dims = [grid_dims(self.scene, p.subdivision, self.shape) for p in points]
-        units = [json.dumps([p.design.mapping] + [p.design.processor_units(g) for g in p.design.processors()],
-                            sort_keys=True) for p in points]
+        units = [p.design.key() if isinstance(p.design, Design) else "" for p in points]
         res = [None] * len(points)
         for i in sorted(range(len(points)), key=lambda i: (dims[i], units[i])):
             res[i] = self.run(points[i])

@@ -9,7 +9,7 @@ from .evaluate import SceneEvaluator, grid_dims, machine_config
 from .hwcost import UnitCosts, cost_breakdown
 from .prepass import low_resolution
 from .search import Problem, compass, cost_range, pareto, search
-from .space import REFERENCE_DESIGNS, Point, Space, Var, default_space
+from .space import REFERENCE_DESIGNS, Point, Space, Var, default_space, paper_3mppe
 
 
 VERIFY_FREE = ("cache.", "resident.", "pes", "replication.")   # what the verification polish varies
@@ -20,7 +20,7 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
             budget: float | None = None, level: int | str = "auto", tolerance: float = 0.01,
             algorithm: str = "direct-l", polish: str = "lattice", max_evals: int = 1000, seed: int = 1,
             budgets: int = 6, progress=None, threads: int = 1, fraction: int | None = None, refine: int = 2,
-            refine_evals: int = 60, sample: str | None = "auto", verify: int = 4, verify_polish: int = 24,
+            refine_evals: int = 60, sample: str | None = "auto", verify: int = 4, verify_polish: int = 16,
             log=None) -> dict:
     """Search ``space`` for ``scene`` at width x height; returns the report
     as a dict (the JSON of ``mprt explore``).
@@ -53,6 +53,7 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
     ev = low_ev = SceneEvaluator(scene, *low, level=0, shape=space.shape, unit_costs=unit_costs, threads=threads)
     levels = choose_levels(scene, ev, space, level, tolerance, seed, say)
     ev.level = levels["search"]
+    full_space, space = space, searched_space(space, levels)
     problem = Problem(space, ev, objective, budget if objective != "pareto" else None, progress=progress)
     front = []
     if objective == "pareto":
@@ -86,7 +87,8 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
     elif objective != "pareto":
         top = sorted(problem.memo.values(), key=problem.rank)
     if levels["verify"] > levels["search"]:
-        best, rows = _verify(space, top[:verify], levels["verify"], ev, low_ev, objective, budget, verify_polish, say)
+        best, rows = _verify(full_space, top[:verify], levels["verify"], ev, low_ev, objective, budget,
+                             verify_polish, say)
         history += [dict(r, level=levels["verify"]) for r in rows]
         evaluations += len(rows)
     else:
@@ -122,7 +124,8 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
         "traces": {"made": ev.traces_made, "seconds": ev.trace_seconds},
         "seconds": time.perf_counter() - t0,
         "history": history,
-        "space": {"source": space.source, "variables": {v.name: list(v.values) for v in space.variables},
+        "space": {"source": space.source, "variables": {v.name: list(v.values) for v in full_space.variables},
+                  "searched": {v.name: list(v.values) for v in space.variables},
                   "unit_costs": unit_costs.to_dict()},
     }
     if objective == "pareto":
@@ -130,6 +133,25 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
                             "design": e.point.design.to_dict(), "cycles": e.cycles, "cost": e.cost} for e in front]
         report["budgets"] = [float(x) for x in sweep]
     return report
+
+
+def searched_space(space: Space, levels: dict) -> Space:
+    """The space the search runs over: all of it, except that when the search's
+    level has no memories (below 3) and the verification's has, the memory
+    sizes are held at the paper's 3MPPE's (the nearest the space offers): a
+    level blind to memories would take the smallest, whatever they cost at
+    level 3; the verification's polish then varies them."""
+    if levels["search"] >= 3 or levels["verify"] < 3:
+        return space
+    ref = paper_3mppe()
+    want = {f"cache.{s}": ref.cache[s] for s in ("IC", "SC")} | {f"resident.{s}": ref.resident[s] for s in ("IC", "SC")}
+    out = []
+    for v in space.variables:
+        if v.name in want and v.size > 1:
+            near = min(v.values, key=lambda x: (abs(x - want[v.name]), x))
+            v = Var(v.name, (near,))
+        out.append(v)
+    return Space(out, space.shape, space.cost, space.source)
 
 
 def ladder_designs(space: Space, seed: int, extra: int = 2) -> list:
