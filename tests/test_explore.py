@@ -164,13 +164,23 @@ def test_pipeline_figures(level0s):
         assert ev.run(Design.from_dict(d)).loads["IC"] <= ev.run(paper_3mppe()).loads["IC"]
 
 
-def test_deadlock_is_reported_not_raised():
-    """One-packet FIFOs and a large window deadlock the 3-stage ring: the evaluation says so and
-    carries a cycle count no search prefers."""
-    from mprt.explore.evaluate import DEADLOCK_CYCLES
-    tr = mprt.load_trace(DATA / "golden" / "balls-g9.npz")
+def test_window_keeps_the_fifos_from_deadlocking():
+    """The window admits no more trees than the FIFOs can hold on the trace's largest tree
+    (the machine model's bound; at least one), so small-FIFO designs replay; a configuration
+    past the bound that deadlocks is reported as such, with a cycle count no search prefers."""
+    from mprt.explore.evaluate import DEADLOCK_CYCLES, max_leaves, window
     d = Design.from_dict({**paper_3mppe().to_dict(), "fifo": 16, "replication": {"OS": 3, "IC": 4, "SC": 2}})
-    r = TraceEvaluator(tr).run(d, 1)
+    for path in sorted((DATA / "golden").glob("*-g9.npz")):
+        tr = mprt.load_trace(path)
+        leaves = max_leaves(tr)
+        cfg = machine_config(d, leaves)
+        assert cfg.window == window(d, leaves)
+        assert cfg.window * leaves < cfg.cycle_capacity or cfg.window == 1       # 1: the least a PE can admit
+        assert TraceEvaluator(tr).run(d, 1).bottleneck != "deadlock"
+    tr = mprt.load_trace(DATA / "golden" / "gears-g9.npz")
+    from mprt.machine.config import config_from_dict
+    wide = config_from_dict({**machine_fields(d), "window": 64})
+    r = TraceEvaluator(tr).run_config(wide, 1)
     assert r.bottleneck == "deadlock" and r.cycles == DEADLOCK_CYCLES
 
 

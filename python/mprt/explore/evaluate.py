@@ -12,8 +12,9 @@ counts (``CostModel.counted``) so that each new set of processors is priced in
 milliseconds, and a few ``fidelity.Evaluator``s, one per set of processors
 (each holds that set's costed, analytical and compiled forms).
 
-A machine that deadlocks is reported with ``bottleneck = "deadlock"`` and a
-cycle count no search prefers.
+The DIS's window is kept small enough that the FIFOs cannot deadlock on the
+trace's largest ray tree (``window``); a machine that deadlocks all the same is
+reported with ``bottleneck = "deadlock"`` and a cycle count no search prefers.
 """
 from __future__ import annotations
 
@@ -30,7 +31,7 @@ from .space import STAGE_NAMES, Design, processor_name, processors
 DEADLOCK_CYCLES = 1e30
 GLOBAL_MEMORY = {"latency": 20, "bandwidth": 8, "contention": True}
 CACHE_LINE, CACHE_WAYS = 32, 4
-WINDOW_PER_COPY = 4        # primary rays in flight per PE, per copy of its most replicated processor
+WINDOW_PER_COPY = 4        # primary rays in flight per PE, per copy of its most replicated processor (at most)
 LEVELS = (0, 1, 2, 3)
 
 
@@ -77,20 +78,52 @@ def _words_per_packet() -> int:
     return best
 
 
-def machine_fields(design: Design) -> dict:
+def max_leaves(trace) -> int:
+    """The most leaves (rays that make no rays) of any ray tree of a trace."""
+    from ..trace import PRIMARY
+
+    rays = trace.rays
+    parent = np.asarray(rays["parent"]).astype(np.int64)
+    if not len(parent):
+        return 1
+    has_child = np.zeros(len(parent), bool)
+    has_child[parent[parent >= 0]] = True
+    tree = np.cumsum(np.asarray(rays["kind"]) == PRIMARY) - 1
+    return int(max(np.bincount(tree[~has_child]).max(initial=1), 1))
+
+
+def window(design: Design, leaves: int | None = None) -> int:
+    """How many primary rays a PE's DIS keeps in flight: WINDOW_PER_COPY per copy of the
+    most replicated processor, but with finite FIFOs no more than cannot deadlock for trees
+    of up to ``leaves`` leaves (window x leaves below the smallest sum of two stages'
+    send + receive FIFO + copies: the machine model's ``cycle_capacity``)."""
+    groups = processors(design.mapping)
+    w = WINDOW_PER_COPY * max(design.processor_copies(g) for g in groups)
+    if len(groups) > 1 and leaves:
+        cap = _fifo_packets(design)
+        caps = sorted(2 * cap + design.processor_copies(g) for g in groups)
+        w = min(w, max((caps[0] + caps[1] - 1) // leaves, 1))
+    return w
+
+
+def _fifo_packets(design: Design) -> int:
+    return max(design.fifo // _words_per_packet(), 1)
+
+
+def machine_fields(design: Design, leaves: int | None = None) -> dict:
     """The machine-configuration fields (a machine TOML file's) of a design, as the
-    machine is: FIFOs and ring when it has several processors, memories always."""
+    machine is: FIFOs and ring when it has several processors, memories always; the
+    window as ``window(design, leaves)``."""
     groups = processors(design.mapping)
     stages = []
     for g in groups:
         st = {"subtasks": list(g), "processor": {"units": design.processor_units(g)},
               "replicas": design.processor_copies(g)}
         if len(groups) > 1:
-            st["send_fifo"] = st["receive_fifo"] = max(design.fifo // _words_per_packet(), 1)
+            st["send_fifo"] = st["receive_fifo"] = _fifo_packets(design)
         stages.append(st)
-    copies = max(design.processor_copies(g) for g in groups)
     cfg = {"name": "explored", "stage": stages, "pes": design.pes, "dis": "dynamic",
-           "window": WINDOW_PER_COPY * copies}
+           "window": window(design, leaves)}
     if len(groups) > 1:
         cfg["ring"] = {"flit_time": 1, "buffer_classes": len(groups)}
     for s in ("IC", "SC"):
@@ -102,11 +135,11 @@ def machine_fields(design: Design) -> dict:
     return cfg
 
 
-def machine_config(design: Design):
+def machine_config(design: Design, leaves: int | None = None):
     """The design as a machine (``SystemConfig``); the fidelity levels take parts of it away."""
     from ..machine.config import config_from_dict
 
-    return config_from_dict(machine_fields(design), source="explored design")
+    return config_from_dict(machine_fields(design, leaves), source="explored design")
 
 
 class TraceEvaluator:
@@ -125,6 +158,7 @@ class TraceEvaluator:
         if counted:             # worth it from the second set of processors on
             self.cost_model = self.cost_model.counted(trace)
         self.keep = keep
+        self.leaves = max_leaves(trace)
         self._evaluators: OrderedDict = OrderedDict()
 
     def evaluator(self, config):
@@ -143,7 +177,7 @@ class TraceEvaluator:
     def run(self, design: Design, level: int = 1, scale: float = 1.0) -> Result:
         """The design at a level; ``scale`` multiplies the cycles (a sampled trace's frame)."""
         cost = float(sum(cost_breakdown(design, self.unit_costs).values()))
-        return self.run_config(machine_config(design), level, scale, cost)
+        return self.run_config(machine_config(design, self.leaves), level, scale, cost)
 
     def run_config(self, cfg, level: int = 1, scale: float = 1.0, cost: float = 0.0) -> Result:
         """A machine configuration (``SystemConfig``) at a level."""
