@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import _FLITS, OS, PRIMARY, SC, STAGE_KERNELS, CostModel, VisitCosts, _check_procs, _TraceContext
+from .model import _FLITS, OS, PRIMARY, SC, STAGE_KERNELS, CostModel, VisitCosts, _check_procs, visit_chunks
 from .packets import STAGES
 
 _COMM = ("send_packet", "send_flit", "receive_packet", "receive_flit")
@@ -28,14 +28,10 @@ class KernelCounts:
 
     def __init__(self, trace, chunk: int = 1 << 20):
         self.trace = trace
-        visits = trace.visits
-        self.visits = n = len(visits)
-        ctx = _TraceContext(trace)
+        self.visits = n = len(trace.visits)
         parts = {s: ([], [], []) for s in STAGES}       # rows, runs, packets per chunk
         self.flits = np.zeros(n, np.int32)
-        for a in range(0, n, chunk):
-            v = np.asarray(visits[a:a + chunk])
-            counts, packets = ctx.visit_counts(v, a)
+        for a, v, counts, packets in visit_chunks(trace, chunk):
             st = v["stage"]
             for s, name in enumerate(STAGES):
                 m = st == s
