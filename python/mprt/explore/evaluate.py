@@ -26,7 +26,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from .hwcost import UnitCosts, cost_breakdown
-from .space import STAGE_NAMES, Design, processor_name, processors
+from .space import STAGE_NAMES, Design, processors
 
 DEADLOCK_CYCLES = 1e30
 GLOBAL_MEMORY = {"latency": 20, "bandwidth": 8, "contention": True}
