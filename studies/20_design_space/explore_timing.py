@@ -15,7 +15,7 @@ from mprt.explore.explorer import explore
 
 def main(res=512, budget=800.0, *names):
     print("| scene | seconds | evaluations | level (search, verify) | ladder s | subdivision | best design "
-          f"| cycles | cost kGE | x 3MPPE | x S |")
+          "| cycles | cost kGE | x 3MPPE | x S |")
     print("|---|---|---|---|---|---|---|---|---|---|---|")
     for name in names or mprt.SPD_SCENES:
         t0 = time.perf_counter()
