@@ -215,17 +215,17 @@ def _verify(space: Space, top, level: int, full: SceneEvaluator, low: SceneEvalu
         objective, budget = "time", None
     vp = Problem(space, lambda pts: [full.run(p, level) for p in pts], objective, budget)
 
-    def check(e_from, what):
+    def check(e_from, what, where):
         k = space.canonical(space.index_of(e_from.point))
         fresh = k not in vp.memo
         vp.evaluate_many([k])
         if fresh:
             e = vp.memo[k]
-            say(f"verify  {what} at level {level}: {e.cycles:,.0f} cycles (level {e_from.result.level}: "
+            say(f"verify  {what} at level {level}: {e.cycles:,.0f} cycles ({where} level {e_from.result.level}: "
                 f"{e_from.cycles:,.0f}), cost {e.cost:.0f} kGE, {time.perf_counter() - t0:.1f} s")
 
     for i, e in enumerate(top, 1):
-        check(e, f"{i}/{len(top)}")
+        check(e, f"{i}/{len(top)}", "searched at")
     rows = [dict(r, phase="verify", resolution=[full.width, full.height]) for r in vp.history()]
     best = vp.best()
     if polish_evals > 0:
@@ -243,7 +243,7 @@ def _verify(space: Space, top, level: int, full: SceneEvaluator, low: SceneEvalu
         rows += [dict(r, phase="verify-polish", resolution=[low.width, low.height]) for r in lp.history()]
         n = len(vp.order)
         for e in sorted(lp.memo.values(), key=lp.rank)[:2]:
-            check(e, "polished")
+            check(e, "polished", f"{low.width}x{low.height} at")
         rows += [dict(r, phase="verify", resolution=[full.width, full.height]) for r in vp.history()[n:]]
         best = vp.best()
     return best, rows
