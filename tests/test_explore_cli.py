@@ -119,3 +119,20 @@ def test_prepass_cli_json(tmp_path):
     best = min(r["candidates"], key=lambda c: c["predicted_cycles"])
     assert r["subdivision"] == best["subdivision"]
     assert np.all(np.array([c["predicted_cycles"] for c in r["candidates"]]) > 0)
+
+
+def test_prepass_check_replays_the_best_candidates_at_full_resolution():
+    """--check: the best predictions are replayed at full resolution (here the sample is the
+    whole 64x64 frame, 16 tiles) and the choice is the best of those replays."""
+    from mprt.machine.config import builtin
+    scene = mprt.Scene.spd("tetra", 1)
+    r = prepass(scene, 64, 64, n_range=(2, 30), fraction=4, check=2)
+    assert r["check_sample"] == "stratified:1:1"
+    checked = [c for c in r["candidates"] if "sampled_cycles" in c]
+    assert len(checked) == 2
+    by_prediction = sorted(r["candidates"], key=lambda c: (c["predicted_cycles"], c["subdivision"]))
+    assert [c["subdivision"] for c in checked] == sorted(c["subdivision"] for c in by_prediction[:2])
+    for c in checked:
+        full = scene.grid(tuple(c["subdivision"])).trace(64, 64)[1]
+        assert c["sampled_cycles"] == TraceEvaluator(full).run_config(builtin("3mppe"), 1).cycles
+    assert r["subdivision"] == min(checked, key=lambda c: c["sampled_cycles"])["subdivision"]

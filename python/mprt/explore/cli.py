@@ -143,8 +143,9 @@ def add_parsers(sub) -> None:
                    help="one n as n along the longest axis, others in proportion (default), or n per axis")
     p.add_argument("--fraction", type=_positive(int), default=16, help="trace at 1/FRACTION of --res (default 16)")
     p.add_argument("--check", type=int, default=3, metavar="K",
-                   help="trace the K best predictions at --res on a sixty-fourth of the tiles (stratified:64:1) "
-                        "and choose among them by that (default 3; 0: the low-resolution prediction alone)")
+                   help="trace the K best predictions at --res on about 16 of its 16x16 tiles (stratified; a "
+                        "sixty-fourth of 512x512) and choose among them by that (default 3; 0: the "
+                        "low-resolution prediction alone)")
     p.set_defaults(func=run_prepass)
 
     w = sub.add_parser("sweep", help="scenes x subdivisions x designs on Dask, to a CSV and plots")

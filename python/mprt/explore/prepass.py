@@ -71,7 +71,7 @@ def default_range(scene, density=(1.0, 32.0), limit: int = 768) -> tuple[int, in
 def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 16,
             design=None, shape: str = "proportional", rungs: int = 7, level: int = 1,
             unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15, check: int = 3,
-            check_sample: str = "stratified:64:1") -> dict:
+            check_sample: str | None = None) -> dict:
     """Predict the full-resolution cycles of candidate subdivisions from traces
     at width/fraction x height/fraction, and return the best.  ``candidates``:
     explicit subdivisions (n or (nx, ny, nz)), all evaluated; otherwise n is
@@ -79,7 +79,10 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
     the best few predictions are then traced at full resolution on the tiles of
     ``check_sample`` (a sampled replay, scaled by the frame's samples over the
     sample's) and the best of those is the choice: where the time is jagged in
-    n, a low-resolution trace cannot tell neighbouring candidates apart."""
+    n, a low-resolution trace cannot tell neighbouring candidates apart.
+    Default sample: ``stratified:K:1`` with K such that about 16 tiles of 16x16
+    are traced (a sixty-fourth of a 512x512 frame; all of a frame of 16 tiles
+    or fewer)."""
     t0 = time.perf_counter()
     w, h = low_resolution(width, height, fraction)
     scale = (width * height) / (w * h)
@@ -108,6 +111,9 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
     cands = sorted(f.seen.items(), key=lambda kv: kv[0])
     best = min(cands, key=lambda kv: (kv[1], kv[0]))
     checked = {}
+    if check > 0 and check_sample is None:
+        tiles = -(-width // 16) * -(-height // 16)
+        check_sample = f"stratified:{min(max(tiles // 16, 1), 64)}:1"
     if check > 0:
         from .evaluate import SceneEvaluator
         from .space import Point
