@@ -142,9 +142,9 @@ def add_parsers(sub) -> None:
     p.add_argument("--shape", choices=("proportional", "cube"), default="proportional",
                    help="one n as n along the longest axis, others in proportion (default), or n per axis")
     p.add_argument("--fraction", type=_positive(int), default=16, help="trace at 1/FRACTION of --res (default 16)")
-    p.add_argument("--check", type=int, default=3, metavar="K",
+    p.add_argument("--check", type=int, default=0, metavar="K",
                    help="trace the K best predictions at --res on about 16 of its 16x16 tiles (stratified; a "
-                        "sixty-fourth of 512x512) and choose among them by that (default 3; 0: the "
+                        "sixty-fourth of 512x512) and choose among them by that (default 0: the "
                         "low-resolution prediction alone)")
     p.set_defaults(func=run_prepass)
 

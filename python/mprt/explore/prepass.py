@@ -70,7 +70,7 @@ def default_range(scene, density=(1.0, 32.0), limit: int = 768) -> tuple[int, in
 
 def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 16,
             design=None, shape: str = "proportional", rungs: int = 7, level: int = 1,
-            unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15, check: int = 3,
+            unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15, check: int = 0,
             check_sample: str | None = None) -> dict:
     """Predict the full-resolution cycles of candidate subdivisions from traces
     at width/fraction x height/fraction, and return the best.  ``candidates``:
