@@ -1,4 +1,4 @@
-"""The design-space explorer: space files, hardware cost, level 0, NLopt search."""
+"""The design-space explorer: space files, hardware cost, evaluation through the fidelity ladder, NLopt search."""
 from pathlib import Path
 
 import numpy as np
@@ -7,16 +7,27 @@ import pytest
 import mprt
 from mprt.explore import (Design, SpaceError, UnitCosts, default_space, hardware_cost, load_space, model_m,
                           model_s, paper_3mppe, parse_space)
-from mprt.explore.evaluate import Level0
+from mprt.explore.evaluate import TraceEvaluator, machine_config, machine_fields
 from mprt.explore.search import Problem, exhaustive, search
 
 DATA = Path(__file__).parent / "data"
 SMALL = DATA / "explore" / "small_space.toml"
 
 
+class _At:
+    """A trace's evaluator at one level, as the search calls it."""
+
+    def __init__(self, trace, level):
+        self.ev, self.level, self.trace = TraceEvaluator(trace), level, trace
+
+    def run(self, design):
+        return self.ev.run(design, self.level)
+
+
 @pytest.fixture(scope="module")
 def level0s():
-    return {n: Level0(mprt.load_trace(DATA / "golden" / f"{n}-g9.npz")) for n in ("balls", "mount", "tetra")}
+    """Level 1 (the compiled exact replay) on three golden traces: what the search runs at."""
+    return {n: _At(mprt.load_trace(DATA / "golden" / f"{n}-g9.npz"), 1) for n in ("balls", "mount", "tetra")}
 
 
 # --- the space file ---------------------------------------------------------------------------------------------
@@ -105,35 +116,72 @@ def test_cost_of_paper_machine_by_hand():
     assert hardware_cost(s) == pytest.approx(c.processor + c.general_unit + 20 * c.cache_kib)
 
 
-# --- level 0 ----------------------------------------------------------------------------------------------------
+# --- evaluation through the fidelity ladder ---------------------------------------------------------------
 
-def test_level0_model_s_is_the_sum_of_processing(level0s):
-    """Model S: one processor, no packets: its time is every visit's processing
-    plus SC's generation of each primary ray, priced by the cost model."""
+def test_model_s_is_the_sum_of_processing(level0s):
+    """Model S: one processor that never waits: its time at levels 0 and 1 is every
+    visit's cycles (processing, receiving, sending: the machine model charges a packet
+    also when it stays on its processor) plus SC's making of each primary ray."""
     from mprt.cost import CostModel, ProcessorConfig
-    ev = level0s["balls"]
+    tr = level0s["balls"].trace
     seq = ProcessorConfig.sequential()
-    vc = CostModel.default().visit_costs(ev.trace, {"OS": seq, "IC": seq, "SC": seq})
-    primaries = int(np.sum(ev.trace.rays["kind"] == 0))
-    assert ev.run(model_s()).cycles == int(np.sum(vc.process)) + primaries * vc.inject_process
+    vc = CostModel.default().visit_costs(tr, {"OS": seq, "IC": seq, "SC": seq})
+    primaries = int(np.sum(tr.rays["kind"] == 0))
+    ev = TraceEvaluator(tr)
+    for level in (0, 1):
+        want = int(np.sum(vc.process) + np.sum(vc.receive) + np.sum(vc.send)) \
+            + primaries * (vc.inject_process + vc.inject_send)
+        assert ev.run(model_s(), level).cycles == want
 
 
-def test_level0_pipeline_bounds(level0s):
+def test_levels_are_the_fidelity_ladders(level0s):
+    """Every level's cycles are mprt.fidelity's for the design's machine (the explorer adds nothing)."""
+    from mprt.fidelity import evaluate
+    tr = level0s["tetra"].trace
+    ev = TraceEvaluator(tr)
+    d = Design.from_dict({**paper_3mppe().to_dict(), "mapping": "OS+SC|IC", "pes": 2, "fifo": 256})
+    for level in (0, 1, 2, 3):
+        r = ev.run(d, level)
+        want = evaluate(tr, machine_config(d), level)
+        assert r.cycles == want.cycles and r.engine == want.engine and r.level == level
+
+
+def test_pipeline_figures(level0s):
     for ev in level0s.values():
         m = ev.run(model_m())
         assert m.cycles >= max(m.loads.values())
         assert m.cycles < ev.run(model_s()).cycles       # three processors beat one here
         assert 0 < max(m.utilisation.values()) <= 1.0
-        # a second copy of the bottleneck processor halves its load
+        # a second copy of the bottleneck processor halves its load per copy and speeds the machine up
         d = model_m().to_dict()
         d["replication"][m.bottleneck] = 2
         m2 = ev.run(Design.from_dict(d))
         assert m2.loads[m.bottleneck] == pytest.approx(m.loads[m.bottleneck] / 2, rel=0.02)
         assert m2.cycles < m.cycles
-        # more FP units on IC never make IC slower
+        # more FP units on IC never make IC busier
         d = paper_3mppe().to_dict()
         d["units"]["IC"]["fp"] = 4
         assert ev.run(Design.from_dict(d)).loads["IC"] <= ev.run(paper_3mppe()).loads["IC"]
+
+
+def test_window_keeps_the_fifos_from_deadlocking():
+    """The window admits no more trees than the FIFOs can hold on the trace's largest tree
+    (the machine model's bound; at least one), so small-FIFO designs replay; a configuration
+    past the bound that deadlocks is reported as such, with a cycle count no search prefers."""
+    from mprt.explore.evaluate import DEADLOCK_CYCLES, max_leaves, window
+    d = Design.from_dict({**paper_3mppe().to_dict(), "fifo": 16, "replication": {"OS": 3, "IC": 4, "SC": 2}})
+    for path in sorted((DATA / "golden").glob("*-g9.npz")):
+        tr = mprt.load_trace(path)
+        leaves = max_leaves(tr)
+        cfg = machine_config(d, leaves)
+        assert cfg.window == window(d, leaves)
+        assert cfg.window * leaves < cfg.cycle_capacity or cfg.window == 1       # 1: the least a PE can admit
+        assert TraceEvaluator(tr).run(d, 1).bottleneck != "deadlock"
+    tr = mprt.load_trace(DATA / "golden" / "gears-g9.npz")
+    from mprt.machine.config import config_from_dict
+    wide = config_from_dict({**machine_fields(d), "window": 64})
+    r = TraceEvaluator(tr).run_config(wide, 1)
+    assert r.bottleneck == "deadlock" and r.cycles == DEADLOCK_CYCLES
 
 
 # --- search -----------------------------------------------------------------------------------------------------
@@ -207,41 +255,24 @@ def test_pareto_front_is_nondominated(level0s):
     assert sum(pt in true_front for pt in found) >= 0.8 * len(found)
 
 
-def test_linear_pricing_equals_visit_costs(level0s):
-    """Level 0 prices new processors from per-pixel kernel runs; every figure
-    must equal pricing each visit with the cost model."""
-    designs = [paper_3mppe(), model_m(), model_s()]
-    for units in ({"int": 3, "fp": 1}, {"int": 1, "fp": 4}, {"general": 2}):
-        for mapping in ("OS|IC|SC", "OS+SC|IC", "OS|IC+SC"):
-            d = paper_3mppe().to_dict()
-            d.update(mapping=mapping, pes=3, units={"OS": units, "IC": {"int": 2, "fp": 2}, "SC": units})
-            designs.append(Design.from_dict(d))
-    for name, ev in level0s.items():
-        fast = Level0(ev.trace)
-        for d in designs:
-            slow = Level0(ev.trace, linear=False).run(d)
-            got = fast.run(d)
-            assert got.to_dict() == slow.to_dict(), (name, d.describe())
-        assert fast._linear_ok              # the linear pricing reproduced the first design exactly
-
-
 def test_machine_config_of_a_design():
-    """The machine-model configuration a design becomes at each level."""
+    """The machine-model configuration a design becomes (the fidelity levels take parts away)."""
     from mprt.cost import packet_flits
-    from mprt.explore.machine_adapter import machine_config
+    from mprt.fidelity import at_level
     d = Design.from_dict({"mapping": "OS+SC|IC", "replication": {"OS": 2, "IC": 3, "SC": 1}, "fifo": 256,
                           "units": {"OS": {"int": 3, "fp": 1}, "IC": {"int": 1, "fp": 4}, "SC": {"general": 1}},
                           "cache": {"IC": 16, "SC": 0}, "resident": {"IC": 0, "SC": 4}, "pes": 2})
-    c1 = machine_config(d, 1)
-    assert [s["subtasks"] for s in c1["stage"]] == [["OS", "SC"], ["IC"]]
-    assert [s["replicas"] for s in c1["stage"]] == [2, 3]
-    assert c1["stage"][0]["processor"] == {"units": {"int": 3, "fp": 1}}       # OS+SC takes OS's units
-    assert "ring" not in c1 and "send_fifo" not in c1["stage"][0] and c1["pes"] == 2
-    c2 = machine_config(d, 2)
+    c = machine_fields(d)
+    assert [s["subtasks"] for s in c["stage"]] == [["OS", "SC"], ["IC"]]
+    assert [s["replicas"] for s in c["stage"]] == [2, 3]
+    assert c["stage"][0]["processor"] == {"units": {"int": 3, "fp": 1}}       # OS+SC takes OS's units
     biggest = max(packet_flits(0, 1, k) for k in range(4))
-    assert "ring" in c2 and 1 <= c2["stage"][1]["receive_fifo"] <= 256 // biggest
-    c3 = machine_config(d, 3)
-    assert c3["ic_memory"] == {"resident": 0, "cache": {"size": 16384, "line": 32, "ways": 4}}
-    assert c3["sc_memory"] == {"resident": 4096} and "icgm" in c3 and "scgm" in c3
-    s = machine_config(model_s(), 3)
+    assert "ring" in c and 1 <= c["stage"][1]["receive_fifo"] <= 256 // biggest and c["pes"] == 2
+    assert c["ic_memory"] == {"resident": 0, "cache": {"size": 16384, "line": 32, "ways": 4}}
+    assert c["sc_memory"] == {"resident": 4096} and "icgm" in c and "scgm" in c
+    cfg = machine_config(d)
+    one = at_level(cfg, 1)
+    assert one.ring is None and one.ic_memory is None and one.stages[1].receive_fifo == cfg.stages[1].receive_fifo
+    assert at_level(cfg, 2).ring is not None and at_level(cfg, 2).ic_memory is None
+    s = machine_fields(model_s())
     assert len(s["stage"]) == 1 and "ring" not in s and "send_fifo" not in s["stage"][0]

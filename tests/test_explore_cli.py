@@ -7,9 +7,8 @@ import numpy as np
 import pytest
 
 import mprt
-from mprt.explore import paper_3mppe
 from mprt.explore.cli import add_parsers
-from mprt.explore.evaluate import Level0, grid_dims
+from mprt.explore.evaluate import TraceEvaluator, grid_dims
 from mprt.explore.prepass import prepass
 
 SMALL = Path(__file__).parent / "data" / "explore" / "small_space.toml"
@@ -30,18 +29,33 @@ def test_explore_json_report(tmp_path, capsys):
     best = r["best"]
     assert len(best["subdivision"]) == 3 and all(isinstance(n, int) for n in best["subdivision"])
     assert best["cost"] <= 400
-    assert r["level"] == 0 and r["seconds"] > 0 and r["evaluations"] == len(r["history"])
-    # the best is the least-cycles feasible design of the history
-    feas = [h for h in r["history"] if h["feasible"]]
+    assert r["seconds"] > 0 and r["evaluations"] == len(r["history"])
+    # --level auto: the ladder's cheapest level within the tolerance verifies, the search runs at most at 1
+    lv = r["level"]
+    ok = [row["level"] for row in lv["ladder"] if row["error_top_worst"] <= r["tolerance"]]
+    want = min(ok) if ok else lv["ladder"][-1]["level"]
+    assert lv["asked"] == "auto" and lv["verify"] == want and lv["search"] == min(want, 1)
+    # the best is the least-cycles feasible design evaluated at the verification level
+    feas = [h for h in r["history"] if h["feasible"] and h["level"] == lv["verify"]]
     assert best["cycles"] == min(h["cycles"] for h in feas)
     assert best["speedup_over_S"] == pytest.approx(r["references"]["S"]["cycles"] / best["cycles"])
-    # the design replays to the same cycles on its own
+    # the design replays to the same cycles on its own, at that level
     tr = mprt.Scene.spd("tetra", 1).grid(tuple(best["subdivision"])).trace(24, 24)[1]
     from mprt.explore import Design
-    assert Level0(tr).run(Design.from_dict(best["design"])).cycles == best["cycles"]
+    assert TraceEvaluator(tr).run(Design.from_dict(best["design"]), lv["verify"]).cycles == best["cycles"]
     assert png.stat().st_size > 10000
     text = capsys.readouterr().out
-    assert "best" in text and "model S" in text and "utilisation" in text
+    assert "best" in text and "model S" in text and "utilisation" in text and "level" in text
+
+
+def test_explore_fixed_level(tmp_path):
+    """--level 1: searched and reported at level 1 (the compiled replay), no ladder measured."""
+    out = tmp_path / "e.json"
+    assert run("explore", "balls:1", "--res", "16x16", "--space", SMALL, "--level", "1", "--json", out,
+               "--max-evals", "30") == 0
+    r = json.loads(out.read_text())
+    assert r["level"] == {"asked": 1, "search": 1, "verify": 1}
+    assert {h["level"] for h in r["history"]} == {1}
 
 
 def test_explore_pareto_front(tmp_path):
@@ -69,16 +83,10 @@ def test_errors_before_work(argv, message, capsys):
         run(*argv)
 
 
-def test_level_without_machine_model_fails_before_work(monkeypatch):
-    import sys
-    monkeypatch.setitem(sys.modules, "mprt.machine", None)       # as in a build without mprt.machine
-    with pytest.raises(mprt.MprtError, match="level 2 needs the machine model"):
-        run("explore", "balls:1", "--level", "2")
-
-
 @pytest.mark.parametrize("argv", [["explore", "balls", "--res", "0x64"], ["explore", "balls", "--budget", "-3"],
                                   ["explore", "balls", "--tolerance", "150%"], ["prepass", "balls", "--range", "9:3"],
-                                  ["prepass", "balls", "--candidates", "4,x"], ["explore", "balls", "--level", "7"]])
+                                  ["prepass", "balls", "--candidates", "4,x"], ["explore", "balls", "--level", "7"],
+                                  ["explore", "balls", "--sample", "stratified:0:1"]])
 def test_bad_options_exit_2(argv, capsys):
     with pytest.raises(SystemExit) as e:
         run(*argv)
@@ -90,13 +98,14 @@ def test_prepass_search_finds_the_best_of_every_candidate():
     """The ladder-then-golden search over n finds the n that evaluating every
     n in the range finds (on the same low-resolution traces)."""
     scene = mprt.Scene.spd("tetra", 1)
-    r = prepass(scene, 64, 64, n_range=(2, 30), fraction=4)
-    every = prepass(scene, 64, 64, candidates=[(n,) for n in range(2, 31)], fraction=4)
+    r = prepass(scene, 64, 64, n_range=(2, 30), fraction=4, check=0)
+    every = prepass(scene, 64, 64, candidates=[(n,) for n in range(2, 31)], fraction=4, check=0)
     assert r["subdivision"] == every["subdivision"]
     assert len(r["candidates"]) < len(every["candidates"]) / 2
     # predictions are the low-resolution cycles scaled by the pixel ratio
     dims = tuple(r["subdivision"])
-    low = Level0(scene.grid(dims).trace(16, 16)[1]).run(paper_3mppe()).cycles
+    from mprt.machine.config import builtin
+    low = TraceEvaluator(scene.grid(dims).trace(16, 16)[1]).run_config(builtin("3mppe"), 1).cycles
     assert r["predicted_cycles"] == pytest.approx(low * 16)
 
 
@@ -110,3 +119,20 @@ def test_prepass_cli_json(tmp_path):
     best = min(r["candidates"], key=lambda c: c["predicted_cycles"])
     assert r["subdivision"] == best["subdivision"]
     assert np.all(np.array([c["predicted_cycles"] for c in r["candidates"]]) > 0)
+
+
+def test_prepass_check_replays_the_best_candidates_at_full_resolution():
+    """--check: the best predictions are replayed at full resolution (here the sample is the
+    whole 64x64 frame, 16 tiles) and the choice is the best of those replays."""
+    from mprt.machine.config import builtin
+    scene = mprt.Scene.spd("tetra", 1)
+    r = prepass(scene, 64, 64, n_range=(2, 30), fraction=4, check=2)
+    assert r["check_sample"] == "stratified:1:1"
+    checked = [c for c in r["candidates"] if "sampled_cycles" in c]
+    assert len(checked) == 2
+    by_prediction = sorted(r["candidates"], key=lambda c: (c["predicted_cycles"], c["subdivision"]))
+    assert [c["subdivision"] for c in checked] == sorted(c["subdivision"] for c in by_prediction[:2])
+    for c in checked:
+        full = scene.grid(tuple(c["subdivision"])).trace(64, 64)[1]
+        assert c["sampled_cycles"] == TraceEvaluator(full).run_config(builtin("3mppe"), 1).cycles
+    assert r["subdivision"] == min(checked, key=lambda c: c["sampled_cycles"])["subdivision"]

@@ -316,6 +316,23 @@ def check_outputs(*outputs) -> None:
         seen[real] = option
 
 
+def read_toml(path, what: str, error=UsageError) -> dict:
+    """A TOML file's tables; ``error`` naming the file when it cannot be read
+    ("cannot read the WHAT") or is not TOML ("not valid TOML")."""
+    import tomllib
+
+    path = os.fspath(path)
+    try:
+        with open(path, "rb") as f:
+            return tomllib.load(f)
+    except OSError as e:
+        raise error(f"{path}: cannot read the {what} ({e.strerror or e})") from None
+    except UnicodeDecodeError as e:
+        raise error(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
+    except tomllib.TOMLDecodeError as e:
+        raise error(f"{path}: not valid TOML ({e})") from None
+
+
 def check_input(option: str, path) -> None:
     """An input file must exist and be a file (not a directory)."""
     p = os.fspath(path)

@@ -1,16 +1,20 @@
 """The prepass against full-resolution truth and against the fixed rules.
 
-For each scene: the prepass's choice and its cost; then full-resolution
-traces over a ladder of subdivisions (plus every rule's pick) replayed at
-level 0 on the paper's 3MPPE give the true best; printed per scene: the
-prepass's choice, the true best, the regret (time of the choice over the
-best's, minus one), the prepass's seconds as a share of tracing the full
-frame once plus replaying it (level 0 and, for the SimPy model, an estimate
-at the issue-7 target of 100,000 visits/s), and the regret of each fixed
-rule: pbrt's 3 N^(1/3), our density 8, and the paper's best of 20/50/100
-per axis.
+For each scene: the prepass's choice and its cost (searched at 1/16 of the
+resolution, then with and without checking its three best predictions on a
+sixty-fourth of the full-resolution tiles); then full-resolution traces over a
+ladder of subdivisions (plus every pick and rule) replayed at level 1 (the
+compiled exact replay of the machine model's 3MPPE without ring and memories)
+give the true best; printed per scene: the choice, the true best, the regret
+(time of the choice over the best's, minus one), the prepass's seconds as a
+share of one full frame traced and replayed at the level the fidelity ladder
+chooses for the 3MPPE on this scene at 1% (measured on a sixteenth of the best
+frame's tiles: level 1 is the compiled replay's measured time, level 2 or 3
+the SimPy model's measured visits per second on that sample times the frame's
+visits), and the regret of each fixed rule: pbrt's 3 N^(1/3), our density 8,
+and the paper's best of 20/50/100 per axis.
 
-    .venv/bin/python studies/20_design_space/prepass_table.py [RES] [FRACTION ...]
+    .venv/bin/python studies/20_design_space/prepass_table.py [RES]
 Writes studies/out/prepass_RES.csv and prints a Markdown table.
 """
 import csv
@@ -21,14 +25,15 @@ from pathlib import Path
 import numpy as np
 
 import mprt
-from mprt.explore import paper_3mppe
 from mprt.explore.distributed import DiskCache, cache_key
-from mprt.explore.evaluate import Level0, grid_dims
+from mprt.explore.evaluate import TraceEvaluator, grid_dims
 from mprt.explore.prepass import default_range, fixed_rule, prepass
+from mprt.fidelity import Evaluator, measure, trace_sample
+from mprt.machine.config import builtin
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE.parents[1] / "studies" / "out"
-SIMPY_VISITS_PER_S = 1e5
+VARIANTS = ((16, 0), (16, 3))      # (fraction, candidates checked at full resolution)
 CACHE = DiskCache(OUT / "prepass_truth")     # full-resolution truths (and their timings) are kept between runs
 
 
@@ -56,10 +61,26 @@ def scenes():
     yield "stadium (NFF)", mprt.Scene.from_text(stadium_nff(), "stadium")
 
 
-def main(res=512, *fractions):
-    fractions = fractions or (8, 16, 32)
+def frame_cost(scene, dims, res, trace_s, l1_s, visits):
+    """Seconds of one full frame traced and replayed at the ladder's level for the 3MPPE (1%),
+    measured on a sixteenth of the frame's tiles."""
+    cfg = builtin("3mppe")
+    st = trace_sample(scene.grid(tuple(dims)), "stratified:16:1", res, res, threads=2)
+    table = measure(st.trace, [cfg], levels=(1, 2, 3), sample=None)
+    level = table.choose(0.01)
+    if level <= 1:
+        return level, trace_s + l1_s, None
+    ev = Evaluator(st.trace)
+    ev.costed(cfg)                                  # costing is part of the replay below as well
+    t = time.perf_counter()
+    ev.evaluate(cfg, level)
+    rate = len(st.trace.visits) / (time.perf_counter() - t)
+    return level, trace_s + visits / rate, rate
+
+
+def main(res=512):
     OUT.mkdir(parents=True, exist_ok=True)
-    design = paper_3mppe()
+    machine = builtin("3mppe")
     rows = []
     for name, scene in scenes():
         truth, cost = {}, {}
@@ -69,14 +90,14 @@ def main(res=512, *fractions):
         def full(dims):
             dims = tuple(dims)
             if dims not in truth:
-                key = cache_key("prepass-truth", h, dims, res, design.to_dict())
+                key = cache_key("prepass-truth-level1", h, dims, res, "3mppe")
                 hit = CACHE.get(key)
                 if hit is None:
                     t = time.perf_counter()
                     _, tr = scene.grid(dims).trace(res, res, threads=2)
                     t1 = time.perf_counter()
-                    hit = [Level0(tr, linear=False).run(design).cycles, t1 - t, time.perf_counter() - t1,
-                           len(tr.visits)]
+                    hit = [TraceEvaluator(tr, counted=False).run_config(machine, 1).cycles, t1 - t,
+                           time.perf_counter() - t1, len(tr.visits)]
                     del tr
                     CACHE.put(key, hit)
                 truth[dims] = hit[0]
@@ -88,32 +109,35 @@ def main(res=512, *fractions):
         for d in ladder:
             full(d)
         pres = {}
-        for fr in fractions:
+        for fr, check in VARIANTS:
             t0 = time.perf_counter()
-            pre = prepass(scene, res, res, fraction=fr, threads=2)
-            pres[fr] = (pre, time.perf_counter() - t0)
+            pre = prepass(scene, res, res, fraction=fr, threads=2, check=check)
+            pres[fr, check] = (pre, time.perf_counter() - t0)
+            for c in pre["candidates"]:
+                if "sampled_cycles" in c:
+                    full(tuple(c["subdivision"]))
             full(tuple(pre["subdivision"]))
         rules = {"pbrt": fixed_rule(scene, "pbrt"), "density8": fixed_rule(scene, "density8")}
         for r in rules.values():
             full(r)
         paper = min(((n, n, n) for n in (20, 50, 100)), key=full)
         rules["paper-best"] = paper
-        # the true best: the ladder, the picks, and a local refinement around the best rung at full resolution
+        # the true best: the ladder, the picks, and a local refinement around the best at full resolution
         best = min(truth, key=truth.get)
         for k in (-2, -1, 1, 2):
             n = max(max(best) + k * max(1, max(best) // 20), 1)
             full(grid_dims(scene, (n,), "proportional"))
         best = min(truth, key=truth.get)
         tr_s, rp_s, visits = cost[best]
-        frame = tr_s + rp_s
-        frame_simpy = tr_s + visits / SIMPY_VISITS_PER_S
-        row = {"scene": name, "best": "x".join(map(str, best)), "frame_s_level0": frame,
-               "frame_s_simpy_est": frame_simpy}
-        for fr, (pre, pre_s) in pres.items():
+        level, frame, rate = frame_cost(scene, best, res, tr_s, rp_s, visits)
+        row = {"scene": name, "best": "x".join(map(str, best)), "frame_level": level, "frame_s": frame,
+               "frame_s_level1": tr_s + rp_s, "simpy_visits_per_s": rate, "visits": visits}
+        for (fr, check), (pre, pre_s) in pres.items():
             choice = tuple(pre["subdivision"])
-            row.update({f"choice_{fr}": "x".join(map(str, choice)), f"regret_{fr}": truth[choice] / truth[best] - 1,
-                        f"prepass_s_{fr}": pre_s, f"candidates_{fr}": len(pre["candidates"]),
-                        f"share_level0_{fr}": pre_s / frame, f"share_simpy_est_{fr}": pre_s / frame_simpy})
+            k = f"{fr}_{check}"
+            row.update({f"choice_{k}": "x".join(map(str, choice)), f"regret_{k}": truth[choice] / truth[best] - 1,
+                        f"prepass_s_{k}": pre_s, f"candidates_{k}": len(pre["candidates"]),
+                        f"share_{k}": pre_s / frame, f"share_level1_{k}": pre_s / (tr_s + rp_s)})
         for k, d in rules.items():
             row[f"{k}"] = "x".join(map(str, d))
             row[f"{k}_regret"] = truth[tuple(d)] / truth[best] - 1
@@ -124,15 +148,17 @@ def main(res=512, *fractions):
         w = csv.DictWriter(f, fieldnames=list(rows[0]))
         w.writeheader()
         w.writerows(rows)
-    print(f"{res}x{res}, level 0, paper 3MPPE.  Per fraction F: choice, regret, prepass seconds, share of "
-          f"(trace + level-0 replay) and of (trace + SimPy replay at 1e5 visits/s, estimated)")
-    head = "| scene | best | " + " | ".join(f"1/{fr}: choice, regret, s, share L0, share SimPy" for fr in fractions)
+    print(f"{res}x{res}, the machine model's 3MPPE, truth at level 1.  Per variant (1/F of the resolution, K best "
+          f"checked at full resolution on 1/64 of the tiles): choice, regret, prepass seconds, share of one frame "
+          f"traced and replayed at the ladder's level (and at level 1)")
+    head = "| scene | best | frame (level, s) | " + " | ".join(f"1/{fr}, K={c}: choice, regret, s, share"
+                                                                 for fr, c in VARIANTS)
     print(head + " | pbrt 3N^1/3 | density 8 | paper 20/50/100 |")
-    print("|---" * (2 + len(fractions) + 3) + "|")
+    print("|---" * (3 + len(VARIANTS) + 3) + "|")
     for r in rows:
-        cells = [f"{r[f'choice_{fr}']}, {r[f'regret_{fr}']:.1%}, {r[f'prepass_s_{fr}']:.2f} s, "
-                 f"{r[f'share_level0_{fr}']:.1%}, {r[f'share_simpy_est_{fr}']:.2%}" for fr in fractions]
-        print(f"| {r['scene']} | {r['best']} | " + " | ".join(cells)
+        cells = [f"{r[f'choice_{k}']}, {r[f'regret_{k}']:.1%}, {r[f'prepass_s_{k}']:.2f} s, {r[f'share_{k}']:.2%} "
+                 f"({r[f'share_level1_{k}']:.0%})" for k in (f"{fr}_{c}" for fr, c in VARIANTS)]
+        print(f"| {r['scene']} | {r['best']} | {r['frame_level']}, {r['frame_s']:.0f} s | " + " | ".join(cells)
               + f" | {r['pbrt']} ({r['pbrt_regret']:+.0%}) | {r['density8']} ({r['density8_regret']:+.0%}) "
               f"| {r['paper-best']} ({r['paper-best_regret']:+.0%}) |")
     print(f"wrote {path}")

@@ -3,8 +3,9 @@ paper's 3MPPE and models S and M; whether SC should keep its own processor;
 how the best subdivision moves with the machine.
 
     .venv/bin/python studies/20_design_space/run.py [--res RES] [--out DIR] [--quick]
-Writes DIR/design_space.{csv,md} (default studies/out) and prints the Markdown.  --quick: tetra
-at SPD size 1, 32x32, one budget (the committed ref/; the full run's results are in ref/full/).
+Writes DIR/design_space.{csv,md} (default studies/out) and prints the Markdown.  The full run
+explores at level auto (1% tolerance); --quick: tetra at SPD size 1, 32x32, one budget, level 1
+and 300 global evaluations (the committed ref/; the full run's results are in ref/full/).
 """
 import argparse
 import csv
@@ -37,14 +38,15 @@ def main(argv=None):
     a = ap.parse_args(argv)
     scenes = [("tetra", 1)] if a.quick else [(n, None) for n in mprt.SPD_SCENES]
     budgets = BUDGETS[1:2] if a.quick else BUDGETS
-    run(32 if a.quick else a.res, a.out, scenes, budgets, a.threads)
+    run(32 if a.quick else a.res, a.out, scenes, budgets, a.threads, 1 if a.quick else "auto",
+        300 if a.quick else 1000)
     return 0
 
 
-def run(res, out, scenes, budgets, threads):
+def run(res, out, scenes, budgets, threads, level, max_evals):
     out.mkdir(parents=True, exist_ok=True)
     rows, md = [], []
-    md.append(f"Level 0, {res}x{res} (search at {res // 2}x{res // 2}), built-in space, default unit costs.\n")
+    md.append(f"Level {level}, {res}x{res} (search at {res // 2}x{res // 2}), built-in space, default unit costs.\n")
     md.append("| scene | budget kGE | best design | subdivision | cycles | cost | x 3MPPE | x M | x S |")
     md.append("|---|---|---|---|---|---|---|---|---|")
     sc_rows, sub_rows = [], []
@@ -52,7 +54,8 @@ def run(res, out, scenes, budgets, threads):
         scene = mprt.Scene.spd(name, size)
         for b in budgets:
             t0 = time.perf_counter()
-            r = explore(scene, res, res, objective="time", budget=b, fraction=2, threads=threads)
+            r = explore(scene, res, res, objective="time", budget=b, fraction=2, threads=threads, level=level,
+                        max_evals=max_evals)
             best, refs = r["best"], r["references"]
             row = {"scene": name, "budget": b, "mapping": best["design"]["mapping"], "pes": best["design"]["pes"],
                    "subdivision": "x".join(map(str, best["subdivision"])), "cycles": best["cycles"],
@@ -69,14 +72,16 @@ def run(res, out, scenes, budgets, threads):
         per = {}
         for mapping in ("OS|IC|SC", "OS+SC|IC", "OS|IC+SC", "OS+IC+SC"):
             r = explore(scene, res, res, space=mapping_space(mapping), objective="time", budget=BUDGETS[1],
-                        fraction=2, threads=threads)
+                        fraction=2, threads=threads, level=level,
+                        max_evals=max_evals)
             per[mapping] = r["best"]["cycles"]
         sc_rows.append((name, per))
         # the best subdivision per machine (prepass at this resolution)
         subs = {}
         for label, d in (("S", model_s()), ("M", model_m()), ("3MPPE", paper_3mppe()),
                          ("best@800", _design(rows, name, BUDGETS[1]))):
-            subs[label] = "x".join(map(str, prepass(scene, res, res, design=d, fraction=2, threads=threads)["subdivision"]))
+            pre = prepass(scene, res, res, design=d, fraction=2, threads=threads)
+            subs[label] = "x".join(map(str, pre["subdivision"]))
         sub_rows.append((name, subs))
     md.append(f"\nSC's processor, best design per stage mapping at {BUDGETS[1]:.0f} kGE (cycles; "
               "lower is better):\n")

@@ -6,12 +6,14 @@ paper's per-unit averages.
     >>> cm = CostModel.default()
     >>> cm.kernel_cycles("os_step", ProcessorConfig.sequential())    # doctest: +SKIP
     >>> vc = cm.visit_costs(trace, {s: ProcessorConfig.paper(s) for s in ("OS", "IC", "SC")})  # doctest: +SKIP
+    >>> fast = cm.counted(trace)     # the same costs, each processor set priced in milliseconds  # doctest: +SKIP
 """
 from .errors import CostModelError
+from .counts import CountedCostModel, KernelCounts
 from .kernels import KERNELS, OP_CLASSES, Graph
 from .model import CostModel, VisitCosts
 from .packets import packet_flits
 from .schedule import UNIT_KINDS, ProcessorConfig
 
-__all__ = ["CostModel", "CostModelError", "Graph", "KERNELS", "OP_CLASSES", "ProcessorConfig", "UNIT_KINDS",
-           "VisitCosts", "packet_flits"]
+__all__ = ["CostModel", "CostModelError", "CountedCostModel", "KernelCounts", "Graph", "KERNELS", "OP_CLASSES",
+           "ProcessorConfig", "UNIT_KINDS", "VisitCosts", "packet_flits"]

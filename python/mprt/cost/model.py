@@ -190,15 +190,11 @@ class CostModel:
         cyc = {s: {k: self.kernel_cycles(k, procs[s]) for k in STAGE_KERNELS[s]} for s in STAGES}
         comm = {s: [self.kernel_cycles(k, procs[s]) for k in ("send_packet", "send_flit", "receive_packet",
                                                               "receive_flit")] for s in STAGES}
-        visits = trace.visits
-        n = len(visits)
+        n = len(trace.visits)
         out = VisitCosts(np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int64), np.zeros(n, np.int32),
                          cyc["SC"]["sc_primary"],
                          comm["SC"][0] + int(_FLITS[SC, OS, PRIMARY]) * comm["SC"][1], int(_FLITS[SC, OS, PRIMARY]))
-        ctx = _TraceContext(trace)
-        for a in range(0, n, chunk):
-            v = np.asarray(visits[a:a + chunk])
-            counts, packets = ctx.visit_counts(v, a)
+        for a, v, counts, packets in visit_chunks(trace, chunk):
             st = v["stage"]
             for s, sname in enumerate(STAGES):
                 m = st == s
@@ -214,6 +210,14 @@ class CostModel:
             out.flits[a:a + len(v)] = packets["out"]
         return out
 
+    def counted(self, trace) -> "CostModel":
+        """This model, pricing ``trace`` from its kernel runs counted once
+        (``KernelCounts``): ``visit_costs`` on it is then a product per
+        stage, the same arrays to the cycle; other traces are priced in full."""
+        from .counts import CountedCostModel, KernelCounts
+
+        return CountedCostModel(self, KernelCounts(trace))
+
     def kernel_counts(self, trace, chunk: int = 1 << 20) -> dict:
         """Runs of each kernel over the whole trace, by stage, with each
         stage's visits ('visits') and SC's primary-ray generations
@@ -224,13 +228,9 @@ class CostModel:
 
 def trace_kernel_counts(trace, chunk: int = 1 << 20) -> dict:
     """See CostModel.kernel_counts."""
-    visits = trace.visits
     tot = {s: dict.fromkeys(("visits",) + STAGE_KERNELS[s], 0) for s in STAGES}
     units = {"voxels": 0, "tests": 0, "sc_input": 0}
-    ctx = _TraceContext(trace)
-    for a in range(0, len(visits), chunk):
-        v = np.asarray(visits[a:a + chunk])
-        counts, _ = ctx.visit_counts(v, a)
+    for _, v, counts, _ in visit_chunks(trace, chunk):
         st = v["stage"]
         for s, sname in enumerate(STAGES):
             tot[sname]["visits"] += int(np.sum(st == s))
@@ -241,6 +241,17 @@ def trace_kernel_counts(trace, chunk: int = 1 << 20) -> dict:
         units["sc_input"] += int(np.sum(st == SC))
     tot["SC"]["sc_primary"] = int(np.sum(np.asarray(trace.rays["kind"]) == PRIMARY))
     return {"stages": tot, "units": units}
+
+
+def visit_chunks(trace, chunk: int = 1 << 20):
+    """(offset, visits, kernel runs, packets) of each chunk of a trace's visits
+    (``_TraceContext.visit_counts``)."""
+    ctx = _TraceContext(trace)
+    visits = trace.visits
+    for a in range(0, len(visits), chunk):
+        v = np.asarray(visits[a:a + chunk])
+        counts, packets = ctx.visit_counts(v, a)
+        yield a, v, counts, packets
 
 
 class _TraceContext:

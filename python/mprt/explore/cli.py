@@ -64,6 +64,17 @@ def _range(text: str):
     return lo, hi
 
 
+def _sample(text: str):
+    if text in ("auto", "none"):
+        return None if text == "none" else text
+    from ..fidelity import Sampling
+    from ..errors import InvalidArgument
+    try:
+        return str(Sampling.parse(text))
+    except InvalidArgument as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+
+
 def check_output(path) -> None:
     """Fail before any work if an output file cannot be written."""
     if path is None:
@@ -94,9 +105,18 @@ def add_parsers(sub) -> None:
     e.add_argument("--objective", choices=OBJECTIVES, default="time",
                    help="time: cycles (under --budget); time*cost; pareto: the front by a sweep of budgets")
     e.add_argument("--budget", type=_positive(float), default=None, help="hardware budget in kGE")
+    e.add_argument("--level", choices=("0", "1", "2", "3", "auto"), default="auto",
+                   help="fidelity level: auto (default) measures the ladder on this scene and takes the cheapest "
+                        "within --tolerance; the search runs at no more than level 1, the best designs are "
+                        "verified at the level chosen")
     e.add_argument("--tolerance", type=_percent, default=0.01,
-                   help="error the fidelity level may have (default 1%%; recorded; level 0 until the ladder)")
-    e.add_argument("--level", type=int, choices=(0, 1, 2, 3), default=0, help="fidelity level (default 0)")
+                   help="error the level may have against the most faithful one, with --level auto (default 1%%)")
+    e.add_argument("--sample", type=_sample, default="auto",
+                   help="trace only these tiles of the full-resolution frame for the final polish and scale up "
+                        "(stratified:K:SEED, random:N:SEED, regular:K, or none; default: stratified:16:1 above "
+                        "256x256)")
+    e.add_argument("--verify", type=_positive(int), default=4,
+                   help="designs re-evaluated at the verification level when it is above the search's (default 4)")
     e.add_argument("--algorithm", choices=[a for a in GLOBAL_ALGORITHMS if a != "none"], default="direct-l")
     e.add_argument("--polish", choices=POLISHES, default="lattice")
     e.add_argument("--max-evals", type=_positive(int), default=1000,
@@ -122,6 +142,10 @@ def add_parsers(sub) -> None:
     p.add_argument("--shape", choices=("proportional", "cube"), default="proportional",
                    help="one n as n along the longest axis, others in proportion (default), or n per axis")
     p.add_argument("--fraction", type=_positive(int), default=16, help="trace at 1/FRACTION of --res (default 16)")
+    p.add_argument("--check", type=int, default=0, metavar="K",
+                   help="trace the K best predictions at --res on about 16 of its 16x16 tiles (stratified; a "
+                        "sixty-fourth of 512x512) and choose among them by that (default 0: the "
+                        "low-resolution prediction alone)")
     p.set_defaults(func=run_prepass)
 
     w = sub.add_parser("sweep", help="scenes x subdivisions x designs on Dask, to a CSV and plots")
@@ -137,6 +161,8 @@ def _progress_printer(every: int = 25):
     start = time.perf_counter()
     tty = sys.stderr.isatty()
 
+    open_line = [False]
+
     def show(problem):
         n = len(problem.memo)
         if n % every and not tty:
@@ -145,6 +171,18 @@ def _progress_printer(every: int = 25):
         msg = (f"\r  {n:5d} evaluations, best {b.cycles:,.0f} cycles at cost {b.cost:.0f} kGE, "
                f"{time.perf_counter() - start:.1f} s")
         print(msg if tty else msg[1:], end="" if tty else "\n", file=sys.stderr, flush=True)
+        open_line[0] = tty
+
+    def end():
+        if open_line[0]:
+            print(file=sys.stderr)
+        open_line[0] = False
+
+    def line(text):
+        end()
+        print(text, file=sys.stderr, flush=True)
+
+    show.end, show.line = end, line
     return show
 
 
@@ -152,24 +190,21 @@ def run_explore(a) -> int:
     from .explorer import explore, plot
     from .space import default_space, load_space
 
-    from .machine_adapter import check_level
-
     opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"))
-    check_level(a.level)
     space = load_space(a.space) if a.space else default_space()
     scene = opt.load_scene(a.scene)[0]
     w, h = a.res
-    kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget, level=a.level,
-              algorithm=a.algorithm, polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads,
-              fraction=a.fraction)
+    kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget,
+              level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, algorithm=a.algorithm,
+              polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads, fraction=a.fraction,
+              sample=a.sample, verify=a.verify)
     if a.scheduler:
         from .distributed import run_remote
         rep = run_remote(a.scheduler, explore_spec, a.scene, kw)
     else:
-        rep = explore(scene, progress=_progress_printer(), **kw)
-        if sys.stderr.isatty():
-            print(file=sys.stderr)
-    rep["tolerance"] = a.tolerance
+        show = _progress_printer()
+        rep = explore(scene, progress=show, log=show.line, **kw)
+        show.end()
     print_report(rep)
     if a.json:
         with open(a.json, "w") as f:
@@ -192,8 +227,10 @@ def print_report(rep: dict) -> None:
     refs = rep["references"]
     print(f"explore {rep['scene']} at {rep['width']}x{rep['height']}, objective {rep['objective']}"
           + (f", budget {rep['budget']:g} kGE" if rep.get("budget") else "")
-          + f": {rep['evaluations']} designs evaluated at level {rep['level']} in {rep['seconds']:.1f} s"
-          + f" ({rep['costs']} costs)")
+          + f": {rep['evaluations']} designs evaluated in {rep['seconds']:.1f} s")
+    lv = rep["level"]
+    print(f"level   search at {lv['search']}, verified at {lv['verify']}"
+          + (f" (the ladder's choice within {100 * rep['tolerance']:g}%)" if lv["asked"] == "auto" else ""))
     print(f"best    {b['described']}")
     print(f"        subdivision {'x'.join(map(str, b['subdivision']))}; {b['cycles']:,.0f} cycles; "
           f"cost {b['cost']:.0f} kGE; {b['speedup_over_S']:.2f}x model S; bottleneck {b['bottleneck']}")
@@ -215,15 +252,19 @@ def run_prepass(a) -> int:
     opt.check_outputs(("--json", a.json, "json"))
     scene = opt.load_scene(a.scene)[0]
     w, h = a.res
+    if a.check < 0:
+        raise opt.UsageError(f"--check {a.check}: give 0 or more candidates")
     r = prepass(scene, w, h, candidates=a.candidates, n_range=a.n_range, fraction=a.fraction, shape=a.shape,
-                threads=a.threads)
+                threads=a.threads, check=a.check)
     lw, lh = r["low_resolution"]
     print(f"prepass {scene.name}: {len(r['candidates'])} subdivisions traced at {lw}x{lh} in {r['seconds']:.2f} s; "
-          f"cycles predicted for {w}x{h} on the paper's 3MPPE (level {r['level']})")
+          f"cycles predicted for {w}x{h} on the paper's 3MPPE (level {r['level']})"
+          + (f"; the best {a.check} checked on {r['check_sample']} at {w}x{h}" if r["check_sample"] else ""))
     best = r["subdivision"]
     for c in r["candidates"]:
         mark = "  <- best" if c["subdivision"] == best else ""
-        print(f"  {'x'.join(map(str, c['subdivision'])):>12s} {c['predicted_cycles']:16,.0f}{mark}")
+        checked = f" {c['sampled_cycles']:16,.0f} sampled" if "sampled_cycles" in c else ""
+        print(f"  {'x'.join(map(str, c['subdivision'])):>12s} {c['predicted_cycles']:16,.0f}{checked}{mark}")
     print(f"best    subdivision {'x'.join(map(str, best))}")
     if a.json:
         with open(a.json, "w") as f:

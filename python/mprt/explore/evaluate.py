@@ -1,102 +1,38 @@
-"""Evaluating a design on a trace: ``evaluate(trace, design, level)``.
+"""Evaluating a design on a trace through the fidelity ladder (``mprt.fidelity``).
 
-Level 0 is analytical (numpy): each visit costs its receive, process and send
-cycles on the processor that runs its subtask (from the cost model's
-``visit_costs``); a packet between two subtasks on the same processor costs
-nothing, since the ray never leaves the processor.  Pixels go to PEs
-interleaved.  Per PE, a processor's load is the sum of its visits' costs,
-divided among its copies.  Model S (one processor) takes the sum.  A pipeline
-takes its largest processor load plus a fill and drain estimate: at the start
-the bottleneck waits for the first rays' work upstream of it, at the end the
-last rays' work downstream of it remains, together about one pixel's work off
-the bottleneck processor (the mean over the PE's pixels).
+A design becomes one machine configuration (``machine_config``): one stage per
+processor of its mapping with its units, copies and FIFOs (the design's words
+in packets of the largest ray packet), the ring when there is more than one
+processor, and IC and SC memories of the design's resident and cache sizes over
+ICGM and SCGM shared by the PEs.  The fidelity ladder models that machine at a
+level: 0 analytical, 1 the compiled exact replay of it without ring and
+memories, 2 with its ring (SimPy), 3 as written (SimPy); see
+``python/mprt/fidelity/README.md``.  ``TraceEvaluator`` keeps a trace's kernel
+counts (``CostModel.counted``) so that each new set of processors is priced in
+milliseconds, and a few ``fidelity.Evaluator``s, one per set of processors
+(each holds that set's costed, analytical and compiled forms).
 
-Levels 1 and up replay the trace on the machine model (``mprt.machine``)
-where it is in the package; the fidelity ladder (issue 8) may replace level 0
-with its own, behind this same function.
+The DIS's window is kept small enough that the FIFOs cannot deadlock on the
+trace's largest ray tree (``window``); a machine that deadlocks all the same is
+reported with ``bottleneck = "deadlock"`` and a cycle count no search prefers.
 """
 from __future__ import annotations
 
 import hashlib
 import json
+from collections import OrderedDict
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from .hwcost import UnitCosts, cost_breakdown
-from .space import STAGE_NAMES, Design, processor_name, processors
+from .space import STAGE_NAMES, Design, processors
 
-
-def _cost_source():
-    """The cost model's ``visit_costs`` with processors given as units dicts."""
-    from ..cost import CostModel, ProcessorConfig
-
-    cm = CostModel.default()
-
-    def visit_costs(trace, procs):
-        return cm.visit_costs(trace, {s: _processor_config(ProcessorConfig, u) for s, u in procs.items()})
-    visit_costs.model = cm
-    return "mprt.cost", visit_costs
-
-
-def _processor_config(ProcessorConfig, units: dict):
-    units = {k: int(v) for k, v in units.items() if v}
-    if units == {"general": 1}:
-        return ProcessorConfig.sequential()
-    return ProcessorConfig(units=units)
-
-
-class _LinearPricing:
-    """Per-pixel sums of each stage's kernel runs and packet sizes, so a new
-    processor is priced by a product over pixels instead of a pass over the
-    visits: a visit's cycles are its kernel runs times the kernels' cycles
-    (the cost model's definition).  It reads the cost model's per-visit
-    counts; Level0 checks it against ``visit_costs`` on the first design and
-    drops it on any difference."""
-
-    def __init__(self, trace, cm, pix, npix, stage, src, dst, primaries, chunk=1 << 20):
-        from ..cost.model import STAGE_KERNELS, _TraceContext
-
-        self.cm, self.kernels = cm, STAGE_KERNELS
-        ctx = _TraceContext(trace)
-        self.runs = {s: np.zeros((len(STAGE_KERNELS[s]) + 1, npix)) for s in STAGE_NAMES}   # + visits
-        self.rin = np.zeros((3, 2, 3, npix))       # stage, (packets, flits), source stage
-        self.out = np.zeros((3, 2, 4, npix))       # stage, (packets, flits), destination stage (3: none)
-        visits = trace.visits
-        for a in range(0, len(visits), chunk):
-            v = np.asarray(visits[a:a + chunk])
-            counts, packets = ctx.visit_counts(v, a)
-            p, st = pix[a:a + len(v)], stage[a:a + len(v)]
-            sr, ds = src[a:a + len(v)], dst[a:a + len(v)] % 4
-            for c, name in enumerate(STAGE_NAMES):
-                m = st == c
-                pm = p[m]
-                for i, k in enumerate(STAGE_KERNELS[name]):
-                    if k in counts[name]:
-                        self.runs[name][i] += np.bincount(pm, weights=counts[name][k], minlength=npix)
-                self.runs[name][-1] += np.bincount(pm, minlength=npix)
-                for j, w in enumerate((np.ones(int(m.sum())), packets["in"][m])):
-                    self.rin[c, j] += np.bincount(sr[m] * npix + pm, weights=w, minlength=3 * npix).reshape(3, npix)
-                for j, w in enumerate((packets["out_packets"][m], packets["out"][m])):
-                    self.out[c, j] += np.bincount(ds[m] * npix + pm, weights=w, minlength=4 * npix).reshape(4, npix)
-        self.primaries = primaries
-
-    def aggregate(self, c: int, proc) -> tuple:
-        from ..cost.model import _FLITS
-
-        name = STAGE_NAMES[c]
-        cm = self.cm
-        cyc = np.array([cm.kernel_cycles(k, proc) if k != "sc_primary" else 0 for k in self.kernels[name]]
-                       + [cm.visit_overhead[name]], dtype=np.float64)
-        process = cyc @ self.runs[name]
-        sp, sf, rp, rf = (cm.kernel_cycles(k, proc) for k in ("send_packet", "send_flit", "receive_packet",
-                                                              "receive_flit"))
-        recv = rp * self.rin[c, 0] + rf * self.rin[c, 1]
-        send = (sp * self.out[c, 0] + sf * self.out[c, 1])[:3].copy()
-        if name == "SC":
-            process = process + self.primaries * cm.kernel_cycles("sc_primary", proc)
-            send[0] += self.primaries * (sp + int(_FLITS[2, 0, 0]) * sf)
-        return process, recv, send
+DEADLOCK_CYCLES = 1e30
+GLOBAL_MEMORY = {"latency": 20, "bandwidth": 8, "contention": True}
+CACHE_LINE, CACHE_WAYS = 32, 4
+WINDOW_PER_COPY = 4        # primary rays in flight per PE, per copy of its most replicated processor (at most)
+LEVELS = (0, 1, 2, 3)
 
 
 @dataclass
@@ -105,15 +41,15 @@ class Result:
     cycles: float
     level: int
     cost: float
-    loads: dict = field(default_factory=dict)         # processor -> cycles of work per copy (worst PE)
+    loads: dict = field(default_factory=dict)         # processor -> busy cycles per copy (mean over PEs)
     utilisation: dict = field(default_factory=dict)   # processor -> busy share of the run (mean over PEs and copies)
     bottleneck: str = ""
-    fill_drain: float = 0.0
-    costs: str = ""                                   # which cost model priced the visits
+    engine: str = ""
+    costs: str = "mprt.cost"                          # which cost model priced the visits
 
     def to_dict(self) -> dict:
         return {"cycles": self.cycles, "level": self.level, "cost": self.cost, "loads": self.loads,
-                "utilisation": self.utilisation, "bottleneck": self.bottleneck, "fill_drain": self.fill_drain,
+                "utilisation": self.utilisation, "bottleneck": self.bottleneck, "engine": self.engine,
                 "costs": self.costs}
 
     @classmethod
@@ -129,169 +65,149 @@ def trace_key(trace) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
-class Level0:
-    """The analytical level on one trace; reuses visit costs per processor configuration."""
+def _words_per_packet() -> int:
+    from ..cost import CostModelError, packet_flits
 
-    def __init__(self, trace, unit_costs: UnitCosts | None = None, visit_costs=None, linear: bool = True):
-        from ..trace import HIT, IC, LATE_HIT, OS, RETURN, SC, TO_IC, TO_SC
+    best = 1
+    for s, d in ((0, 1), (1, 0), (1, 2), (2, 0), (0, 2)):
+        for k in range(4):
+            try:
+                best = max(best, packet_flits(s, d, k))
+            except CostModelError:
+                pass
+    return best
+
+
+def max_leaves(trace) -> int:
+    """The most leaves (rays that make no rays) of any ray tree of a trace."""
+    from ..trace import PRIMARY
+
+    rays = trace.rays
+    parent = np.asarray(rays["parent"]).astype(np.int64)
+    if not len(parent):
+        return 1
+    has_child = np.zeros(len(parent), bool)
+    has_child[parent[parent >= 0]] = True
+    tree = np.cumsum(np.asarray(rays["kind"]) == PRIMARY) - 1
+    return int(max(np.bincount(tree[~has_child]).max(initial=1), 1))
+
+
+def window(design: Design, leaves: int | None = None) -> int:
+    """How many primary rays a PE's DIS keeps in flight: WINDOW_PER_COPY per copy of the
+    most replicated processor, but with finite FIFOs no more than cannot deadlock for trees
+    of up to ``leaves`` leaves (window x leaves below the smallest sum of two stages'
+    send + receive FIFO + copies: the machine model's ``cycle_capacity``)."""
+    groups = processors(design.mapping)
+    w = WINDOW_PER_COPY * max(design.processor_copies(g) for g in groups)
+    if len(groups) > 1 and leaves:
+        cap = _fifo_packets(design)
+        caps = sorted(2 * cap + design.processor_copies(g) for g in groups)
+        w = min(w, max((caps[0] + caps[1] - 1) // leaves, 1))
+    return w
+
+
+def _fifo_packets(design: Design) -> int:
+    return max(design.fifo // _words_per_packet(), 1)
+
+
+def machine_fields(design: Design, leaves: int | None = None) -> dict:
+    """The machine-configuration fields (a machine TOML file's) of a design, as the
+    machine is: FIFOs and ring when it has several processors, memories always; the
+    window as ``window(design, leaves)``."""
+    groups = processors(design.mapping)
+    stages = []
+    for g in groups:
+        st = {"subtasks": list(g), "processor": {"units": design.processor_units(g)},
+              "replicas": design.processor_copies(g)}
+        if len(groups) > 1:
+            st["send_fifo"] = st["receive_fifo"] = _fifo_packets(design)
+        stages.append(st)
+    cfg = {"name": "explored", "stage": stages, "pes": design.pes, "dis": "dynamic",
+           "window": window(design, leaves)}
+    if len(groups) > 1:
+        cfg["ring"] = {"flit_time": 1, "buffer_classes": len(groups)}
+    for s in ("IC", "SC"):
+        mem = {"resident": design.resident[s] << 10}
+        if design.cache[s]:
+            mem["cache"] = {"size": design.cache[s] << 10, "line": CACHE_LINE, "ways": CACHE_WAYS}
+        cfg[f"{s.lower()}_memory"] = mem
+        cfg[f"{s.lower()}gm"] = dict(GLOBAL_MEMORY)
+    return cfg
+
+
+def machine_config(design: Design, leaves: int | None = None):
+    """The design as a machine (``SystemConfig``); the fidelity levels take parts of it away."""
+    from ..machine.config import config_from_dict
+
+    return config_from_dict(machine_fields(design, leaves), source="explored design")
+
+
+class TraceEvaluator:
+    """Designs on one trace at any fidelity level.  The trace's kernel runs are
+    counted once (unless ``counted`` is false: for a trace that sees one set of
+    processors); ``keep`` sets of processors keep their costed forms."""
+
+    def __init__(self, trace, unit_costs: UnitCosts | None = None, cost_model=None, keep: int = 4,
+                 counted: bool = True):
+        from ..cost import CostModel
 
         self.trace = trace
+        self.visits = len(trace.visits)
         self.unit_costs = unit_costs or UnitCosts()
-        if visit_costs is None:
-            self.cost_name, self._visit_costs = _cost_source()
-        else:
-            self.cost_name, self._visit_costs = "given", visit_costs
-        v = trace.visits
-        rays = trace.rays
-        stage = np.asarray(v["stage"]).astype(np.int64)
-        out = np.asarray(v["outcome"]).astype(np.int64)
-        ray = np.asarray(v["ray"], dtype=np.int64)
-        ids = np.asarray(rays["id"], dtype=np.int64)
-        row = ray - ids[0] if len(ids) and np.array_equal(ids, np.arange(ids[0], ids[0] + len(ids))) \
-            else np.searchsorted(ids, ray)
-        pixel = np.asarray(rays["pixel"], dtype=np.int64)[row]
-        self._pix = pixel                      # pixels index the per-pixel sums directly
-        self.npix = int(pixel.max()) + 1 if len(pixel) else 1
-        self.pixels = np.arange(self.npix)
-        # where each visit's incoming packet comes from (the ray's previous visit, or SC, which makes rays)
-        first = np.ones(len(v), dtype=bool)
-        first[1:] = ray[1:] != ray[:-1]
-        src = np.full(len(v), SC, dtype=np.int64)
-        src[~first] = stage[np.flatnonzero(~first) - 1]
-        # where its outgoing packet goes (-1: none)
-        dst = np.full(len(v), -1, dtype=np.int64)
-        dst[(stage == OS) & (out == TO_IC)] = IC
-        dst[(stage == OS) & np.isin(out, (TO_SC, LATE_HIT))] = SC
-        dst[(stage == IC) & (out == HIT)] = SC
-        dst[(stage == IC) & (out == RETURN)] = OS
-        dst[stage == SC] = OS                                  # children, if any (send is 0 otherwise)
-        self._stage, self._src, self._dst = stage, src, dst
-        kind = np.asarray(rays["kind"])
-        rpix = np.asarray(rays["pixel"], dtype=np.int64)[kind == 0]
-        self._primaries = np.bincount(rpix, minlength=self.npix).astype(np.float64)
-        self._agg: dict = {}
-        self.visits = len(v)
-        self._allow_linear = linear
-        self._linear = None
-        self._linear_ok = None        # unknown until a second processor is priced
+        self.cost_model = cost_model or CostModel.default()
+        if counted:             # worth it from the second set of processors on
+            self.cost_model = self.cost_model.counted(trace)
+        self.keep = keep
+        self.leaves = max_leaves(trace)
+        self._evaluators: OrderedDict = OrderedDict()
 
-    def _aggregate(self, s: int, units: dict, design_units: dict):
-        """Per pixel: process, receive by source stage, send by destination
-        stage (cycles) of stage s's visits on a processor with ``units``.
-        The first design is priced with the cost model's ``visit_costs``;
-        from the second on, new processors are priced linearly where that
-        reproduces the first design's figures exactly."""
-        key = (s, json.dumps(units, sort_keys=True))
-        if key in self._agg:
-            return self._agg[key]
-        if self._agg and self._linear_ok is None:
-            self._linear_ok = self._build_linear()
-        if self._linear_ok:
-            from ..cost import ProcessorConfig
-            self._agg[key] = self._linear.aggregate(s, _processor_config(ProcessorConfig, units))
-            return self._agg[key]
-        vc = self._visit_costs(self.trace, design_units)
-        n = self.npix
-        for c, name in enumerate(STAGE_NAMES):
-            k = (c, json.dumps(design_units[name], sort_keys=True))
-            m = self._stage == c
-            pix = self._pix[m]
-            proc = np.bincount(pix, weights=vc.process[m], minlength=n)
-            # by (source or destination stage, pixel); no packet (-1) falls in a fourth row
-            recv = np.bincount(self._src[m] * n + pix, weights=vc.receive[m], minlength=3 * n)
-            recv = recv[:3 * n].reshape(3, n)
-            send = np.bincount((self._dst[m] % 4) * n + pix, weights=vc.send[m], minlength=4 * n)
-            send = send[:3 * n].reshape(3, n).copy()
-            if name == "SC":          # SC makes the primary rays and sends them to OS
-                proc = proc + self._primaries * vc.inject_process
-                send[0] += self._primaries * vc.inject_send
-            self._agg[k] = (proc, recv, send)
-        return self._agg[key]
+    def evaluator(self, config):
+        """The ``fidelity.Evaluator`` for the configuration's processors (a few kept)."""
+        from ..fidelity import Evaluator
 
-    def _build_linear(self) -> bool:
-        model = getattr(self._visit_costs, "model", None)
-        if not self._allow_linear or model is None:
-            return False
-        from ..cost import ProcessorConfig
+        key = tuple((t, repr(p)) for t, p in sorted(config.processors().items()))
+        ev = self._evaluators.pop(key, None)
+        if ev is None:
+            ev = Evaluator(self.trace, self.cost_model)
+            while len(self._evaluators) >= self.keep:
+                self._evaluators.popitem(last=False)
+        self._evaluators[key] = ev
+        return ev
+
+    def run(self, design: Design, level: int = 1, scale: float = 1.0) -> Result:
+        """The design at a level; ``scale`` multiplies the cycles (a sampled trace's frame)."""
+        cost = float(sum(cost_breakdown(design, self.unit_costs).values()))
+        return self.run_config(machine_config(design, self.leaves), level, scale, cost)
+
+    def run_config(self, cfg, level: int = 1, scale: float = 1.0, cost: float = 0.0) -> Result:
+        """A machine configuration (``SystemConfig``) at a level."""
+        from ..machine.errors import DeadlockError
+
+        if level not in LEVELS:
+            raise ValueError(f"level must be 0, 1, 2 or 3, not {level!r}")
         try:
-            self._linear = _LinearPricing(self.trace, model, self._pix, self.npix, self._stage, self._src,
-                                          self._dst, self._primaries)
-        except (ImportError, AttributeError, KeyError, TypeError):
-            return False
-        for (c, units), exact in self._agg.items():
-            lin = self._linear.aggregate(c, _processor_config(ProcessorConfig, json.loads(units)))
-            if not all(np.array_equal(x, y) for x, y in zip(lin, exact)):
-                return False          # the cost model counts differently: price every design in full
-        return True
-
-    def processor_work(self, design: Design) -> dict:
-        """Per processor (name), cycles of work per pixel (all copies together)."""
-        work = {}
-        stage_units = {s: design.processor_units(g) for g in processors(design.mapping) for s in g}
-        for g in processors(design.mapping):
-            units = design.processor_units(g)
-            codes = [STAGE_NAMES.index(s) for s in g]
-            tot = np.zeros(self.npix)
-            for c in codes:
-                proc, recv, send = self._aggregate(c, units, stage_units)
-                tot += proc
-                for t in range(3):
-                    if t not in codes:
-                        tot += recv[t] + send[t]
-            work[processor_name(g)] = tot
-        return work
-
-    def run(self, design: Design) -> Result:
-        work = self.processor_work(design)
-        groups = processors(design.mapping)
-        copies = {processor_name(g): design.processor_copies(g) for g in groups}
-        pe = self.pixels % design.pes
-        per_pe = {p: np.bincount(pe, weights=w, minlength=design.pes) for p, w in work.items()}
-        npix_pe = np.maximum(np.bincount(pe, weights=self._primaries > 0, minlength=design.pes), 1)
-        load = {p: per_pe[p] / copies[p] for p in work}                  # cycles per copy, per PE
-        if len(work) == 1:
-            times = next(iter(load.values()))
-            fill = np.zeros(design.pes)
-            bott = np.array([0] * design.pes)
-        else:
-            names = list(work)
-            L = np.stack([load[p] for p in names])                      # processors x PEs
-            bott = np.argmax(L, axis=0)
-            total = sum(per_pe.values())
-            off = total - np.stack([per_pe[p] for p in names])[bott, np.arange(design.pes)]
-            fill = off / npix_pe
-            times = L[bott, np.arange(design.pes)] + fill
-        T = float(times.max())
-        worst = int(np.argmax(times))
-        names = list(work)
-        util = {p: float(np.mean(per_pe[p] / copies[p])) / T if T else 0.0 for p in names}
-        return Result(
-            cycles=float(round(T)), level=0,
-            cost=float(sum(cost_breakdown(design, self.unit_costs).values())),
-            loads={p: float(load[p][worst]) for p in names}, utilisation=util,
-            bottleneck=names[int(bott[worst])], fill_drain=float(fill[worst]), costs=self.cost_name)
+            e = self.evaluator(cfg).evaluate(cfg, level)
+        except DeadlockError:
+            return Result(cycles=DEADLOCK_CYCLES, level=level, cost=cost, bottleneck="deadlock")
+        return result_of(e, cfg, cost, scale)
 
 
-_LEVEL0: dict = {}
+def result_of(e, cfg, cost: float, scale: float = 1.0) -> Result:
+    """The explorer's figures of a fidelity ``Evaluation`` of a configuration."""
+    r = e.result
+    util, loads = {}, {}
+    for st in cfg.stages:
+        node = r.nodes.get(st.name)
+        if node is not None:
+            util[st.name] = float(node["utilisation"])
+            loads[st.name] = float(node["busy"]) * scale / (node["replicas"] * cfg.pes)
+    return Result(cycles=float(round(r.cycles * scale)), level=e.level, cost=cost, loads=loads, utilisation=util,
+                  bottleneck=max(util, key=util.get) if util else "", engine=e.engine)
 
 
-def level0(trace, unit_costs: UnitCosts | None = None) -> Level0:
-    """The (cached) level-0 evaluator of a trace."""
-    key = (id(trace), unit_costs)
-    ev = _LEVEL0.get(key)
-    if ev is None or ev.trace is not trace:
-        if len(_LEVEL0) > 8:
-            _LEVEL0.clear()
-        ev = _LEVEL0[key] = Level0(trace, unit_costs)
-    return ev
-
-
-def evaluate(trace, design: Design, level: int = 0, unit_costs: UnitCosts | None = None) -> Result:
+def evaluate(trace, design: Design, level: int = 1, unit_costs: UnitCosts | None = None) -> Result:
     """Cycles and per-processor figures of ``design`` replaying ``trace`` at a fidelity level."""
-    if level == 0:
-        return level0(trace, unit_costs).run(design)
-    from . import machine_adapter
-    return machine_adapter.simulate(trace, design, level, unit_costs or UnitCosts())
+    return TraceEvaluator(trace, unit_costs).run(design, level)
 
 
 def grid_dims(scene, subdivision, shape: str = "cube") -> tuple:
@@ -311,22 +227,26 @@ def grid_dims(scene, subdivision, shape: str = "cube") -> tuple:
 
 
 class SceneEvaluator:
-    """Evaluates points (subdivision + design) on one scene at one resolution:
-    one trace per grid, kept (with its level-0 evaluator) while the traces
-    held stay under ``max_visits`` visits in all."""
+    """Evaluates points (subdivision + design) on one scene at one resolution
+    and level: one trace per grid, kept (with its evaluator) while the traces
+    held stay under ``max_visits`` visits in all.  ``sample`` (a sampled-replay
+    specification, e.g. ``stratified:16:1``): trace only those tiles of the
+    frame and scale the cycles by the samples in the frame over those traced."""
 
-    def __init__(self, scene, width: int, height: int, level: int = 0, shape: str = "cube",
-                 unit_costs: UnitCosts | None = None, max_visits: int = 30_000_000, rules: str = "paper",
-                 threads: int = 1):
+    def __init__(self, scene, width: int, height: int, level: int = 1, shape: str = "cube",
+                 unit_costs: UnitCosts | None = None, max_visits: int = 8_000_000, rules: str = "paper",
+                 threads: int = 1, sample: str | None = None):
         self.scene, self.width, self.height = scene, int(width), int(height)
         self.level, self.shape, self.rules, self.threads = level, shape, rules, threads
         self.unit_costs = unit_costs or UnitCosts()
         self.max_visits = max_visits
-        self._held: dict = {}             # dims -> Level0 (which holds the trace)
+        self.sample = sample
+        self._held: dict = {}             # dims -> (TraceEvaluator, scale)
         self.trace_seconds = 0.0
         self.traces_made = 0
 
-    def level0(self, dims) -> Level0:
+    def evaluator(self, dims) -> tuple:
+        """(TraceEvaluator, scale) of a grid's trace."""
         import time
 
         dims = tuple(dims)
@@ -334,24 +254,41 @@ class SceneEvaluator:
             self._held[dims] = self._held.pop(dims)      # most recent last
             return self._held[dims]
         t0 = time.perf_counter()
-        _, tr = self.scene.grid(dims).trace(self.width, self.height, rules=self.rules, threads=self.threads)
+        grid = self.scene.grid(dims)
+        if self.sample:
+            from ..fidelity import trace_sample
+            st = trace_sample(grid, self.sample, self.width, self.height, rules=self.rules, threads=self.threads)
+            tr, scale = st.trace, 1.0 / st.fraction
+        else:
+            _, tr = grid.trace(self.width, self.height, rules=self.rules, threads=self.threads)
+            scale = 1.0
+        while self._held and sum(e.visits for e, _ in self._held.values()) + len(tr.visits) > self.max_visits:
+            self._held.pop(next(iter(self._held)))
+        ev = TraceEvaluator(tr, self.unit_costs)
         self.trace_seconds += time.perf_counter() - t0
         self.traces_made += 1
-        while self._held and sum(e.visits for e in self._held.values()) + len(tr.visits) > self.max_visits:
-            self._held.pop(next(iter(self._held)))
-        ev = self._held[dims] = Level0(tr, self.unit_costs)
-        return ev
+        self._held[dims] = (ev, scale)
+        return self._held[dims]
 
     def trace(self, dims):
-        return self.level0(dims).trace
+        return self.evaluator(dims)[0].trace
+
+    def run(self, point, level: int | None = None) -> Result:
+        ev, scale = self.evaluator(grid_dims(self.scene, point.subdivision, self.shape))
+        level = self.level if level is None else level
+        if not isinstance(point.design, Design):          # a machine configuration
+            return ev.run_config(point.design, level, scale)
+        return ev.run(point.design, level, scale)
 
     def __call__(self, points) -> list[Result]:
-        # grouped by grid so each trace is made once per batch
+        # grouped by grid (each trace made once per batch), then by processors (each costed once)
         dims = [grid_dims(self.scene, p.subdivision, self.shape) for p in points]
+        units = [p.design.key() if isinstance(p.design, Design) else "" for p in points]
         res = [None] * len(points)
-        for i in sorted(range(len(points)), key=lambda i: dims[i]):
-            if self.level == 0:
-                res[i] = self.level0(dims[i]).run(points[i].design)
-            else:
-                res[i] = evaluate(self.trace(dims[i]), points[i].design, self.level, self.unit_costs)
+        for i in sorted(range(len(points)), key=lambda i: (dims[i], units[i])):
+            res[i] = self.run(points[i])
         return res
+
+
+__all__ = ["DEADLOCK_CYCLES", "Result", "SceneEvaluator", "TraceEvaluator", "evaluate", "grid_dims", "machine_config",
+           "machine_fields", "trace_key", "STAGE_NAMES"]

@@ -10,7 +10,9 @@ is narrowed by golden-section steps until its ends are within ``ratio`` (the
 time is close to unimodal in n, fewer tests as voxels shrink, more steps and
 set-up, and flat near its minimum).  Each candidate's
 full-resolution time is predicted as its low-resolution cycles times the
-ratio of pixel counts; the design replayed is the paper's 3MPPE unless given.
+ratio of pixel counts; the machine replayed is the machine model's 3MPPE
+(``mprt.machine`` built-in ``3mppe``, at ``level``, default 1: its ideal-network
+form, replayed exactly) unless a Design or SystemConfig is given.
 """
 from __future__ import annotations
 
@@ -19,9 +21,10 @@ import time
 
 import numpy as np
 
-from .evaluate import Level0, grid_dims
+from ..machine.config import builtin
+from .evaluate import TraceEvaluator, grid_dims, machine_config
 from .hwcost import UnitCosts
-from .space import Design, paper_3mppe
+from .space import Design
 
 FIXED_RULES = ("pbrt", "density8", "paper-best")
 
@@ -51,11 +54,8 @@ class _Cands:
         dims = grid_dims(self.scene, (n,) if np.isscalar(n) else n, self.shape)
         if dims not in self.seen:
             _, tr = self.scene.grid(dims).trace(self.w, self.h, threads=self.threads)
-            if self.level == 0:
-                self.seen[dims] = Level0(tr, self.unit_costs).run(self.design).cycles
-            else:
-                from .evaluate import evaluate
-                self.seen[dims] = evaluate(tr, self.design, self.level, self.unit_costs).cycles
+            self.seen[dims] = TraceEvaluator(tr, self.unit_costs, counted=False).run_config(self.design,
+                                                                                           self.level).cycles
         return self.seen[dims]
 
 
@@ -69,16 +69,28 @@ def default_range(scene, density=(1.0, 32.0), limit: int = 768) -> tuple[int, in
 
 
 def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 16,
-            design: Design | None = None, shape: str = "proportional", rungs: int = 7, level: int = 0,
-            unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15) -> dict:
+            design=None, shape: str = "proportional", rungs: int = 7, level: int = 1,
+            unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15, check: int = 0,
+            check_sample: str | None = None) -> dict:
     """Predict the full-resolution cycles of candidate subdivisions from traces
     at width/fraction x height/fraction, and return the best.  ``candidates``:
     explicit subdivisions (n or (nx, ny, nz)), all evaluated; otherwise n is
-    searched over ``n_range`` (default: ``default_range(scene)``)."""
+    searched over ``n_range`` (default: ``default_range(scene)``).  ``check``:
+    the best few predictions are then traced at full resolution on the tiles of
+    ``check_sample`` (a sampled replay, scaled by the frame's samples over the
+    sample's) and the best of those is the choice: where the time is jagged in
+    n, a low-resolution trace cannot tell neighbouring candidates apart.
+    Default sample: ``stratified:K:1`` with K such that about 16 tiles of 16x16
+    are traced (a sixty-fourth of a 512x512 frame; all of a frame of 16 tiles
+    or fewer)."""
     t0 = time.perf_counter()
     w, h = low_resolution(width, height, fraction)
     scale = (width * height) / (w * h)
-    f = _Cands(scene, w, h, design or paper_3mppe(), shape, unit_costs or UnitCosts(), threads, level)
+    if design is None:
+        design = builtin("3mppe")
+    elif isinstance(design, Design):
+        design = machine_config(design)
+    f = _Cands(scene, w, h, design, shape, unit_costs or UnitCosts(), threads, level)
     if candidates:
         for c in candidates:
             f(c)
@@ -98,11 +110,27 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         _golden(f, a, b, ratio)
     cands = sorted(f.seen.items(), key=lambda kv: kv[0])
     best = min(cands, key=lambda kv: (kv[1], kv[0]))
+    checked = {}
+    if check > 0 and check_sample is None:
+        tiles = -(-width // 16) * -(-height // 16)
+        check_sample = f"stratified:{min(max(tiles // 16, 1), 64)}:1"
+    if check > 0:
+        from .evaluate import SceneEvaluator
+        from .space import Point
+        full = SceneEvaluator(scene, width, height, level=level, shape="cube", unit_costs=f.unit_costs,
+                              threads=threads, sample=check_sample)
+        for dims, _ in sorted(cands, key=lambda kv: (kv[1], kv[0]))[:check]:
+            checked[dims] = full.run(Point(dims, f.design)).cycles
+            full._held.clear()
+        best = min(checked.items(), key=lambda kv: (kv[1], kv[0]))
+        best = (best[0], f.seen[best[0]])
     from .explorer import settings
     return {"subdivision": list(best[0]), "predicted_cycles": best[1] * scale,
             "settings": settings(scene, width, height, threads),
-            "candidates": [{"subdivision": list(d), "predicted_cycles": c * scale} for d, c in cands],
-            "low_resolution": [w, h], "full_resolution": [width, height], "design": f.design.to_dict(),
+            "candidates": [dict({"subdivision": list(d), "predicted_cycles": c * scale},
+                                **({"sampled_cycles": checked[d]} if d in checked else {})) for d, c in cands],
+            "check_sample": check_sample if check > 0 else None,
+            "low_resolution": [w, h], "full_resolution": [width, height], "machine": f.design.name,
             "level": level, "seconds": time.perf_counter() - t0}
 
 

@@ -278,8 +278,8 @@ class Space:
     def canonical(self, idx) -> tuple:
         """The index vector with every variable that cannot change the machine
         set to its first value: units and replication of a subtask that shares
-        its processor with an earlier one, and the feed when nothing is
-        replicated, the FIFOs when one processor runs everything.  Two vectors
+        its processor with an earlier one, the feed (not modelled), the FIFOs
+        when one processor runs everything.  Two vectors
         with the same canonical form are one design."""
         idx = list(int(i) for i in idx)
         mapping = self.value(idx, "mapping")
@@ -288,8 +288,9 @@ class Space:
             parts = v.name.split(".")
             if parts[0] in ("units", "replication") and parts[1] in STAGE_NAMES and parts[1] not in live_stage:
                 idx[i] = 0
-        if all(self.value(idx, f"replication.{s}") == 1 for s in live_stage):
-            idx[self._pos["replication.feed"]] = 0
+        # the machine model's copies of a processor share its receive FIFO (an idle copy takes the
+        # next packet): no feed policy is modelled, so designs differing only in it are one machine
+        idx[self._pos["replication.feed"]] = 0
         if len(live_stage) == 1:          # one processor: no packets, so no FIFOs
             idx[self._pos["fifo"]] = 0
         return tuple(idx)

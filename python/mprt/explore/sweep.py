@@ -6,7 +6,7 @@ The spec file::
     res = "32x32"
     subdivisions = [4, 8, [6, 6, 2]]     # n, or [nx, ny, nz]
     shape = "proportional"               # how one n becomes a grid: cube | proportional
-    level = 0
+    level = 1                            # fidelity level (0 analytical, 1 compiled, 2-3 SimPy)
     batch = 64                           # designs per task
     [designs]
     paper = "3mppe"                      # a reference: 3mppe, M, S
@@ -17,10 +17,10 @@ DIR/sweep.png (cycles against subdivision).
 """
 from __future__ import annotations
 
+import argparse
 import csv
 import os
 import time
-import tomllib
 
 from .distributed import DiskCache, cache_key, client, map_cached
 from .space import REFERENCE_DESIGNS, SHAPES, Design, SpaceError
@@ -29,13 +29,9 @@ _KEYS = {"scenes", "res", "subdivisions", "shape", "level", "batch", "designs", 
 
 
 def load_spec(path) -> dict:
-    try:
-        with open(path, "rb") as f:
-            doc = tomllib.load(f)
-    except OSError as e:
-        raise SpaceError(f"{path}: cannot read the sweep spec ({e.strerror})") from None
-    except tomllib.TOMLDecodeError as e:
-        raise SpaceError(f"{path}: {e}") from None
+    from ..options import read_toml, resolution_arg
+
+    doc = read_toml(path, "sweep spec", SpaceError)
     w = lambda k: f"{path}: {k}"  # noqa: E731
     extra = set(doc) - _KEYS
     if extra:
@@ -48,10 +44,9 @@ def load_spec(path) -> dict:
         raise SpaceError(f"{w('scenes')}: must be a non-empty list of scene names or paths")
     res = doc.get("res", "32x32")
     try:
-        width, height = (int(v) for v in str(res).lower().split("x"))
-        assert 1 <= width <= 65536 and 1 <= height <= 65536
-    except (ValueError, AssertionError):
-        raise SpaceError(f"{w('res')}: {res!r} is not WxH with sides in 1..65536") from None
+        width, height = resolution_arg(str(res))
+    except argparse.ArgumentTypeError as e:
+        raise SpaceError(f"{w('res')}: {e}") from None
     subs = []
     if not isinstance(doc["subdivisions"], list) or not doc["subdivisions"]:
         raise SpaceError(f"{w('subdivisions')}: must be a non-empty list")
@@ -63,7 +58,7 @@ def load_spec(path) -> dict:
     shape = doc.get("shape", "cube")
     if shape not in SHAPES:
         raise SpaceError(f"{w('shape')}: {shape!r} is not one of {', '.join(SHAPES)}")
-    level = doc.get("level", 0)
+    level = doc.get("level", 1)
     if level not in (0, 1, 2, 3):
         raise SpaceError(f"{w('level')}: {level!r} is not 0, 1, 2 or 3")
     batch = doc.get("batch", 64)
@@ -95,20 +90,15 @@ def _batch_task(scene_spec, dims, width, height, rules, level, designs):
     """One task: trace the scene at this grid (kept per worker process for
     the next batch) and evaluate the designs; returns rows of plain values."""
     from ..scene import Scene
-    from .evaluate import Level0, evaluate
+    from .evaluate import TraceEvaluator
 
     key = (scene_spec, tuple(dims), width, height, rules)
     ev = _TRACES.get(key)
     if ev is None:
         _TRACES.clear()
         _, tr = Scene.load(scene_spec).grid(tuple(dims)).trace(width, height, rules=rules)
-        ev = _TRACES[key] = Level0(tr)
-    out = []
-    for d in designs:
-        design = Design.from_dict(d)
-        r = ev.run(design) if level == 0 else evaluate(ev.trace, design, level)
-        out.append(r.to_dict())
-    return out
+        ev = _TRACES[key] = TraceEvaluator(tr)
+    return [ev.run(Design.from_dict(d), level).to_dict() for d in designs]
 
 
 def run_sweep(spec: dict, out_dir, scheduler=None, workers=None, progress=None) -> dict:

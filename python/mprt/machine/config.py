@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import dataclasses
 import os
-import tomllib
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -465,15 +464,10 @@ def config_from_dict(data: dict, source: str | None = None) -> SystemConfig:
 
 def load_config(path) -> SystemConfig:
     """Read and check a machine configuration file (TOML)."""
+    from ..options import read_toml
+
     path = os.fspath(path)
-    try:
-        with open(path, "rb") as f:
-            data = tomllib.load(f)
-    except OSError as e:
-        raise ConfigError(f"{path}: cannot read the configuration ({e.strerror or e})") from None
-    except tomllib.TOMLDecodeError as e:
-        raise ConfigError(f"{path}: not valid TOML ({e})") from None
-    return config_from_dict(data, source=path)
+    return config_from_dict(read_toml(path, "configuration", ConfigError), source=path)
 
 
 def resolve(model: str | None = None, config_path=None, pes: int | None = None) -> SystemConfig:
