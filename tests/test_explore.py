@@ -276,3 +276,12 @@ def test_machine_config_of_a_design():
     assert at_level(cfg, 2).ring is not None and at_level(cfg, 2).ic_memory is None
     s = machine_fields(model_s())
     assert len(s["stage"]) == 1 and "ring" not in s and "send_fifo" not in s["stage"][0]
+
+def test_unmodelled_feeds_are_refused_by_name(tmp_path):
+    """Per-copy FIFOs fed round-robin or by the shortest queue are not modelled: a space asking for
+    them is refused naming the field and the feed, rather than evaluated as the shared queue."""
+    from mprt.explore.space import SpaceError, load_space
+    p = tmp_path / "s.toml"
+    p.write_text('[replication]\nfeed = { choices = ["shared", "round-robin"] }\n')
+    with pytest.raises(SpaceError, match=r"replication\.feed: 'round-robin' is not modelled"):
+        load_space(str(p))

@@ -25,7 +25,12 @@ from ..errors import MprtError
 STAGE_NAMES = ("OS", "IC", "SC")
 # The stage mappings: '|' separates processors, '+' joins subtasks on one processor.
 MAPPINGS = ("OS|IC|SC", "OS+SC|IC", "OS|IC+SC", "OS+IC+SC")
-FEEDS = ("round-robin", "shortest-queue")
+# How a processor's copies get their packets.  The machine model gives the copies of a processor
+# one receive FIFO that an idle copy takes the next packet from ("shared": a central queue, which
+# neither round-robin nor shortest-queue dispatch to per-copy FIFOs can beat); per-copy FIFOs fed
+# round-robin or by the shortest queue are not modelled, so they are refused by name.
+FEEDS = ("shared",)
+UNMODELLED_FEEDS = ("round-robin", "shortest-queue")
 UNIT_KINDS = ("int", "fp", "general")
 SHAPES = ("cube", "proportional")
 MAX_VALUES = 4096          # values of one variable (a range longer than this is refused)
@@ -33,6 +38,15 @@ MAX_VALUES = 4096          # values of one variable (a range longer than this is
 
 class SpaceError(MprtError, ValueError):
     """A design-space file or value is invalid; the message names the file and field."""
+
+
+def _check_feed(feed, where: str) -> None:
+    if feed in UNMODELLED_FEEDS:
+        raise SpaceError(f"{where}: {feed!r} is not modelled: the machine model's copies of a processor share "
+                         "one receive FIFO, an idle copy taking the next packet (feed = \"shared\"); per-copy "
+                         "FIFOs fed round-robin or by the shortest queue are not built yet")
+    if feed not in FEEDS:
+        raise SpaceError(f"{where}: feed {feed!r} is not one of {', '.join(FEEDS)}")
 
 
 def processors(mapping: str) -> list[tuple[str, ...]]:
@@ -51,7 +65,7 @@ class Design:
     first subtask (OS before IC before SC)."""
     mapping: str = "OS|IC|SC"
     replication: dict = field(default_factory=lambda: {"OS": 1, "IC": 1, "SC": 1})
-    feed: str = "round-robin"
+    feed: str = "shared"
     units: dict = field(default_factory=lambda: {"OS": {"int": 2, "fp": 2}, "IC": {"int": 1, "fp": 3},
                                                  "SC": {"general": 1}})
     fifo: int = 256                 # words per send and per receive FIFO
@@ -98,8 +112,7 @@ class Design:
     def validate(self, where: str = "design") -> None:
         if self.mapping not in MAPPINGS:
             raise SpaceError(f"{where}: mapping {self.mapping!r} is not one of {', '.join(MAPPINGS)}")
-        if self.feed not in FEEDS:
-            raise SpaceError(f"{where}: feed {self.feed!r} is not one of {', '.join(FEEDS)}")
+        _check_feed(self.feed, f"{where}: feed")
         for s in STAGE_NAMES:
             for name, table in (("replication", self.replication), ("units", self.units),
                                 ("cache", self.cache if s != "OS" else {"OS": 0}),
@@ -208,7 +221,7 @@ shape = "proportional"                   # other axes in proportion to the scene
 OS = { min = 1, max = 3 }
 IC = { min = 1, max = 4 }
 SC = { min = 1, max = 2 }
-feed = { choices = ["round-robin", "shortest-queue"] }
+feed = "shared"
 
 [units.OS]
 int = { min = 1, max = 3 }
@@ -278,7 +291,7 @@ class Space:
     def canonical(self, idx) -> tuple:
         """The index vector with every variable that cannot change the machine
         set to its first value: units and replication of a subtask that shares
-        its processor with an earlier one, the feed (not modelled), the FIFOs
+        its processor with an earlier one, the FIFOs
         when one processor runs everything.  Two vectors
         with the same canonical form are one design."""
         idx = list(int(i) for i in idx)
@@ -288,9 +301,6 @@ class Space:
             parts = v.name.split(".")
             if parts[0] in ("units", "replication") and parts[1] in STAGE_NAMES and parts[1] not in live_stage:
                 idx[i] = 0
-        # the machine model's copies of a processor share its receive FIFO (an idle copy takes the
-        # next packet): no feed policy is modelled, so designs differing only in it are one machine
-        idx[self._pos["replication.feed"]] = 0
         if len(live_stage) == 1:          # one processor: no packets, so no FIFOs
             idx[self._pos["fifo"]] = 0
         return tuple(idx)
@@ -426,7 +436,11 @@ def parse_space(text: str, source: str = "<space>") -> Space:
     _table(rep, w("replication"), set(STAGE_NAMES) | {"feed"})
     for s in STAGE_NAMES:
         variables.append(Var(f"replication.{s}", _leaf(rep.get(s, 1), w(f"replication.{s}"), "int", 1)))
-    variables.append(Var("replication.feed", _leaf(rep.get("feed", FEEDS[0]), w("replication.feed"), "name",
+    feed = rep.get("feed", FEEDS[0])
+    for f in (feed.get("choices", []) if isinstance(feed, dict) else [feed]):
+        if isinstance(f, str):
+            _check_feed(f, w("replication.feed"))
+    variables.append(Var("replication.feed", _leaf(feed, w("replication.feed"), "name",
                                                    names=FEEDS)))
     units = doc.get("units", base.get("units"))
     _table(units, w("units"), set(STAGE_NAMES))
