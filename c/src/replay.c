@@ -75,6 +75,7 @@ typedef struct {
 
 typedef struct {
     int64_t cur, busy, blocked, since, visits;
+    int64_t until;               /* when its last visit started ends */
     int64_t px;                  /* blocked with one packet: its visit (pg: its stage) */
     int64_t pa, pb;              /* blocked with made rays: child[pa .. pb) still to send */
     int pg, single;
@@ -123,6 +124,9 @@ struct mprt_replay {
     int64_t *tree_cost;          /* per tree: process, communication cycles, visits by subtask */
     int32_t *tree_pe;            /* per tree: the PE that admitted it */
     int64_t *tree_admit;         /* per tree: when it was admitted */
+    int64_t *tree_busy;          /* record_busy: per tree and stage, busy cycles at its admission */
+    size_t cap_tree_busy;
+    int record_busy, busy_recorded;   /* asked for; done in the last run */
     size_t cap_vi, cap_ray, cap_ray2, cap_ray3, cap_child, cap_tree, cap_tree9, cap_tree_pe, cap_tree_admit, cap_vp;
     int64_t ntrees, max_leaves;
     int64_t total;               /* the visits' cycles in all */
@@ -340,6 +344,7 @@ INLINE void start(mprt_replay *r, int i, int64_t j)
     p->cur = j;
     p->state = MPRT_PROC_BUSY;
     p->busy += d;
+    p->until = r->now + d;
     p->visits++;
     logev(r, 0, i, j);
     heap_push(r, r->now + d, i + 1, i);
@@ -452,6 +457,18 @@ static void prefetch_tree(const mprt_replay *r, int64_t t)
     for (; a < b; a += 64) PREFETCH(a);
 }
 
+/* Each stage's busy cycles by now, at tree t's admission. */
+static void note_busy(mprt_replay *r, int64_t t)
+{
+    int64_t *b = r->tree_busy + t * r->cfg.nstages;
+    int i;
+    memset(b, 0, (size_t)r->cfg.nstages * sizeof *b);
+    for (i = 0; i < r->nproc; i++) {
+        const proc *p = &r->procs[i];
+        b[r->nodes[p->node].stage] += p->busy - (p->until > r->now ? p->until - r->now : 0);
+    }
+}
+
 static void dis_admit(mprt_replay *r, int pe)
 {
     pe_t *e = &r->pes[pe];
@@ -467,6 +484,7 @@ static void dis_admit(mprt_replay *r, int pe)
         prefetch_tree(r, r->cfg.dis == MPRT_DIS_DYNAMIC ? r->shared_next : e->next);
         r->tree_pe[t] = pe;
         r->tree_admit[t] = r->now;
+        if (r->record_busy) note_busy(r, t);
         e->live++;
         if (e->live > e->max_live) e->max_live = e->live;
         e->admitted++;
@@ -690,6 +708,9 @@ static void free_trace(mprt_replay *r)
     free(r->tree_pe);
     free(r->tree_admit);
     r->tree_admit = NULL;
+    free(r->tree_busy);
+    r->tree_busy = NULL;
+    r->cap_tree_busy = 0;
     r->vi = NULL;
     r->ray_first = r->child_start = r->tree_of = r->child = r->tree_first = r->tree_cost = NULL;
     r->tree_pe = NULL;
@@ -1005,6 +1026,15 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
         free_run(r);
         return rc;
     }
+    r->busy_recorded = r->record_busy;
+    if (r->record_busy) {
+        size_t nb = (size_t)r->ntrees * (size_t)r->cfg.nstages;
+        if (RESERVE(r, tree_busy, cap_tree_busy, nb + 1)) {
+            free_run(r);
+            return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the busy record");
+        }
+        for (t = 0; t < (int64_t)nb; t++) r->tree_busy[t] = -1;
+    }
     for (t = 0; t < r->ntrees; t++) {
         r->tree_pe[t] = -1;
         r->tree_admit[t] = -1;
@@ -1128,6 +1158,27 @@ int mprt_replay_get_trees(const mprt_replay *r, int32_t *pe, int64_t *admitted, 
     if (rc != MPRT_OK) return rc;
     if (pe && r->ntrees) memcpy(pe, r->tree_pe, (size_t)r->ntrees * sizeof *pe);
     if (admitted && r->ntrees) memcpy(admitted, r->tree_admit, (size_t)r->ntrees * sizeof *admitted);
+    return MPRT_OK;
+}
+
+int mprt_replay_record_busy(mprt_replay *r, int on)
+{
+    if (!r) return MPRT_ERR_INVALID_ARG;
+    r->record_busy = on != 0;
+    return MPRT_OK;
+}
+
+int mprt_replay_get_tree_busy(const mprt_replay *r, int64_t *out, size_t cap)
+{
+    size_t n = r ? (size_t)r->ntrees * (size_t)r->cfg.nstages : 0;
+    int rc = need_run(r, out, cap, n);
+    if (rc != MPRT_OK) return rc;
+    if (!r->busy_recorded || !r->tree_busy) {
+        size_t i;
+        for (i = 0; i < n; i++) out[i] = -1;
+    } else if (n) {
+        memcpy(out, r->tree_busy, n * sizeof *out);
+    }
     return MPRT_OK;
 }
 

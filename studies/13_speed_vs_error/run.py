@@ -93,22 +93,62 @@ def throughput(trace, repeat: int, quick: bool) -> list:
 
 # ---- 2. sampled replay -----------------------------------------------------------------------
 
-def sampled(scene: str, size, res: int, edges, rates, seeds: int, threads: int) -> list:
-    """Model M on a sample of stratified tiles against the whole frame's replay (traced in the
-    tracer's default 16 x 16 tiles): (rows, whether sampling every tile gives the whole frame's
-    replay in the same tiles exactly)."""
+def sample_row(scene, edge, spec, truth, own, errs, covered, work, width):
+    errs = np.array(errs)
+    return {"scene": scene, "tile": edge, "sample": spec, "seeds": len(errs),
+            "work": float(np.mean(work)), "truth_cycles": truth, "order_effect_pct": 100 * (own / truth - 1),
+            "error_mean_pct": 100 * float(errs.mean()), "error_rms_pct": 100 * float(np.sqrt(np.mean(errs ** 2))),
+            "error_worst_pct": 100 * float(np.abs(errs).max()), "half_width_pct": 100 * float(np.mean(width)),
+            "coverage": float(np.mean(covered))}
+
+
+def sampled(scene: str, size, res: int, edges, rates, seeds: int, threads: int, methods=("runs", "tiles"),
+            trace_dir=None) -> list:
+    """Model M on a sample against the whole frame's replay (traced in the tracer's default
+    16 x 16 tiles): runs of trees of that trace (``runs:RATE:SEED``, scaled by the whole
+    frame's level 0) and stratified tiles of each edge (``stratified:RATE:SEED``, scaled by
+    the sample alone).  (rows, whether sampling everything gives the whole frame's replay
+    in the same order exactly)."""
     cfg, cm = builtin("M"), CostModel.default()
     g = mprt.Scene.spd(scene, size).grid()
-    rows = []
-    truth = None
-    exact = []
-    for edge in edges:
-        _, full = g.trace(res, res, tile=edge, threads=threads)
-        vc = costed(full, cfg, cm)
-        own = Compiled(full, vc).cycles(cfg)      # the whole frame in these tiles' order
-        if truth is None:       # the whole frame in the tracer's default tiles (16) is the truth
-            truth = own if edge == 16 else Compiled(*(lambda t: (t, costed(t, cfg, cm)))(
-                g.trace(res, res, tile=16, threads=threads)[1])).cycles(cfg)
+    rows, exact, frames = [], [], {}
+
+    def frame(edge):
+        if edge not in frames:
+            path = os.path.join(trace_dir, f"{scene}-{res}-t{edge}.npz") if trace_dir else None
+            if path and os.path.exists(path):
+                full = mprt.load_trace(path)
+            else:
+                full = g.trace(res, res, tile=edge, threads=threads)[1]
+                if path:
+                    full.save(path, compress=False)
+            vc = costed(full, cfg, cm)
+            frames[edge] = (full, vc, Compiled(full, vc).cycles(cfg))
+        return frames[edge]
+
+    truth = frame(16)[2]
+    if "runs" in methods:
+        full, vc, own = frame(16)
+        whole = Analytical(full, vc)
+        for rate in rates:
+            errs, covered, work, width = [], [], [], []
+            for seed in range(seeds):
+                st = sample_trace(full, f"runs:{rate}:{seed}")
+                svc = sliced(vc, st.visits)
+                comp = Compiled(st.trace, svc)
+                cycles = comp.cycles(cfg)
+                sc = S.estimate_runs(st, cycles, Analytical(st.trace, svc), whole, cfg, comp.admissions())
+                errs.append(sc.cycles / truth - 1)
+                covered.append(sc.interval[0] <= truth <= sc.interval[1])
+                work.append(len(st.trace.visits) / len(full.visits))
+                width.append((sc.interval[1] - sc.interval[0]) / 2 / truth)
+                if rate == 1:
+                    exact.append(sc.cycles == own and sc.interval == (own, own))
+            rows.append(sample_row(scene, 16, f"runs:{rate}", truth, own, errs, covered, work, width))
+            log(f"  {scene} runs 1/{rate}: rms {rows[-1]['error_rms_pct']:.2f}%, "
+                f"coverage {rows[-1]['coverage']:.2f}")
+    for edge in (edges if "tiles" in methods else ()):
+        full, vc, own = frame(edge)
         for rate in rates:
             errs, covered, work, width = [], [], [], []
             for seed in range(seeds):
@@ -122,17 +162,10 @@ def sampled(scene: str, size, res: int, edges, rates, seeds: int, threads: int) 
                 width.append((sc.interval[1] - sc.interval[0]) / 2 / truth)
                 if rate == 1:
                     exact.append(sc.cycles == own and sc.interval == (own, own))
-            errs = np.array(errs)
-            rows.append({"scene": scene, "tile": edge, "sample": f"stratified:{rate}", "seeds": seeds,
-                         "work": float(np.mean(work)), "truth_cycles": truth,
-                         "order_effect_pct": 100 * (own / truth - 1),
-                         "error_mean_pct": 100 * float(errs.mean()),
-                         "error_rms_pct": 100 * float(np.sqrt(np.mean(errs ** 2))),
-                         "error_worst_pct": 100 * float(np.abs(errs).max()),
-                         "half_width_pct": 100 * float(np.mean(width)),
-                         "coverage": float(np.mean(covered))})
+            rows.append(sample_row(scene, edge, f"stratified:{rate}", truth, own, errs, covered, work, width))
             log(f"  {scene} tile {edge} 1/{rate}: rms {rows[-1]['error_rms_pct']:.2f}%, "
                 f"coverage {rows[-1]['coverage']:.2f}")
+        frames.pop(edge) if edge != 16 else None
     return rows, all(exact)
 
 
@@ -238,6 +271,8 @@ def main(argv=None) -> int:
         ap.add_argument("--repeat", type=int, default=3)
         ap.add_argument("--scenes", default=",".join(SCENES))
         ap.add_argument("--parts", default="throughput,sampled,ladder")
+        ap.add_argument("--methods", default="runs,tiles", help="sampled: runs (of trees), tiles (stratified)")
+        ap.add_argument("--trace-dir", default=None, help="sampled: keep the frames' traces here and reuse them")
 
     a, out = study_args(__file__, "speed against error: the fidelity ladder", "balls and tetra at size 1, 32x32",
                         argv, extra)
@@ -257,7 +292,8 @@ def main(argv=None) -> int:
         rows, exact = [], True
         for sc in scenes:
             r, ok = sampled(sc, size, 32 if quick else a.res, (8,) if quick else (16, 8),
-                            (1, 4) if quick else (4, 16), 5 if quick else a.seeds, a.threads)
+                            (1, 4) if quick else (4, 16), 5 if quick else a.seeds, a.threads,
+                            tuple(a.methods.split(",")), a.trace_dir)
             rows += r
             exact = exact and ok
         write_table(out, "sampled.csv", rows)
