@@ -59,7 +59,8 @@ typedef struct {
 typedef struct {
     queue q;
     int64_t cap;                 /* 0: unbounded */
-    int64_t area, last, max, puts;
+    uint64_t sojourn;            /* packets' cycles in it so far: sum of gets' cycles - puts' (mod 2^64) */
+    int64_t last, max, puts;
 } fifo;
 
 typedef struct {
@@ -76,6 +77,7 @@ typedef struct {
 typedef struct {
     int64_t cur, busy, blocked, since, visits;
     int64_t until;               /* when its last visit started ends */
+    int64_t next;                /* that visit's next field (see vinfo) */
     int64_t px;                  /* blocked with one packet: its visit (pg: its stage) */
     int64_t pa, pb;              /* blocked with made rays: child[pa .. pb) still to send */
     int pg, single;
@@ -111,6 +113,7 @@ struct mprt_replay {
     int64_t *heap_t, *heap_p;    /* pending events: time, priority (rank, or processors + rank) */
     int32_t *heap_i;             /* ... and processor */
     int nheap;
+    int small;                   /* at most SMALL_PROCS processors: pending events by processor, no heap */
     /* the trace (buffers kept from run to run; cap_*: their capacities) */
     size_t nv, nr;
     vinfo *vi;                   /* per visit (wide) */
@@ -196,15 +199,13 @@ static void q_free(queue *q)
 
 INLINE int f_room(const fifo *f) { return f->cap == 0 || (int64_t)f->q.len < f->cap; }
 
-INLINE void f_mark(fifo *f, int64_t now)
-{
-    f->area += (int64_t)f->q.len * (now - f->last);
-    f->last = now;
-}
-
+/* The occupancy integrated over time is the packets' time in the FIFO: each
+ * put subtracts its cycle, each get adds its cycle, and packets still in it
+ * count to the end (f_area). */
 INLINE void f_put(mprt_replay *r, fifo *f, int64_t x)
 {
-    f_mark(f, r->now);
+    f->sojourn -= (uint64_t)r->now;
+    f->last = r->now;
     q_push(r, &f->q, x);
     f->puts++;
     if ((int64_t)f->q.len > f->max) f->max = (int64_t)f->q.len;
@@ -212,8 +213,16 @@ INLINE void f_put(mprt_replay *r, fifo *f, int64_t x)
 
 INLINE int64_t f_get(mprt_replay *r, fifo *f)
 {
-    f_mark(f, r->now);
+    f->sojourn += (uint64_t)r->now;
+    f->last = r->now;
     return q_pop(&f->q);
+}
+
+/* Occupancy integrated over [0, max(end, last change)]. */
+static int64_t f_area(const fifo *f, int64_t end)
+{
+    int64_t t = end > f->last ? end : f->last;
+    return (int64_t)(f->sojourn + (uint64_t)f->q.len * (uint64_t)t);
 }
 
 /* ---- events ---------------------------------------------------------------- */
@@ -222,9 +231,19 @@ INLINE int64_t f_get(mprt_replay *r, fifo *f)
  * read field by field. */
 INLINE int ev_before(int64_t t1, int64_t p1, int64_t t2, int64_t p2) { return t1 < t2 || (t1 == t2 && p1 < p2); }
 
+/* With few processors (and times that leave room) the pending events sit by
+ * processor as one key, time << SMALL_SHIFT | priority (INT64_MAX: none; a
+ * processor has at most one), and the first is found by a scan. */
+#define SMALL_PROCS 8
+#define SMALL_SHIFT 5    /* priorities are below 2 x SMALL_PROCS + 2 <= 32 */
+
 INLINE void heap_push(mprt_replay *r, int64_t t, int64_t prio, int i)
 {
     int c = r->nheap++;
+    if (r->small) {
+        r->heap_t[i] = t << SMALL_SHIFT | prio;
+        return;
+    }
     int64_t *ht = r->heap_t, *hp = r->heap_p;
     int32_t *hi = r->heap_i;
     while (c > 0) {
@@ -245,9 +264,20 @@ INLINE int heap_pop(mprt_replay *r, int64_t *t)
 {
     int64_t *ht = r->heap_t, *hp = r->heap_p;
     int32_t *hi = r->heap_i;
-    int n = --r->nheap, c = 0, top = hi[0];
-    int64_t lt = ht[n], lp = hp[n];
-    int32_t li = hi[n];
+    int n = --r->nheap, c = 0, top;
+    int64_t lt, lp;
+    int32_t li;
+    if (r->small) {
+        int k, m = 0;
+        for (k = 1; k < r->nproc; k++) m = ht[k] < ht[m] ? k : m;
+        *t = ht[m] >> SMALL_SHIFT;
+        ht[m] = INT64_MAX;
+        return m;
+    }
+    top = hi[0];
+    lt = ht[n];
+    lp = hp[n];
+    li = hi[n];
     *t = ht[0];
     for (;;) {
         int a = 2 * c + 1, m;
@@ -265,16 +295,6 @@ INLINE int heap_pop(mprt_replay *r, int64_t *t)
         hi[c] = li;
     }
     return top;
-}
-
-INLINE int64_t v_dur(const mprt_replay *r, int64_t j)
-{
-    return r->wide ? r->vi[j].dur : (int64_t)((r->vp[j] >> 10) & (((uint64_t)1 << PACK_DUR_BITS) - 1));
-}
-
-INLINE int64_t v_next(const mprt_replay *r, int64_t j)
-{
-    return r->wide ? r->vi[j].next : (int64_t)((r->vp[j] >> 34) << 10 | (r->vp[j] & 1023));
 }
 
 INLINE const void *v_addr(const mprt_replay *r, int64_t j)
@@ -318,6 +338,9 @@ INLINE int take_idle(node *nd)
 
 INLINE node *node_of(mprt_replay *r, int pe, int stage) { return &r->nodes[pe * r->cfg.nstages + stage]; }
 
+/* Stage g of nd's PE (a PE's stages are contiguous). */
+INLINE node *sibling(node *nd, int g) { return nd - nd->stage + g; }
+
 INLINE void logev(mprt_replay *r, int what, int i, int64_t j)
 {
     if (r->log) {
@@ -335,7 +358,14 @@ INLINE void start(mprt_replay *r, int i, int64_t j)
     proc *p = &r->procs[i];
     int64_t d;
     if (j >= 0) {
-        d = v_dur(r, j);
+        if (r->wide) {
+            d = r->vi[j].dur;
+            p->next = r->vi[j].next;
+        } else {
+            uint64_t w = r->vp[j];
+            d = (int64_t)((w >> 10) & (((uint64_t)1 << PACK_DUR_BITS) - 1));
+            p->next = (int64_t)((w >> 34) << 10 | (w & 1023));
+        }
         PREFETCH(v_addr(r, j + 4));
     } else {
         d = r->cfg.gen_cycles;
@@ -352,6 +382,7 @@ INLINE void start(mprt_replay *r, int i, int64_t j)
 
 INLINE void accept(mprt_replay *r, node *nd, int64_t x)
 {
+    if (x >= 0) PREFETCH(v_addr(r, x));
     if (nd->nidle)
         start(r, take_idle(nd), x);
     else
@@ -360,7 +391,8 @@ INLINE void accept(mprt_replay *r, node *nd, int64_t x)
 
 INLINE int net_send(mprt_replay *r, node *src, int64_t x, int g)
 {
-    node *dst = node_of(r, src->pe, g);
+    node *dst = sibling(src, g);
+    PREFETCH(v_addr(r, x));
     if (src->sf.q.len == 0) {
         if (dst->nidle) {
             start(r, take_idle(dst), x);
@@ -382,6 +414,7 @@ INLINE int net_send(mprt_replay *r, node *src, int64_t x, int g)
 INLINE int output(mprt_replay *r, node *src, int64_t x, int g)
 {
     if (g == src->stage) {
+        PREFETCH(v_addr(r, x));
         if (src->nidle)
             start(r, take_idle(src), x);
         else
@@ -420,7 +453,7 @@ static void advance(mprt_replay *r, node *src)
 {
     while (src->sf.q.len) {
         int64_t e = src->sf.q.buf[src->sf.q.head], x = e >> 2;
-        node *dst = node_of(r, src->pe, (int)(e & 3));
+        node *dst = sibling(src, (int)(e & 3));
         if (dst->nidle) {
             f_get(r, &src->sf);
             start(r, take_idle(dst), x);
@@ -516,7 +549,7 @@ static void freed(mprt_replay *r, node *dst)
         if (w == DIS_WAITER)
             dis_release(r, dst->pe);
         else
-            advance(r, node_of(r, dst->pe, (int)w));
+            advance(r, sibling(dst, (int)w));
     }
 }
 
@@ -537,10 +570,9 @@ static void block(mprt_replay *r, proc *p, node *nd)
     q_push(r, &nd->swait, p->k);
 }
 
-/* Where visit j's ray goes after it: a stage, RETIRE or CHILDREN. */
-INLINE int dest(const mprt_replay *r, int64_t j)
+/* Where a visit's ray goes after it (a: its next field): a stage, RETIRE or CHILDREN. */
+INLINE int dest(const mprt_replay *r, int64_t a)
 {
-    int64_t a = v_next(r, j);
     switch (a & 3) {
     case NEXT_VISIT: return r->cfg.stage_of[(a >> 2) & 3];
     case NEXT_RETIRE: return RETIRE;
@@ -567,7 +599,7 @@ static void handle(mprt_replay *r, int i)
                 return;
             }
         } else {
-            int g = dest(r, j), ok = 1;
+            int g = dest(r, p->next), ok = 1;
             if (g >= 0) {
                 if (!output(r, nd, j + 1, g)) {
                     p->single = 1;
@@ -579,7 +611,7 @@ static void handle(mprt_replay *r, int i)
             } else {
                 if (g == CHILDREN) {
                     pe_t *e = &r->pes[p->pe];
-                    int64_t nx = v_next(r, j), a = nx >> 10, b = a + ((nx >> 2) & 255), c;
+                    int64_t nx = p->next, a = nx >> 10, b = a + ((nx >> 2) & 255), c;
                     e->live += b - a;
                     if (e->live > e->max_live) e->max_live = e->live;
                     for (c = a; c < b; c++) {
@@ -944,6 +976,10 @@ static int build(mprt_replay *r)
     r->heap_i = malloc((size_t)r->nproc * sizeof *r->heap_i);
     if (!r->procs || !r->nodes || !r->pes || !r->heap_t || !r->heap_p || !r->heap_i)
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
+    /* every event falls within the visits' cycles and the primaries' making */
+    r->small = r->nproc <= SMALL_PROCS && r->total + c->gen_cycles * r->ntrees < (INT64_MAX >> SMALL_SHIFT) - 1;
+    for (i = 0; r->small && i < r->nproc; i++) r->heap_t[i] = INT64_MAX;
+    i = 0;
     for (p = 0; p < c->pes; p++) {
         pe_t *e = &r->pes[p];
         if (c->dis == MPRT_DIS_BLOCKS) {
@@ -1119,11 +1155,11 @@ int mprt_replay_get_nodes(const mprt_replay *r, mprt_replay_node *out, size_t ca
         o->receive_occupancy = (int64_t)nd->rf.q.len;
         o->receive_max = nd->rf.max;
         o->receive_puts = nd->rf.puts;
-        o->receive_area = nd->rf.area + (int64_t)nd->rf.q.len * (end > nd->rf.last ? end - nd->rf.last : 0);
+        o->receive_area = f_area(&nd->rf, end);
         o->send_occupancy = (int64_t)nd->sf.q.len;
         o->send_max = nd->sf.max;
         o->send_puts = nd->sf.puts;
-        o->send_area = nd->sf.area + (int64_t)nd->sf.q.len * (end > nd->sf.last ? end - nd->sf.last : 0);
+        o->send_area = f_area(&nd->sf, end);
         o->local_queue = (int64_t)nd->local.len;
         o->generated = nd->generated;
     }
