@@ -304,6 +304,10 @@ INLINE const void *v_addr(const mprt_replay *r, int64_t j)
 
 /* ---- the machine ------------------------------------------------------------- */
 
+#ifndef TREE_PREFETCH
+#define TREE_PREFETCH 4096   /* bytes of a tree's visits fetched ahead */
+#endif
+
 /* A hint to fetch memory soon needed (a tree's later visits are read later). */
 #if defined(__GNUC__)
 #define PREFETCH(p) __builtin_prefetch(p)
@@ -486,7 +490,7 @@ static void prefetch_tree(const mprt_replay *r, int64_t t)
     if (t >= r->ntrees) return;
     a = (const char *)v_addr(r, r->tree_first[t]);
     b = (const char *)v_addr(r, t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv);
-    if (b - a > 4096) b = a + 4096;
+    if (b - a > TREE_PREFETCH) b = a + TREE_PREFETCH;
     for (; a < b; a += 64) PREFETCH(a);
 }
 

@@ -211,32 +211,47 @@ def _tiling(meta, tile):
     return -(-w // tile), -(-h // tile), w * h
 
 
-def choose_runs(sampling: Sampling, ntrees: int) -> tuple:
-    """(first tree of each run, trees per run): about ntrees / (k x run) runs, one placed
-    at random (seeded) in each of as many equal stretches of the frame's trees."""
-    n = max(1, int(round(ntrees / (sampling.k * sampling.run))))
-    length = max(1, min(sampling.run, ntrees // (n * sampling.k)))
-    stride = ntrees / n
+def choose_runs(sampling: Sampling, tree_visits: np.ndarray) -> tuple:
+    """(first tree, end tree) of each run: the frame's trees cut into about
+    ntrees / (k x run) stretches of equal visits, and in each a run of consecutive trees
+    holding at most a k-th of the stretch's visits (at least one tree), placed at random
+    (seeded): the sample replays about a k-th of the frame's visits, no more."""
+    v = np.asarray(tree_visits, np.int64)
+    ntrees = len(v)
+    n = max(1, min(ntrees, int(round(ntrees / (sampling.k * sampling.run)))))
+    cum = np.concatenate([[0], np.cumsum(v)])
+    total = int(cum[-1])
+    edges = np.searchsorted(cum, np.arange(n + 1) * total / n, "left")
+    edges[0], edges[-1] = 0, ntrees
     u = np.random.default_rng(sampling.seed).random(n)
-    starts = np.floor(np.arange(n) * stride + u * max(0.0, stride - length)).astype(np.int64)
-    return np.minimum(starts, ntrees - length), length
+    starts, ends = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    for i in range(n):
+        lo, hi = int(edges[i]), int(max(edges[i + 1], edges[i] + 1))
+        want = (cum[hi] - cum[lo]) / sampling.k
+        # the latest start that still leaves a k-th of the stretch's visits before hi
+        last = max(lo, int(np.searchsorted(cum, cum[hi] - want, "right")) - 1)
+        a = lo + int(u[i] * (last - lo + 1))
+        b = int(np.searchsorted(cum, cum[a] + want, "right")) - 1     # at most a k-th
+        starts[i], ends[i] = a, min(max(b, a + 1), hi)
+    return starts, ends
 
 
 def _sample_runs(trace, sampling: Sampling) -> SampledTrace:
     kind = np.asarray(trace.rays["kind"])
+    tree_of_ray = np.cumsum(kind == PRIMARY) - 1
     ntrees = int((kind == PRIMARY).sum())
-    starts, length = choose_runs(sampling, ntrees)
+    vray = np.asarray(trace.visits["ray"])
+    starts, ends = choose_runs(sampling, np.bincount(tree_of_ray[vray], minlength=ntrees))
     keep = np.zeros(ntrees, bool)
     run = np.full(ntrees, -1, np.int64)
-    for i, a in enumerate(starts):
-        keep[a:a + length] = True
-        run[a:a + length] = i
+    for i, (a, b) in enumerate(zip(starts, ends)):
+        keep[a:b] = True
+        run[a:b] = i
     sub = subset(trace, keep)
-    sub.meta["sampled"] = {"sample": str(sampling), "runs": starts.tolist(), "run": length}
-    keep_ray = keep[np.cumsum(kind == PRIMARY) - 1]
-    samples = len(keep)
-    return SampledTrace(sub, sampling, 0, starts, np.full(len(starts), ntrees / (len(starts) * length)), None,
-                        ntrees, int(keep.sum()) / samples, keep_ray[np.asarray(trace.visits["ray"])], run[keep])
+    sub.meta["sampled"] = {"sample": str(sampling), "runs": [[int(a), int(b)] for a, b in zip(starts, ends)]}
+    keep_v = keep[tree_of_ray[vray]]
+    return SampledTrace(sub, sampling, 0, starts, np.full(len(starts), float(sampling.k)), None,
+                        ntrees, int(keep.sum()) / ntrees, keep_v, run[keep])
 
 
 def sample_trace(trace, sampling: Sampling | str, tile: int | None = None) -> SampledTrace:
