@@ -213,12 +213,12 @@ def _tiling(meta, tile):
 
 def choose_runs(sampling: Sampling, tree_visits: np.ndarray) -> tuple:
     """(first tree, end tree) of each run: the frame's trees cut into about
-    ntrees / (k x run) stretches of equal visits, and in each a run of consecutive trees
+    ntrees / (k x run) stretches (at least 2) of equal visits, and in each a run of consecutive trees
     holding at most a k-th of the stretch's visits (at least one tree), placed at random
     (seeded): the sample replays about a k-th of the frame's visits, no more."""
     v = np.asarray(tree_visits, np.int64)
     ntrees = len(v)
-    n = max(1, min(ntrees, int(round(ntrees / (sampling.k * sampling.run)))))
+    n = max(min(2, ntrees), min(ntrees, int(round(ntrees / (sampling.k * sampling.run)))))   # 2: a spread
     cum = np.concatenate([[0], np.cumsum(v)])
     total = int(cum[-1])
     edges = np.searchsorted(cum, np.arange(n + 1) * total / n, "left")
@@ -326,7 +326,7 @@ def estimate_runs(st: SampledTrace, sample_cycles: int, analytical, frame, confi
         e = m - sizes * (m.sum() / sizes.sum())
         var = (1 - st.fraction) * float((e * e).sum()) / (n * (n - 1)) / float(sizes.mean()) ** 2
         half = float(student.ppf(0.975, n - 1)) * L * math.sqrt(var)
-    lo, hi = (int(math.floor(cycles - half)), int(math.ceil(cycles + half))) if half else (int(round(cycles)),) * 2
+    lo, hi = (max(0, int(math.floor(cycles - half))), int(math.ceil(cycles + half))) if half else (int(round(cycles)),) * 2
     return Scaled(cycles=int(round(cycles)), interval=(lo, hi), sample_cycles=int(sample_cycles),
                   fraction=st.fraction, tiles=n, tiles_total=st.tiles_total,
                   scale=cycles / sample_cycles if sample_cycles else 0.0)
