@@ -120,7 +120,7 @@ def sample_row(scene, edge, spec, truth, own, errs, covered, work, width):
 
 
 def sampled(scene: str, size, res: int, edges, rates, seeds: int, threads: int, methods=("runs", "tiles"),
-            trace_dir=None) -> list:
+            trace_dir=None, run_trees=None) -> list:
     """Model M on a sample against the whole frame's replay (traced in the tracer's default
     16 x 16 tiles): runs of trees of that trace (``runs:RATE:SEED``, scaled by the whole
     frame's level 0) and stratified tiles of each edge (``stratified:RATE:SEED``, scaled by
@@ -150,7 +150,7 @@ def sampled(scene: str, size, res: int, edges, rates, seeds: int, threads: int, 
         for rate in rates:
             errs, covered, work, width = [], [], [], []
             for seed in range(seeds):
-                st = sample_trace(full, f"runs:{rate}:{seed}")
+                st = sample_trace(full, f"runs:{rate}:{seed}" + (f":{run_trees}" if run_trees else ""))
                 svc = sliced(vc, st.visits)
                 comp = Compiled(st.trace, svc)
                 cycles = comp.cycles(cfg)
@@ -161,7 +161,8 @@ def sampled(scene: str, size, res: int, edges, rates, seeds: int, threads: int, 
                 width.append((sc.interval[1] - sc.interval[0]) / 2 / truth)
                 if rate == 1:
                     exact.append(sc.cycles == own and sc.interval == (own, own))
-            rows.append(sample_row(scene, 16, f"runs:{rate}", truth, own, errs, covered, work, width))
+            rows.append(sample_row(scene, 16, f"runs:{rate}" + (f":*:{run_trees}" if run_trees else ""), truth, own,
+                                   errs, covered, work, width))
             log(f"  {scene} runs 1/{rate}: rms {rows[-1]['error_rms_pct']:.2f}%, "
                 f"coverage {rows[-1]['coverage']:.2f}")
     for edge in (edges if "tiles" in methods else ()):
@@ -290,6 +291,7 @@ def main(argv=None) -> int:
         ap.add_argument("--parts", default="throughput,sampled,ladder")
         ap.add_argument("--methods", default="runs,tiles", help="sampled: runs (of trees), tiles (stratified)")
         ap.add_argument("--trace-dir", default=None, help="sampled: keep the frames' traces here and reuse them")
+        ap.add_argument("--run-trees", type=int, default=None, help="sampled: trees per run (default 1024)")
 
     a, out = study_args(__file__, "speed against error: the fidelity ladder", "balls and tetra at size 1, 32x32",
                         argv, extra)
@@ -310,7 +312,7 @@ def main(argv=None) -> int:
         for sc in scenes:
             r, ok = sampled(sc, size, 32 if quick else a.res, (8,) if quick else (16, 8),
                             (1, 4) if quick else (4, 16), 5 if quick else a.seeds, a.threads,
-                            tuple(a.methods.split(",")), a.trace_dir)
+                            tuple(a.methods.split(",")), a.trace_dir, a.run_trees)
             rows += r
             exact = exact and ok
         write_table(out, "sampled.csv", rows)
