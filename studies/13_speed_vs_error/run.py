@@ -110,6 +110,14 @@ def throughput(trace, repeat: int, quick: bool) -> list:
 
 # ---- 2. sampled replay -----------------------------------------------------------------------
 
+def note(acc, sc, truth, work):
+    """Add one seed's estimate to acc = (errors, covered, work, half widths)."""
+    acc[0].append(sc.cycles / truth - 1)
+    acc[1].append(sc.interval[0] <= truth <= sc.interval[1])
+    acc[2].append(work)
+    acc[3].append((sc.interval[1] - sc.interval[0]) / 2 / truth)
+
+
 def sample_row(scene, edge, spec, truth, own, errs, covered, work, width):
     errs = np.array(errs)
     return {"scene": scene, "tile": edge, "sample": spec, "seeds": len(errs),
@@ -148,39 +156,33 @@ def sampled(scene: str, size, res: int, edges, rates, seeds: int, threads: int, 
         full, vc, own = frame(16)
         whole = Analytical(full, vc)
         for rate in rates:
-            errs, covered, work, width = [], [], [], []
+            acc = ([], [], [], [])
             for seed in range(seeds):
                 st = sample_trace(full, f"runs:{rate}:{seed}" + (f":{run_trees}" if run_trees else ""))
                 svc = sliced(vc, st.visits)
                 comp = Compiled(st.trace, svc)
                 cycles = comp.cycles(cfg)
                 sc = S.estimate_runs(st, cycles, Analytical(st.trace, svc), whole, cfg, comp.admissions())
-                errs.append(sc.cycles / truth - 1)
-                covered.append(sc.interval[0] <= truth <= sc.interval[1])
-                work.append(len(st.trace.visits) / len(full.visits))
-                width.append((sc.interval[1] - sc.interval[0]) / 2 / truth)
+                note(acc, sc, truth, len(st.trace.visits) / len(full.visits))
                 if rate == 1:
                     exact.append(sc.cycles == own and sc.interval == (own, own))
             rows.append(sample_row(scene, 16, f"runs:{rate}" + (f":*:{run_trees}" if run_trees else ""), truth, own,
-                                   errs, covered, work, width))
+                                   *acc))
             log(f"  {scene} runs 1/{rate}: rms {rows[-1]['error_rms_pct']:.2f}%, "
                 f"coverage {rows[-1]['coverage']:.2f}")
     for edge in (edges if "tiles" in methods else ()):
         full, vc, own = frame(edge)
         for rate in rates:
-            errs, covered, work, width = [], [], [], []
+            acc = ([], [], [], [])
             for seed in range(seeds):
                 st = sample_trace(full, f"stratified:{rate}:{seed}")
                 svc = sliced(vc, st.visits)
                 e = Evaluator(st.trace, costs=svc).evaluate(cfg, 1, "compiled")
                 sc = S.estimate(st, e, Analytical(st.trace, svc), cfg)
-                errs.append(sc.cycles / truth - 1)
-                covered.append(sc.interval[0] <= truth <= sc.interval[1])
-                work.append(len(st.trace.visits) / len(full.visits))
-                width.append((sc.interval[1] - sc.interval[0]) / 2 / truth)
+                note(acc, sc, truth, len(st.trace.visits) / len(full.visits))
                 if rate == 1:
                     exact.append(sc.cycles == own and sc.interval == (own, own))
-            rows.append(sample_row(scene, edge, f"stratified:{rate}", truth, own, errs, covered, work, width))
+            rows.append(sample_row(scene, edge, f"stratified:{rate}", truth, own, *acc))
             log(f"  {scene} tile {edge} 1/{rate}: rms {rows[-1]['error_rms_pct']:.2f}%, "
                 f"coverage {rows[-1]['coverage']:.2f}")
         frames.pop(edge) if edge != 16 else None

@@ -202,37 +202,34 @@ class Analytical:
         res.level = 0
         return res
 
-    def tree_times(self, config: SystemConfig, tree_group: np.ndarray) -> np.ndarray:
-        """Per tree, its share of level 0's time on one PE, chunked as ``tile_times`` chunks
-        (runs of one group's trees): each chunk's time spread evenly over its trees."""
+    def _group_chunks(self, config: SystemConfig, tree_group: np.ndarray):
+        """(first tree of each chunk, its time): trees chunked as they come, a chunk never
+        spanning two runs of one group's trees."""
         sw = self.stage_work(config)
         c = self.critical.astype(np.float64)
         tt = np.asarray(tree_group)
-        if len(tt) == 0:
-            return np.zeros(0)
         chunk = self.chunk(config)
         run0 = np.flatnonzero(np.concatenate([[True], tt[1:] != tt[:-1]]))
         pos = np.arange(len(tt)) - np.repeat(run0, np.diff(np.concatenate([run0, [len(tt)]])))
         cut = np.flatnonzero((pos % chunk) == 0)
-        per_chunk = np.maximum(np.add.reduceat(sw, cut, axis=0).max(axis=1),
-                               np.add.reduceat(c, cut) / config.window)
-        size = np.diff(np.append(cut, len(tt)))
+        return cut, np.maximum(np.add.reduceat(sw, cut, axis=0).max(axis=1), np.add.reduceat(c, cut) / config.window)
+
+    def tree_times(self, config: SystemConfig, tree_group: np.ndarray) -> np.ndarray:
+        """Per tree, its share of level 0's time on one PE, chunked as ``tile_times`` chunks
+        (runs of one group's trees): each chunk's time spread evenly over its trees."""
+        if len(tree_group) == 0:
+            return np.zeros(0)
+        cut, per_chunk = self._group_chunks(config, tree_group)
+        size = np.diff(np.append(cut, len(tree_group)))
         return np.repeat(per_chunk / size, size)
 
     def tile_times(self, config: SystemConfig, tree_tile: np.ndarray):
         """(tiles, times): the level-0 time of each tile's trees on one PE of the
         configuration, chunked as the trees come (runs of one tile's trees): the sizes a
         sampled replay scales by.  ``tree_tile``: each tree's tile; tiles sorted."""
-        sw = self.stage_work(config)
-        c = self.critical.astype(np.float64)
         tt = np.asarray(tree_tile)
         if len(tt) == 0:
             return np.zeros(0, np.int64), np.zeros(0)
-        chunk = self.chunk(config)
-        run0 = np.flatnonzero(np.concatenate([[True], tt[1:] != tt[:-1]]))
-        pos = np.arange(len(tt)) - np.repeat(run0, np.diff(np.concatenate([run0, [len(tt)]])))
-        cut = np.flatnonzero((pos % chunk) == 0)
-        per_chunk = np.maximum(np.add.reduceat(sw, cut, axis=0).max(axis=1),
-                               np.add.reduceat(c, cut) / config.window)
+        cut, per_chunk = self._group_chunks(config, tt)
         tiles, idx = np.unique(tt[cut], return_inverse=True)
         return tiles, np.bincount(idx, weights=per_chunk, minlength=len(tiles))
