@@ -319,14 +319,15 @@ def estimate_runs(st: SampledTrace, sample_cycles: int, analytical, frame, confi
         # a tree is admitted when rays about a window ahead of it retire: its run's interval
         # times the trees a window of rays earlier
         rays = np.concatenate([[0], np.cumsum(analytical.tree_rays)])
-        back = np.searchsorted(rays, rays[first] - getattr(config, "window", 0) * getattr(config, "pes", 1), "right") - 1
+        back = np.searchsorted(rays, rays[first] - config.window * config.pes, "right") - 1
         lo = np.maximum(back, 0)
         hi = np.append(lo[1:], len(st.run_of))
         sizes = x[hi] - x[lo]
         e = m - sizes * (m.sum() / sizes.sum())
         var = (1 - st.fraction) * float((e * e).sum()) / (n * (n - 1)) / float(sizes.mean()) ** 2
         half = float(student.ppf(0.975, n - 1)) * L * math.sqrt(var)
-    lo, hi = (max(0, int(math.floor(cycles - half))), int(math.ceil(cycles + half))) if half else (int(round(cycles)),) * 2
+    lo, hi = ((max(0, int(math.floor(cycles - half))), int(math.ceil(cycles + half))) if half
+              else (int(round(cycles)),) * 2)
     return Scaled(cycles=int(round(cycles)), interval=(lo, hi), sample_cycles=int(sample_cycles),
                   fraction=st.fraction, tiles=n, tiles_total=st.tiles_total,
                   scale=cycles / sample_cycles if sample_cycles else 0.0)
