@@ -54,6 +54,16 @@ def test_level0_and_auto(tmp_path, capsys):
     assert "cheapest within 0%" in capsys.readouterr().out
 
 
+def test_auto_measures_on_runs_of_a_large_frame(tmp_path, capsys):
+    """A frame of 64 tiles: --level auto measures the levels on runs holding a sixteenth of
+    its visits (at most), not on the whole frame."""
+    rc, d = run(tmp_path, "tetra", "--grid", "4", "--res", "64x64", "--tile", "8", "--model", "M", "--level", "auto")
+    assert rc == 0 and d["level"] in (0, 1)
+    out = capsys.readouterr().out
+    share = float(out.split("levels  measured on ")[1].split("%")[0])
+    assert 0 < share < 100
+
+
 def test_sample_of_a_scene(tmp_path):
     rc, d = run(tmp_path, "tetra", "--grid", "4", "--res", "32x32", "--tile", "8", "--model", "M",
                 "--sample", "stratified:4:1")
