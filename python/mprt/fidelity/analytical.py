@@ -127,17 +127,20 @@ class Analytical:
             out[:, i] /= st.replicas
         return out
 
-    def chunk(self, config: SystemConfig) -> int:
-        return max(1, int(round(CHUNK_WINDOWS * config.window / self.rays_per_tree)))
+    def chunk(self, config: SystemConfig, windows: float | None = None) -> int:
+        """Trees per chunk: about ``windows`` (default CHUNK_WINDOWS) windows of rays."""
+        w = CHUNK_WINDOWS if windows is None else windows
+        return max(1, int(round(w * config.window / self.rays_per_tree)))
 
-    def estimate(self, config: SystemConfig) -> Estimate:
-        return self._estimate(config)[0]
+    def estimate(self, config: SystemConfig, windows: float | None = None) -> Estimate:
+        """Level 0's estimate (``windows``: chunks of that many windows instead of CHUNK_WINDOWS)."""
+        return self._estimate(config, windows)[0]
 
-    def _estimate(self, config: SystemConfig):
+    def _estimate(self, config: SystemConfig, windows: float | None = None):
         """(Estimate, each PE's trees, each PE's time)."""
         sw = self.stage_work(config)
         names = [s.name for s in config.stages]
-        chunk = self.chunk(config)
+        chunk = self.chunk(config, windows)
         best = (-1.0, 0.0, np.zeros(len(names)))
         lower = float(self.critical.max(initial=0))
         split = self._trees_of(config)

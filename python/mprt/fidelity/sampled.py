@@ -28,7 +28,8 @@ finite-population correction (a sample of every tile has no uncertainty).
 
 Runs (the explorer's case: one trace of the whole frame, many designs) use the whole
 frame's level-0 estimate L as the known total: T = T_s x L / L_s, L_s being level 0's
-estimate of the sample (its runs strung together, as replayed).  Runs keep the frame's
+estimate of the sample (its runs strung together, as replayed), both in chunks of
+RUN_SCALE_WINDOWS windows.  Runs keep the frame's
 order (a run is a stretch of the trace, several windows long, so only its ends mix with
 other parts of the frame), and level 0 of the whole frame removes the spread between
 runs.  The interval comes from the spread of the runs' own ratios (each run's replayed
@@ -46,6 +47,7 @@ from ..errors import InvalidArgument
 from ..trace import PRIMARY, Trace
 
 RUN_TREES = 1024        # runs: trees per run (several windows of model M's 256 rays)
+RUN_SCALE_WINDOWS = 3   # runs: level 0's chunks when scaling (windows; smooths like the FIFOs do)
 _EXTRA = ("voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material", "samples")
 
 
@@ -306,7 +308,7 @@ def estimate_runs(st: SampledTrace, sample_cycles: int, analytical, frame, confi
     ratios (``admitted``: when the sample replay admitted each of its trees)."""
     from scipy.stats import t as student
 
-    L, Ls = frame.estimate(config).cycles, analytical.estimate(config).cycles
+    L, Ls = frame.estimate(config, RUN_SCALE_WINDOWS).cycles, analytical.estimate(config, RUN_SCALE_WINDOWS).cycles
     ratio = sample_cycles / Ls if Ls > 0 else 1.0
     cycles = ratio * L
     n = len(st.tiles)
