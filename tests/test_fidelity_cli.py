@@ -54,6 +54,16 @@ def test_level0_and_auto(tmp_path, capsys):
     assert "cheapest within 0%" in capsys.readouterr().out
 
 
+def test_auto_measures_on_runs_of_a_large_frame(tmp_path, capsys):
+    """A frame of 64 tiles: --level auto measures the levels on runs holding a sixteenth of
+    its visits (at most), not on the whole frame."""
+    rc, d = run(tmp_path, "tetra", "--grid", "4", "--res", "64x64", "--tile", "8", "--model", "M", "--level", "auto")
+    assert rc == 0 and d["level"] in (0, 1)
+    out = capsys.readouterr().out
+    share = float(out.split("levels  measured on ")[1].split("%")[0])
+    assert 0 < share < 100
+
+
 def test_sample_of_a_scene(tmp_path):
     rc, d = run(tmp_path, "tetra", "--grid", "4", "--res", "32x32", "--tile", "8", "--model", "M",
                 "--sample", "stratified:4:1")
@@ -63,7 +73,21 @@ def test_sample_of_a_scene(tmp_path):
     assert lo <= d["cycles"] <= hi and d["sample_cycles"] < d["cycles"]
 
 
+def test_sample_of_runs(tmp_path):
+    """runs: the whole frame is traced, a quarter of its visits replayed, and the estimate
+    scaled by the frame's level 0 (within a few percent of the whole replay on this small
+    frame: 2 runs)."""
+    rc, d = run(tmp_path, "tetra", "--grid", "4", "--res", "48x48", "--model", "M", "--sample", "runs:4:1:100")
+    assert rc == 0 and d["sample"] == "runs:4:1:100"
+    assert 0.1 < d["sampled_visits"] <= 0.25 + 0.02 and 0 < d["sampled"] < 1
+    lo, hi = d["cycles_interval"]
+    assert lo <= d["cycles"] <= hi and d["sample_cycles"] < d["cycles"]
+    rc, w = run(tmp_path, "tetra", "--grid", "4", "--res", "48x48", "--model", "M")
+    assert abs(d["cycles"] / w["cycles"] - 1) < 0.05
+
+
 @pytest.mark.parametrize("args,msg", [(["--sample", "random:3"], "sample must be"),
+                                      (["--sample", "runs:4"], "runs:K:SEED"),
                                       (["--tolerance", "2"], "tolerance must be in"),
                                       (["--level", "5"], "invalid choice"),
                                       (["--level", "auto", "--engine", "simpy"], "leave --engine out")])

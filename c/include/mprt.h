@@ -566,6 +566,15 @@ int mprt_replay_get_pes(const mprt_replay *r, mprt_replay_pe *out, size_t cap);
 /* Per primary ray (tree): the PE that admitted it and when (-1: never);
  * either pointer may be NULL.  cap: entries of each. OUT: pe, admitted. */
 int mprt_replay_get_trees(const mprt_replay *r, int32_t *pe, int64_t *admitted, size_t cap);
+/* Record in later runs (on 1; 0: stop), at each tree's admission, the cycles
+ * each stage's processors (all PEs and replicas) had been busy by then (a
+ * visit under way counted up to that cycle): what a sampled replay measures
+ * the machine's idle time with. */
+int mprt_replay_record_busy(mprt_replay *r, int on);
+/* Per primary ray (tree), nstages entries: the busy cycles recorded at its
+ * admission (-1: never admitted, or nothing recorded).  cap: int64 entries,
+ * at least trees x nstages. OUT: out. */
+int mprt_replay_get_tree_busy(const mprt_replay *r, int64_t *out, size_t cap);
 /* Who waits for a slot in stage's receive FIFO of PE pe (which 0: sending
  * stages, -1 for the DIS), or in its send FIFO (which 1: replicas), in
  * order.  OUT: out (cap entries), n (the number waiting). */

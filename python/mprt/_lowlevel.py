@@ -456,6 +456,17 @@ class Binding:
         self._got(self.lib.mprt_replay_get_trees(h, self._out("int32_t", pe), self._out("int64_t", when), n), "trees")
         return pe, when
 
+    def replay_record_busy(self, h, on: bool) -> None:
+        """Record, in later runs, each stage's busy cycles at every tree's admission."""
+        self._check(self.lib.mprt_replay_record_busy(h, int(bool(on))), self.lib.mprt_replay_errmsg, h)
+
+    def replay_get_tree_busy(self, h, trees: int, stages: int) -> np.ndarray:
+        """Per tree and stage (int64[trees, stages]): the busy cycles at its admission; -1: not
+        admitted or not recorded."""
+        out = np.zeros((trees, stages), dtype=np.int64)
+        self._got(self.lib.mprt_replay_get_tree_busy(h, self._out("int64_t", out), out.size), "tree_busy")
+        return out
+
     def replay_get_waiters(self, h, pe: int, stage: int, which: int) -> list:
         """Who waits for a slot in a stage's receive FIFO (which 0: sending stages, -1 the DIS)
         or send FIFO (which 1: replicas), in order."""

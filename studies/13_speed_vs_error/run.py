@@ -5,7 +5,8 @@
 
 Three parts (output in studies/out/13_speed_vs_error/, or ref/ with --quick):
 1. throughput.csv: visits/s of level 0, the compiled replay and the SimPy model on
-   the same replay (model M, costs given to all three), side by side, best of --repeat.
+   the same replay (model M, costs given to all three), side by side, best of --repeat;
+   what is done once per costed trace (load) and per design apart.
 2. sampled.csv: sampled replay of model M at --res (default grid) against the full
    replay, per scene, tile edge and sampling rate over --seeds seeds: error of the
    estimate (mean, rms, worst), how often the 95% interval covers the truth, and the
@@ -66,73 +67,125 @@ def sliced(vc, keep):
 # ---- 1. throughput ------------------------------------------------------------------------
 
 def throughput(trace, repeat: int, quick: bool) -> list:
-    """Level 0, compiled and SimPy on one replay of model M, interleaved, best of repeat."""
+    """Level 0, compiled and SimPy on one replay of model M, interleaved, best of repeat: the
+    once-per-costed-trace part (level 0's per-tree reduction; the compiled replay's load) and
+    the per-design part (level 0's estimate, the compiled replay's run to a full SimResult, and
+    its run alone to the cycles) apart, each against SimPy's whole replay (a SimPy replay
+    has no part to keep between designs)."""
     cfg = builtin("M")
     vc = costed(trace, cfg, CostModel.default())
     n = len(trace.visits)
-    best = {"level 0 (analytical)": math.inf, "level 1 compiled (C)": math.inf, "level 1 SimPy": math.inf}
+    parts = (("level 0 (analytical)", "once: per-tree reduction"), ("level 0 (analytical)", "per design: estimate"),
+             ("level 1 compiled (C)", "once: load"), ("level 1 compiled (C)", "per design: SimResult"),
+             ("level 1 compiled (C)", "per design: cycles only"), ("level 1 SimPy", "per design"))
+    best = dict.fromkeys(parts, math.inf)
     cycles = {}
     for _ in range(repeat):
-        t0 = time.perf_counter()
-        cycles["level 0 (analytical)"] = Analytical(trace, vc).result(cfg).cycles
-        t1 = time.perf_counter()
-        cycles["level 1 compiled (C)"] = Compiled(trace, vc).result(cfg).cycles
-        t2 = time.perf_counter()
-        cycles["level 1 SimPy"] = System(trace, cfg, costs=vc).run().cycles
-        t3 = time.perf_counter()
-        for k, dt in zip(best, (t1 - t0, t2 - t1, t3 - t2)):
-            best[k] = min(best[k], dt)
+        t = [time.perf_counter()]
+        an = Analytical(trace, vc)
+        t.append(time.perf_counter())
+        c0 = an.result(cfg).cycles
+        t.append(time.perf_counter())
+        comp = Compiled(trace, vc)
+        t.append(time.perf_counter())
+        c1 = comp.result(cfg).cycles
+        t.append(time.perf_counter())
+        c2 = comp.cycles(cfg)
+        t.append(time.perf_counter())
+        c3 = System(trace, cfg, costs=vc).run().cycles
+        t.append(time.perf_counter())
+        del comp
+        for k, a, b, c in zip(parts, t, t[1:], (c0, c0, c1, c1, c2, c3)):
+            best[k] = min(best[k], b - a)
+            cycles[k] = c
     rows = []
-    for k, dt in best.items():
-        row = {"engine": k, "visits": n, "cycles": cycles[k]}
+    simpy = best[parts[-1]]
+    for k in parts:
+        row = {"engine": k[0], "part": k[1], "visits": n, "cycles": cycles[k]}
         if not quick:
-            row.update(seconds=dt, visits_per_s=n / dt, vs_simpy=best["level 1 SimPy"] / dt)
+            row.update(seconds=best[k], visits_per_s=n / best[k], vs_simpy=simpy / best[k])
         rows.append(row)
     return rows
 
 
 # ---- 2. sampled replay -----------------------------------------------------------------------
 
-def sampled(scene: str, size, res: int, edges, rates, seeds: int, threads: int) -> list:
-    """Model M on a sample of stratified tiles against the whole frame's replay (traced in the
-    tracer's default 16 x 16 tiles): (rows, whether sampling every tile gives the whole frame's
-    replay in the same tiles exactly)."""
+def note(acc, sc, truth, work):
+    """Add one seed's estimate to acc = (errors, covered, work, half widths)."""
+    acc[0].append(sc.cycles / truth - 1)
+    acc[1].append(sc.interval[0] <= truth <= sc.interval[1])
+    acc[2].append(work)
+    acc[3].append((sc.interval[1] - sc.interval[0]) / 2 / truth)
+
+
+def sample_row(scene, edge, spec, truth, own, errs, covered, work, width):
+    errs = np.array(errs)
+    return {"scene": scene, "tile": edge, "sample": spec, "seeds": len(errs),
+            "work": float(np.mean(work)), "truth_cycles": truth, "order_effect_pct": 100 * (own / truth - 1),
+            "error_mean_pct": 100 * float(errs.mean()), "error_rms_pct": 100 * float(np.sqrt(np.mean(errs ** 2))),
+            "error_worst_pct": 100 * float(np.abs(errs).max()), "half_width_pct": 100 * float(np.mean(width)),
+            "coverage": float(np.mean(covered))}
+
+
+def sampled(scene: str, size, res: int, edges, rates, seeds: int, threads: int, methods=("runs", "tiles"),
+            trace_dir=None, run_trees=None) -> list:
+    """Model M on a sample against the whole frame's replay (traced in the tracer's default
+    16 x 16 tiles): runs of trees of that trace (``runs:RATE:SEED``, scaled by the whole
+    frame's level 0) and stratified tiles of each edge (``stratified:RATE:SEED``, scaled by
+    the sample alone).  (rows, whether sampling everything gives the whole frame's replay
+    in the same order exactly)."""
     cfg, cm = builtin("M"), CostModel.default()
     g = mprt.Scene.spd(scene, size).grid()
-    rows = []
-    truth = None
-    exact = []
-    for edge in edges:
-        _, full = g.trace(res, res, tile=edge, threads=threads)
-        vc = costed(full, cfg, cm)
-        own = Compiled(full, vc).cycles(cfg)      # the whole frame in these tiles' order
-        if truth is None:       # the whole frame in the tracer's default tiles (16) is the truth
-            truth = own if edge == 16 else Compiled(*(lambda t: (t, costed(t, cfg, cm)))(
-                g.trace(res, res, tile=16, threads=threads)[1])).cycles(cfg)
+    rows, exact, frames = [], [], {}
+
+    def frame(edge):
+        if edge not in frames:
+            path = os.path.join(trace_dir, f"{scene}-{res}-t{edge}.npz") if trace_dir else None
+            if path and os.path.exists(path):
+                full = mprt.load_trace(path)
+            else:
+                full = g.trace(res, res, tile=edge, threads=threads)[1]
+                if path:
+                    full.save(path, compress=False)
+            vc = costed(full, cfg, cm)
+            frames[edge] = (full, vc, Compiled(full, vc).cycles(cfg))
+        return frames[edge]
+
+    truth = frame(16)[2]
+    if "runs" in methods:
+        full, vc, own = frame(16)
+        whole = Analytical(full, vc)
         for rate in rates:
-            errs, covered, work, width = [], [], [], []
+            acc = ([], [], [], [])
+            for seed in range(seeds):
+                st = sample_trace(full, f"runs:{rate}:{seed}" + (f":{run_trees}" if run_trees else ""))
+                svc = sliced(vc, st.visits)
+                comp = Compiled(st.trace, svc)
+                cycles = comp.cycles(cfg)
+                sc = S.estimate_runs(st, cycles, Analytical(st.trace, svc), whole, cfg, comp.admissions())
+                note(acc, sc, truth, len(st.trace.visits) / len(full.visits))
+                if rate == 1:
+                    exact.append(sc.cycles == own and sc.interval == (own, own))
+            rows.append(sample_row(scene, 16, f"runs:{rate}" + (f":*:{run_trees}" if run_trees else ""), truth, own,
+                                   *acc))
+            log(f"  {scene} runs 1/{rate}: rms {rows[-1]['error_rms_pct']:.2f}%, "
+                f"coverage {rows[-1]['coverage']:.2f}")
+    for edge in (edges if "tiles" in methods else ()):
+        full, vc, own = frame(edge)
+        for rate in rates:
+            acc = ([], [], [], [])
             for seed in range(seeds):
                 st = sample_trace(full, f"stratified:{rate}:{seed}")
                 svc = sliced(vc, st.visits)
                 e = Evaluator(st.trace, costs=svc).evaluate(cfg, 1, "compiled")
                 sc = S.estimate(st, e, Analytical(st.trace, svc), cfg)
-                errs.append(sc.cycles / truth - 1)
-                covered.append(sc.interval[0] <= truth <= sc.interval[1])
-                work.append(len(st.trace.visits) / len(full.visits))
-                width.append((sc.interval[1] - sc.interval[0]) / 2 / truth)
+                note(acc, sc, truth, len(st.trace.visits) / len(full.visits))
                 if rate == 1:
                     exact.append(sc.cycles == own and sc.interval == (own, own))
-            errs = np.array(errs)
-            rows.append({"scene": scene, "tile": edge, "sample": f"stratified:{rate}", "seeds": seeds,
-                         "work": float(np.mean(work)), "truth_cycles": truth,
-                         "order_effect_pct": 100 * (own / truth - 1),
-                         "error_mean_pct": 100 * float(errs.mean()),
-                         "error_rms_pct": 100 * float(np.sqrt(np.mean(errs ** 2))),
-                         "error_worst_pct": 100 * float(np.abs(errs).max()),
-                         "half_width_pct": 100 * float(np.mean(width)),
-                         "coverage": float(np.mean(covered))})
+            rows.append(sample_row(scene, edge, f"stratified:{rate}", truth, own, *acc))
             log(f"  {scene} tile {edge} 1/{rate}: rms {rows[-1]['error_rms_pct']:.2f}%, "
                 f"coverage {rows[-1]['coverage']:.2f}")
+        frames.pop(edge) if edge != 16 else None
     return rows, all(exact)
 
 
@@ -238,6 +291,9 @@ def main(argv=None) -> int:
         ap.add_argument("--repeat", type=int, default=3)
         ap.add_argument("--scenes", default=",".join(SCENES))
         ap.add_argument("--parts", default="throughput,sampled,ladder")
+        ap.add_argument("--methods", default="runs,tiles", help="sampled: runs (of trees), tiles (stratified)")
+        ap.add_argument("--trace-dir", default=None, help="sampled: keep the frames' traces here and reuse them")
+        ap.add_argument("--run-trees", type=int, default=None, help="sampled: trees per run (default 1024)")
 
     a, out = study_args(__file__, "speed against error: the fidelity ladder", "balls and tetra at size 1, 32x32",
                         argv, extra)
@@ -251,13 +307,14 @@ def main(argv=None) -> int:
         _, tr = mprt.Scene.spd("balls", size).grid().trace(res, res, threads=a.threads)
         rows = throughput(tr, 1 if quick else a.repeat, quick)
         write_table(out, "throughput.csv", rows)
-        checks["engines_agree_on_cycles"] = rows[1]["cycles"] == rows[2]["cycles"]
-        checks["level0_at_most_a_few_percent_off"] = abs(rows[0]["cycles"] / rows[1]["cycles"] - 1) < 0.1
+        checks["engines_agree_on_cycles"] = rows[3]["cycles"] == rows[4]["cycles"] == rows[5]["cycles"]
+        checks["level0_at_most_a_few_percent_off"] = abs(rows[1]["cycles"] / rows[5]["cycles"] - 1) < 0.1
     if "sampled" in parts:
         rows, exact = [], True
         for sc in scenes:
             r, ok = sampled(sc, size, 32 if quick else a.res, (8,) if quick else (16, 8),
-                            (1, 4) if quick else (4, 16), 5 if quick else a.seeds, a.threads)
+                            (1, 4) if quick else (4, 16), 5 if quick else a.seeds, a.threads,
+                            tuple(a.methods.split(",")), a.trace_dir, a.run_trees)
             rows += r
             exact = exact and ok
         write_table(out, "sampled.csv", rows)

@@ -193,6 +193,37 @@ static void test_sc_makes_the_primaries(void)
     mprt_replay_destroy(r);
 }
 
+static void test_busy_record(void)
+{
+    /* four primaries of 10 cycles on one processor, window 2: trees 0 and 1 at cycle 0
+     * (busy 0), tree 2 when tree 0 retires (10, busy 10), tree 3 at 20 (busy 20) */
+    hand h = {0};
+    mprt_replay_config s = model_s();
+    mprt_replay *r;
+    int64_t busy[4], when[4];
+    int i;
+    for (i = 0; i < 4; i++) {
+        ray(&h, -1, MPRT_RAY_PRIMARY);
+        visit(&h, i, MPRT_STAGE_OS, 0, 10);
+    }
+    s.window = 2;
+    CHECK(mprt_replay_create(&s, &r) == MPRT_OK);
+    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    CHECK(mprt_replay_get_tree_busy(r, busy, 4) == MPRT_ERR_STATE);     /* nothing run */
+    CHECK(mprt_replay_run(r, NULL, 0) == MPRT_OK);
+    CHECK(mprt_replay_get_tree_busy(r, busy, 4) == MPRT_OK);             /* not recorded: -1 */
+    CHECK(busy[0] == -1 && busy[3] == -1);
+    CHECK(mprt_replay_record_busy(r, 1) == MPRT_OK);
+    CHECK(mprt_replay_run(r, NULL, 0) == MPRT_OK);
+    CHECK(mprt_replay_get_tree_busy(r, busy, 3) == MPRT_ERR_CAPACITY);
+    CHECK(mprt_replay_get_tree_busy(r, busy, 4) == MPRT_OK);
+    CHECK(mprt_replay_get_trees(r, NULL, when, 4) == MPRT_OK);
+    CHECK(when[0] == 0 && when[1] == 0 && when[2] == 10 && when[3] == 20);
+    CHECK(busy[0] == 0 && busy[1] == 0 && busy[2] == 10 && busy[3] == 20);
+    CHECK(mprt_replay_record_busy(NULL, 1) == MPRT_ERR_INVALID_ARG);
+    mprt_replay_destroy(r);
+}
+
 static void test_deadlock(void)
 {
     /* eight primaries OS -> IC -> OS of 1 cycle; OS: receive 3, send 1; IC: 1 and 1.
@@ -337,5 +368,6 @@ int main(void)
     RUN(test_bad_configurations);
     RUN(test_bad_traces);
     RUN(test_runs_repeat_exactly);
+    RUN(test_busy_record);
     return CHECK_DONE();
 }

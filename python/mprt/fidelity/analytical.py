@@ -127,17 +127,20 @@ class Analytical:
             out[:, i] /= st.replicas
         return out
 
-    def chunk(self, config: SystemConfig) -> int:
-        return max(1, int(round(CHUNK_WINDOWS * config.window / self.rays_per_tree)))
+    def chunk(self, config: SystemConfig, windows: float | None = None) -> int:
+        """Trees per chunk: about ``windows`` (default CHUNK_WINDOWS) windows of rays."""
+        w = CHUNK_WINDOWS if windows is None else windows
+        return max(1, int(round(w * config.window / self.rays_per_tree)))
 
-    def estimate(self, config: SystemConfig) -> Estimate:
-        return self._estimate(config)[0]
+    def estimate(self, config: SystemConfig, windows: float | None = None) -> Estimate:
+        """Level 0's estimate (``windows``: chunks of that many windows instead of CHUNK_WINDOWS)."""
+        return self._estimate(config, windows)[0]
 
-    def _estimate(self, config: SystemConfig):
+    def _estimate(self, config: SystemConfig, windows: float | None = None):
         """(Estimate, each PE's trees, each PE's time)."""
         sw = self.stage_work(config)
         names = [s.name for s in config.stages]
-        chunk = self.chunk(config)
+        chunk = self.chunk(config, windows)
         best = (-1.0, 0.0, np.zeros(len(names)))
         lower = float(self.critical.max(initial=0))
         split = self._trees_of(config)
@@ -202,20 +205,34 @@ class Analytical:
         res.level = 0
         return res
 
-    def tile_times(self, config: SystemConfig, tree_tile: np.ndarray):
-        """(tiles, times): the level-0 time of each tile's trees on one PE of the
-        configuration, chunked as the trees come (runs of one tile's trees): the sizes a
-        sampled replay scales by.  ``tree_tile``: each tree's tile; tiles sorted."""
+    def _group_chunks(self, config: SystemConfig, tree_group: np.ndarray):
+        """(first tree of each chunk, its time): trees chunked as they come, a chunk never
+        spanning two runs of one group's trees."""
         sw = self.stage_work(config)
         c = self.critical.astype(np.float64)
-        tt = np.asarray(tree_tile)
-        if len(tt) == 0:
-            return np.zeros(0, np.int64), np.zeros(0)
+        tt = np.asarray(tree_group)
         chunk = self.chunk(config)
         run0 = np.flatnonzero(np.concatenate([[True], tt[1:] != tt[:-1]]))
         pos = np.arange(len(tt)) - np.repeat(run0, np.diff(np.concatenate([run0, [len(tt)]])))
         cut = np.flatnonzero((pos % chunk) == 0)
-        per_chunk = np.maximum(np.add.reduceat(sw, cut, axis=0).max(axis=1),
-                               np.add.reduceat(c, cut) / config.window)
+        return cut, np.maximum(np.add.reduceat(sw, cut, axis=0).max(axis=1), np.add.reduceat(c, cut) / config.window)
+
+    def tree_times(self, config: SystemConfig, tree_group: np.ndarray) -> np.ndarray:
+        """Per tree, its share of level 0's time on one PE, chunked as ``tile_times`` chunks
+        (runs of one group's trees): each chunk's time spread evenly over its trees."""
+        if len(tree_group) == 0:
+            return np.zeros(0)
+        cut, per_chunk = self._group_chunks(config, tree_group)
+        size = np.diff(np.append(cut, len(tree_group)))
+        return np.repeat(per_chunk / size, size)
+
+    def tile_times(self, config: SystemConfig, tree_tile: np.ndarray):
+        """(tiles, times): the level-0 time of each tile's trees on one PE of the
+        configuration, chunked as the trees come (runs of one tile's trees): the sizes a
+        sampled replay scales by.  ``tree_tile``: each tree's tile; tiles sorted."""
+        tt = np.asarray(tree_tile)
+        if len(tt) == 0:
+            return np.zeros(0, np.int64), np.zeros(0)
+        cut, per_chunk = self._group_chunks(config, tt)
         tiles, idx = np.unique(tt[cut], return_inverse=True)
         return tiles, np.bincount(idx, weights=per_chunk, minlength=len(tiles))

@@ -2,7 +2,8 @@
 
     mprt simulate TRACE.npz|SCENE [machine and tracing options as mprt.machine.cli]
                   [--level 0|1|2|3|auto] [--engine auto|simpy|compiled|analytical]
-                  [--sample random:N:SEED|stratified:K:SEED|regular:K] [--tolerance X]
+                  [--sample runs:K:SEED[:R]|random:N:SEED|stratified:K:SEED|regular:K]
+                  [--tolerance X]
 
 ``--level`` (default: the configuration's own, the level that models all of it)
 evaluates the machine as that level models it; ``auto`` measures the levels on
@@ -10,8 +11,12 @@ a sample of the frame and takes the cheapest within ``--tolerance`` (default
 1%).  ``--engine`` picks the replay (default: the compiled one wherever it is
 exact; naming ``compiled`` for a machine it cannot replay is an error, exit 2).
 ``--sample`` replays only a sample of the tiles (a trace file's own tiles, or a
-scene's ``--tile`` tiles, only those traced) and scales up with a 95% interval.  ``--json`` gains ``level``,
-``engine``, ``sampled`` (fraction of the frame's samples replayed) and
+scene's ``--tile`` tiles, only those traced) and scales up with a 95% interval;
+``runs:K:SEED`` replays runs of consecutive trees of the whole frame's trace (a scene
+is traced whole) holding a K-th of its visits, scaled by the whole frame's level 0
+(the most accurate: see sampled.py).  ``--json`` gains ``level``,
+``engine``, ``sampled`` (fraction of the frame's samples replayed), ``sampled_visits``
+(fraction of its visits replayed, where the whole frame's trace is at hand) and
 ``cycles_interval``.
 
 Wire into the main parser with ``add_parser(subparsers)`` in place of
@@ -32,7 +37,7 @@ from .ladder import measure
 from .levels import ENGINES, Evaluator, native_level
 from .sampled import Sampling, estimate, sample_trace, scaled_result, trace_sample
 
-AUTO_SAMPLE = "stratified:16:1"      # what --level auto measures on (a sixteenth of the frame)
+AUTO_SAMPLE = "runs:16:1"            # what --level auto measures on (a sixteenth of the frame's visits)
 AUTO_TILES = 32                      # frames of fewer tiles are measured whole
 
 
@@ -63,7 +68,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         "within --tolerance (default: the configuration's own level)")
     f.add_argument("--engine", choices=ENGINES, default="auto",
                    help="auto (default): the compiled replay where exact, else SimPy")
-    f.add_argument("--sample", type=_sampling, default=None, metavar="random:N:SEED|stratified:K:SEED|regular:K",
+    f.add_argument("--sample", type=_sampling, default=None, metavar="runs:K:SEED[:R]|random:N:SEED|stratified:K:SEED|regular:K",
                    help="replay only these tiles (of --tile samples) and scale up, with a 95%% interval")
     f.add_argument("--tolerance", type=_tolerance, default=None,
                    help="error allowed by --level auto, e.g. 0.01 or 1%% (default 1%%)")
@@ -76,9 +81,11 @@ def _load(a):
     if a.sample is None:
         a.sampled_trace = None
         return machine_cli._load_source(a)
-    if a.source.endswith(".npz"):
-        trace, _, how = machine_cli._load_source(a)
-        st = sample_trace(trace, a.sample)          # in the trace's own tiles
+    a.frame_trace = None
+    if a.source.endswith(".npz") or a.sample.method == "runs":
+        trace, _, how = machine_cli._load_source(a)     # the whole frame
+        st = sample_trace(trace, a.sample)          # in the trace's own tiles, or runs of its trees
+        a.frame_trace = trace
     else:
         from ..scene import Scene
 
@@ -92,7 +99,9 @@ def _load(a):
                f"{st.trace.meta['height']} {st.trace.meta['rules']}, {len(st.tiles)} of {st.tiles_total} tiles in "
                f"{time.perf_counter() - t0:.2f} s")
     a.sampled_trace = st
-    how += f"\nsample  {a.sample}: {len(st.tiles)} of {st.tiles_total} tiles ({100 * st.fraction:.2f}% of samples)"
+    unit = "trees in runs" if a.sample.method == "runs" else "tiles"
+    how += (f"\nsample  {a.sample}: {len(st.tiles)} runs, {100 * st.fraction:.2f}% of the trees" if unit != "tiles"
+            else f"\nsample  {a.sample}: {len(st.tiles)} of {st.tiles_total} tiles ({100 * st.fraction:.2f}% of samples)")
     return st.trace, machine_cli.source_settings(a, st.trace), how
 
 
@@ -103,6 +112,18 @@ def _auto_level(trace, cfg, tolerance, sampled: bool) -> tuple:
     sample = None if sampled or tiles < AUTO_TILES else AUTO_SAMPLE
     table = measure(trace, [cfg], levels=levels, sample=sample)
     return table.choose(tolerance), table
+
+
+def _estimate_runs(st, e, an, cfg1, frame, ev):
+    """A sample of runs scaled by the whole frame's level 0 (its costs the frame's, which
+    the sample's are a slice of), the interval from a compiled level-1 replay's admissions."""
+    from .compiled import Compiled
+
+    fcosts = Evaluator(frame, ev.cost_model).costed(cfg1)["costs"]
+    c1 = ev.costed(cfg1)
+    comp = c1.get("compiled") or Compiled(st.trace, c1["costs"])
+    comp.cycles(cfg1)
+    return estimate(st, e, an, cfg1, frame=Analytical(frame, fcosts), admitted=comp.admissions())
 
 
 def _replay(trace, cfg, a):
@@ -125,10 +146,15 @@ def _replay(trace, cfg, a):
 
         c = ev.costed(at_level(cfg, level))
         an = c.get("analytical") or Analytical(trace, c["costs"])
-        sc = estimate(st, e, an, at_level(cfg, 1))
+        if st.sampling.method == "runs":
+            sc = _estimate_runs(st, e, an, at_level(cfg, 1), a.frame_trace, ev)
+        else:
+            sc = estimate(st, e, an, at_level(cfg, 1))
         res = scaled_result(res, sc)
         extra.update(sampled=sc.fraction, cycles_interval=list(sc.interval), sample_cycles=sc.sample_cycles,
                      sample=str(st.sampling), tiles=[len(st.tiles), st.tiles_total])
+        if st.visits is not None:       # the work: visits replayed / the frame's
+            extra["sampled_visits"] = float(st.visits.mean()) if len(st.visits) else 0.0
         line += (f"; the sample took {sc.sample_cycles:,} cycles, the frame an estimated {sc.cycles:,} "
                  f"(95%: {sc.interval[0]:,} to {sc.interval[1]:,})")
     print(line)

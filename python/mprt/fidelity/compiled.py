@@ -129,6 +129,20 @@ class Compiled:
         """When each tree was admitted in the last run (int64 per tree, -1: never)."""
         return _LIB.replay_get_trees(self.h, int(self.info["trees"]))[1]
 
+    def probe(self, config: SystemConfig):
+        """Run with the busy record: (cycles, admitted int64[trees], busy int64[trees, stages]:
+        each stage's busy cycles at each tree's admission, all its processors together);
+        DeadlockError if it deadlocks."""
+        _LIB.replay_record_busy(self.h, True)
+        try:
+            if not self._run(config):
+                raise self._view(config).deadlock()
+        finally:
+            _LIB.replay_record_busy(self.h, False)
+        cycles = int(_LIB.replay_get_info(self.h)["cycles"])
+        return cycles, self.admissions(), _LIB.replay_get_tree_busy(self.h, int(self.info["trees"]),
+                                                                      len(config.stages))
+
     def result(self, config: SystemConfig, record: bool = False):
         """The SimPy model's SimResult for the configuration (``record``: with its event log),
         or its DeadlockError."""

@@ -88,7 +88,8 @@ def measure(source, configs, levels=LEVELS, sample: str | None = "stratified:16:
             width: int = 0, height: int = 0, grid=None, cost_model=None, **trace_options) -> Table:
     """Each level's error and speed over ``configs`` (SystemConfigs or built-in names) on
     ``source``: a Trace of a whole frame (sampled here), or a Scene or scene name (traced
-    here, only the sampled tiles, at ``width`` x ``height`` with ``grid`` subdivisions).
+    here, only the sampled tiles, or the whole frame for runs, at ``width`` x ``height`` with
+    ``grid`` subdivisions).
     ``sample`` None evaluates everything."""
     from ..scene import Scene
     from ..trace import Trace
@@ -112,6 +113,9 @@ def measure(source, configs, levels=LEVELS, sample: str | None = "stratified:16:
         if sample is None:
             _, trace = g.trace(width, height, tile=tile, **trace_options)
             fraction = 1.0
+        elif Sampling.parse(sample).method == "runs":      # runs sample the whole frame's trace
+            st = sample_trace(g.trace(width, height, tile=tile, **trace_options)[1], sample)
+            trace, fraction = st.trace, st.fraction
         else:
             st = trace_sample(g, Sampling.parse(sample), width, height, tile or 16, **trace_options)
             trace, fraction = st.trace, st.fraction

@@ -9,7 +9,11 @@ tracer numbers them.  A sample specification is one of
                         the tiling allows), one tile drawn at random in each
     regular:K           the same blocks, the tile nearest each block's centre
 
-so ``stratified:16:SEED`` replays about a sixteenth of the frame.
+    runs:K:SEED[:R]     runs of R consecutive trees (default 1024) in the trace's
+                        order, one run placed at random in each stretch of K x R trees
+                        (needs the whole frame's trace: only the replay is sampled)
+
+so ``stratified:16:SEED`` and ``runs:16:SEED`` replay about a sixteenth of the frame.
 
 Estimator.  Each sampled tile t gets a size y_t: its level-0 time (the
 analytical estimate of its trees alone, see ``analytical.py``).  The frame's
@@ -21,6 +25,16 @@ tiles' spread set the uncertainty.  The interval is T +- 1.96 x (T / Y) x
 sqrt(v), v the estimated variance of Y: for random sampling the usual one, for one tile per block the successive differences of
 neighbouring blocks (blocks taken in a serpentine order), both with the
 finite-population correction (a sample of every tile has no uncertainty).
+
+Runs (the explorer's case: one trace of the whole frame, many designs) use the whole
+frame's level-0 estimate L as the known total: T = T_s x L / L_s, L_s being level 0's
+estimate of the sample (its runs strung together, as replayed), both in chunks of
+RUN_SCALE_WINDOWS windows.  Runs keep the frame's
+order (a run is a stretch of the trace, several windows long, so only its ends mix with
+other parts of the frame), and level 0 of the whole frame removes the spread between
+runs.  The interval comes from the spread of the runs' own ratios (each run's replayed
+time, from the admission of its first tree to that of the next run's, against its level-0
+time), with Student's t for the few runs there are.
 """
 from __future__ import annotations
 
@@ -32,6 +46,8 @@ import numpy as np
 from ..errors import InvalidArgument
 from ..trace import PRIMARY, Trace
 
+RUN_TREES = 1024        # runs: trees per run (several windows of model M's 256 rays)
+RUN_SCALE_WINDOWS = 3   # runs: level 0's chunks when scaling (windows; smooths like the FIFOs do)
 _EXTRA = ("voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material", "samples")
 
 
@@ -39,9 +55,10 @@ _EXTRA = ("voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material"
 class Sampling:
     """A parsed sample specification."""
 
-    method: str          # "random", "stratified" or "regular"
-    k: int               # random: tiles drawn; otherwise: tiles per block
+    method: str          # "random", "stratified", "regular" or "runs"
+    k: int               # random: tiles drawn; runs: one in k trees; otherwise: tiles per block
     seed: int | None
+    run: int = RUN_TREES  # runs: trees per run
 
     @classmethod
     def parse(cls, text: str) -> "Sampling":
@@ -51,13 +68,17 @@ class Sampling:
                 return cls(parts[0], int(parts[1]), int(parts[2]))
             if parts[0] == "regular" and len(parts) == 2 and int(parts[1]) >= 1:
                 return cls("regular", int(parts[1]), None)
+            if (parts[0] == "runs" and len(parts) in (3, 4) and int(parts[1]) >= 1
+                    and (len(parts) == 3 or int(parts[3]) >= 1)):
+                return cls("runs", int(parts[1]), int(parts[2]), int(parts[3]) if len(parts) == 4 else RUN_TREES)
         except ValueError:
             pass
-        raise InvalidArgument(f"sample must be 'random:N:SEED', 'stratified:K:SEED' or 'regular:K' "
-                              f"(N, K whole numbers >= 1), not {text!r}")
+        raise InvalidArgument(f"sample must be 'random:N:SEED', 'stratified:K:SEED', 'regular:K' or "
+                              f"'runs:K:SEED[:R]' (N, K, R whole numbers >= 1), not {text!r}")
 
     def __str__(self) -> str:
-        return f"{self.method}:{self.k}" + (f":{self.seed}" if self.seed is not None else "")
+        tail = f":{self.run}" if self.method == "runs" and self.run != RUN_TREES else ""
+        return f"{self.method}:{self.k}" + (f":{self.seed}" if self.seed is not None else "") + tail
 
 
 def block_shape(tiles_x: int, tiles_y: int, k: int) -> tuple:
@@ -184,6 +205,7 @@ class SampledTrace:
     tiles_total: int
     fraction: float             # samples in the sample / samples in the frame
     visits: np.ndarray | None = None    # sample_trace: which of the source's visits the sample holds
+    run_of: np.ndarray | None = None    # runs: each sampled tree's run (0, 1, ...)
 
 
 def _tiling(meta, tile):
@@ -191,16 +213,61 @@ def _tiling(meta, tile):
     return -(-w // tile), -(-h // tile), w * h
 
 
+def choose_runs(sampling: Sampling, tree_visits: np.ndarray) -> tuple:
+    """(first tree, end tree) of each run: the frame's trees cut into about
+    ntrees / (k x run) stretches (at least 2) of equal visits, and in each a run of consecutive trees
+    holding at most a k-th of the stretch's visits (at least one tree), placed at random
+    (seeded): the sample replays about a k-th of the frame's visits, no more."""
+    v = np.asarray(tree_visits, np.int64)
+    ntrees = len(v)
+    n = max(min(2, ntrees), min(ntrees, int(round(ntrees / (sampling.k * sampling.run)))))   # 2: a spread
+    cum = np.concatenate([[0], np.cumsum(v)])
+    total = int(cum[-1])
+    edges = np.searchsorted(cum, np.arange(n + 1) * total / n, "left")
+    edges[0], edges[-1] = 0, ntrees
+    u = np.random.default_rng(sampling.seed).random(n)
+    starts, ends = np.zeros(n, np.int64), np.zeros(n, np.int64)
+    for i in range(n):
+        lo, hi = int(edges[i]), int(max(edges[i + 1], edges[i] + 1))
+        want = (cum[hi] - cum[lo]) / sampling.k
+        # the latest start that still leaves a k-th of the stretch's visits before hi
+        last = max(lo, int(np.searchsorted(cum, cum[hi] - want, "right")) - 1)
+        a = lo + int(u[i] * (last - lo + 1))
+        b = int(np.searchsorted(cum, cum[a] + want, "right")) - 1     # at most a k-th
+        starts[i], ends[i] = a, min(max(b, a + 1), hi)
+    return starts, ends
+
+
+def _sample_runs(trace, sampling: Sampling) -> SampledTrace:
+    kind = np.asarray(trace.rays["kind"])
+    tree_of_ray = np.cumsum(kind == PRIMARY) - 1
+    ntrees = int((kind == PRIMARY).sum())
+    vray = np.asarray(trace.visits["ray"])
+    starts, ends = choose_runs(sampling, np.bincount(tree_of_ray[vray], minlength=ntrees))
+    keep = np.zeros(ntrees, bool)
+    run = np.full(ntrees, -1, np.int64)
+    for i, (a, b) in enumerate(zip(starts, ends)):
+        keep[a:b] = True
+        run[a:b] = i
+    sub = subset(trace, keep)
+    sub.meta["sampled"] = {"sample": str(sampling), "runs": [[int(a), int(b)] for a, b in zip(starts, ends)]}
+    keep_v = keep[tree_of_ray[vray]]
+    return SampledTrace(sub, sampling, 0, starts, np.full(len(starts), float(sampling.k)), None,
+                        ntrees, int(keep.sum()) / ntrees, keep_v, run[keep])
+
+
 def sample_trace(trace, sampling: Sampling | str, tile: int | None = None) -> SampledTrace:
     """A sample of a whole frame's trace: the chosen tiles' trees (edge ``tile``, default
-    the trace's own), in the trace's order.  A visit's costs depend on its ray's own
-    visits and children only, so the source's visit costs sliced by ``.visits`` are the
-    sample's."""
+    the trace's own), or runs of its trees, in the trace's order.  A visit's costs depend
+    on its ray's own visits and children only, so the source's visit costs sliced by
+    ``.visits`` are the sample's."""
     sampling = Sampling.parse(sampling) if isinstance(sampling, str) else sampling
     meta = trace.meta
     tiles_done, total = meta.get("tiles"), meta.get("tiles_total")
     if tiles_done is not None and total is not None and len(tiles_done) != total:
         raise InvalidArgument(f"the trace holds {len(tiles_done)} of {total} tiles; sample a whole frame's trace")
+    if sampling.method == "runs":
+        return _sample_runs(trace, sampling)
     tile = int(tile or meta.get("tile") or 16)
     tx, ty, nsamples = _tiling(meta, tile)
     sel, weights, order = choose(sampling, tx, ty)
@@ -221,6 +288,9 @@ def trace_sample(grid, sampling: Sampling | str, width: int = 0, height: int = 0
     from ..tracing import trace as trace_grid
 
     sampling = Sampling.parse(sampling) if isinstance(sampling, str) else sampling
+    if sampling.method == "runs":
+        raise InvalidArgument(f"sample {sampling}: runs sample the replay of a whole frame's trace; trace the "
+                              "frame (or sample its tiles: random, stratified, regular)")
     desc = grid.resolve(render_desc(width, height, options.get("rules", "paper"), options.get("threshold"),
                                     options.get("max_depth", 0), options.get("threads", 1), tile,
                                     options.get("ambient"), options.get("mailbox", False)))
@@ -232,9 +302,50 @@ def trace_sample(grid, sampling: Sampling | str, width: int = 0, height: int = 0
                         / (sw * sh))
 
 
-def estimate(st: SampledTrace, evaluation, analytical, config) -> Scaled:
+def estimate_runs(st: SampledTrace, sample_cycles: int, analytical, frame, config, admitted) -> Scaled:
+    """The frame's time from a replay of runs: T_s x L / L_s (L, L_s: level 0 of the whole
+    frame, ``frame``, and of the sample, ``analytical``), its interval from the runs'
+    ratios (``admitted``: when the sample replay admitted each of its trees)."""
+    from scipy.stats import t as student
+
+    L, Ls = frame.estimate(config, RUN_SCALE_WINDOWS).cycles, analytical.estimate(config, RUN_SCALE_WINDOWS).cycles
+    ratio = sample_cycles / Ls if Ls > 0 else 1.0
+    cycles = ratio * L
+    n = len(st.tiles)
+    half = 0.0
+    if n > 1 and st.fraction < 1:
+        x = np.concatenate([[0.0], np.cumsum(analytical.tree_times(config, st.run_of))])
+        first = np.flatnonzero(np.concatenate([[True], st.run_of[1:] != st.run_of[:-1]]))
+        a = np.asarray(admitted, float)
+        m = np.append(a[first[1:]], float(sample_cycles)) - a[first]
+        # a tree is admitted when rays about a window ahead of it retire: its run's interval
+        # times the trees a window of rays earlier
+        rays = np.concatenate([[0], np.cumsum(analytical.tree_rays)])
+        back = np.searchsorted(rays, rays[first] - config.window * config.pes, "right") - 1
+        lo = np.maximum(back, 0)
+        hi = np.append(lo[1:], len(st.run_of))
+        sizes = x[hi] - x[lo]
+        e = m - sizes * (m.sum() / sizes.sum())
+        var = (1 - st.fraction) * float((e * e).sum()) / (n * (n - 1)) / float(sizes.mean()) ** 2
+        half = float(student.ppf(0.975, n - 1)) * L * math.sqrt(var)
+    lo, hi = ((max(0, int(math.floor(cycles - half))), int(math.ceil(cycles + half))) if half
+              else (int(round(cycles)),) * 2)
+    return Scaled(cycles=int(round(cycles)), interval=(lo, hi), sample_cycles=int(sample_cycles),
+                  fraction=st.fraction, tiles=n, tiles_total=st.tiles_total,
+                  scale=cycles / sample_cycles if sample_cycles else 0.0)
+
+
+def estimate(st: SampledTrace, evaluation, analytical, config, frame=None, admitted=None) -> Scaled:
     """The frame's time from a sampled replay (``evaluation``: its Evaluation at some level)
-    with ``analytical`` (the sample's level-0 form) sizing its tiles for ``config``."""
+    with ``analytical`` (the sample's level-0 form) sizing its tiles for ``config``.  Runs
+    (``runs:K:SEED``) also need ``frame``, the whole frame's level-0 form with the same
+    costs, and ``admitted``, when a replay of the sample admitted each tree (``Compiled.
+    admissions()``)."""
+    if st.sampling.method == "runs":
+        if frame is None or admitted is None:
+            raise InvalidArgument("a sample of runs is scaled by the whole frame's level 0 (frame=) and its runs' "
+                                  "admissions (admitted=)")
+        return estimate_runs(st, evaluation.cycles, analytical, frame, config, admitted)
     tiles, sizes = analytical.tile_times(config, tree_tiles(st.trace, st.tile))
     if not np.array_equal(tiles, st.tiles):
         raise InvalidArgument("the sampled trace does not hold the tiles it was chosen with")

@@ -1,0 +1,215 @@
+/* replay_load.c: the compiled replay's trace, checked and packed once for any
+ * number of runs (see replay.c). */
+#include "replay.h"
+
+/* ---- the trace ---------------------------------------------------------------- */
+
+#define TRACE_FAIL(r, ...) fail((r), MPRT_ERR_INVALID_ARG, "cannot replay this trace: " __VA_ARGS__)
+
+int mprt__replay_reserve(void **p, size_t *cap, size_t n, size_t size)
+{
+    void *b;
+    if (n <= *cap && *p) return 0;
+    if (n > SIZE_MAX / size / 2) return -1;
+    b = malloc(n * size);
+    if (!b) return -1;
+    free(*p);
+    *p = b;
+    *cap = n;
+    return 0;
+}
+
+
+/* The rays: ids in order, known kinds, each tree's rays after its primary,
+ * each parent before its children and in their tree; children listed by
+ * parent, in id order. */
+static int prepare_rays(mprt_replay *r, const mprt_trace_ray *rays, size_t nr)
+{
+    size_t i;
+    int64_t t = -1, root = -1, leaves = 0, *cs;
+    if (RESERVE(r, ray_first, cap_ray, nr + 2) || RESERVE(r, child_start, cap_ray2, nr + 2) ||
+        RESERVE(r, tree_of, cap_ray3, nr + 2))
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", nr);
+    cs = r->child_start;
+    memset(cs, 0, (nr + 2) * sizeof *cs);
+    for (i = 0; i < nr; i++) {
+        const mprt_trace_ray *y = &rays[i];
+        if (y->id != (int64_t)i) return TRACE_FAIL(r, "ray ids are not 0..n-1 in order");
+        if (y->kind > MPRT_RAY_SHADOW) return TRACE_FAIL(r, "ray %zu: kind %d is not a ray kind", i, y->kind);
+        if (y->kind == MPRT_RAY_PRIMARY) {
+            t++;
+            root = (int64_t)i;
+        } else if (i == 0) {
+            return TRACE_FAIL(r, "the first ray is not a primary ray");
+        } else if (y->parent < root || y->parent >= (int64_t)i) {
+            return TRACE_FAIL(r, "ray %zu is not stored after its parent within its primary's tree (traces made by "
+                                 "mprt are)", i);
+        } else {
+            cs[y->parent + 2]++;
+        }
+        r->tree_of[i] = t;
+        r->ray_first[i] = -1;
+    }
+    r->ntrees = t + 1;
+    /* cs[p + 2] counts p's children; after the sums cs[p + 1] is where they go */
+    for (i = 2; i < nr + 2; i++) cs[i] += cs[i - 1];
+    if (RESERVE(r, child, cap_child, (size_t)cs[nr + 1] + 1))
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", nr);
+    for (i = 0; i < nr; i++)
+        if (rays[i].kind != MPRT_RAY_PRIMARY) r->child[cs[rays[i].parent + 1]++] = (int64_t)i;
+    /* now cs[p] .. cs[p + 1] are p's children; the most leaves of any tree */
+    r->max_leaves = 0;
+    for (i = 0; i <= nr; i++) {
+        if (i == nr || rays[i].kind == MPRT_RAY_PRIMARY) {
+            if (leaves > r->max_leaves) r->max_leaves = leaves;
+            leaves = 0;
+        }
+        if (i < nr && cs[i + 1] == cs[i]) leaves++;
+    }
+    return MPRT_OK;
+}
+
+/* Pack the visit infos in 8 bytes each when they fit (half the memory the
+ * replay walks). */
+static void pack(mprt_replay *r, int64_t maxdur)
+{
+    size_t j;
+    r->wide = 1;
+    if (maxdur >= ((int64_t)1 << PACK_DUR_BITS) || r->child_start[r->nr] >= PACK_KID_LIMIT ||
+        RESERVE(r, vp, cap_vp, r->nv + 1))
+        return;
+    for (j = 0; j < r->nv; j++) {
+        uint64_t nx = (uint64_t)r->vi[j].next;
+        r->vp[j] = (nx >> 10) << 34 | (uint64_t)r->vi[j].dur << 10 | (nx & 1023);
+    }
+    r->vp[r->nv] = 0;
+    r->wide = 0;
+}
+
+/* The visits, in one pass: each tree's visits contiguous and in order,
+ * starting with its primary's; each ray's contiguous; known stages; costs
+ * of at least one cycle; an SC visit that ends its ray made as many rays as
+ * have it as parent.  Fills the visit infos and the trees' costs. */
+static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt_trace_visit *v, size_t nv,
+                          const int64_t *process, const int64_t *receive, const int64_t *send)
+{
+    size_t j, nt = (size_t)r->ntrees;
+    int64_t prev_t = -1, total = 0, maxdur = 0, *tc = NULL;
+    const int64_t *cs = r->child_start;
+    if (nv && (!process || !receive || !send)) return fail(r, MPRT_ERR_INVALID_ARG, "costs: missing array");
+    if (RESERVE(r, vi, cap_vi, nv + 1) || RESERVE(r, tree_first, cap_tree, nt + 1) ||
+        RESERVE(r, tree_cost, cap_tree9, 9 * nt + 1) || RESERVE(r, tree_pe, cap_tree_pe, nt + 1) ||
+        RESERVE(r, tree_admit, cap_tree_admit, nt + 1))
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu visits", nv);
+    memset(r->tree_cost, 0, (9 * nt + 1) * sizeof *r->tree_cost);
+    for (j = 0; j < nv; j++) {
+        const mprt_trace_visit *a = &v[j];
+        int64_t ray = a->ray, t, p = process[j], x = receive[j], y = send[j], c, next;
+        int st = a->stage;
+        if (ray < 0 || ray >= (int64_t)r->nr) return TRACE_FAIL(r, "a visit names a ray that does not exist");
+        t = r->tree_of[ray];
+        if (t != prev_t) {
+            if (t != prev_t + 1)
+                return TRACE_FAIL(r, "the visits of each primary ray's tree are not contiguous, in the primaries' "
+                                     "order (traces made by mprt are)");
+            if (rays[ray].kind != MPRT_RAY_PRIMARY) return TRACE_FAIL(r, "a tree's first visit is not its primary ray's");
+            r->tree_first[t] = (int64_t)j;
+            tc = r->tree_cost + 9 * t;
+            prev_t = t;
+        }
+        if (j == 0 || a[-1].ray != ray) {
+            if (r->ray_first[ray] >= 0)
+                return TRACE_FAIL(r, "the visits of ray %lld are not contiguous", (long long)ray);
+            r->ray_first[ray] = (int64_t)j;
+        }
+        if (st > MPRT_STAGE_SC) return TRACE_FAIL(r, "visit %zu: stage %d is not OS, IC or SC", j, st);
+        if ((y > 0 && x > INT64_MAX - y) || (y < 0 && x < INT64_MIN - y))
+            return fail(r, MPRT_ERR_INVALID_ARG, "visit %zu: receive + send cycles overflow", j);
+        c = x + y;
+        if (p < 0 || c < 0 || (c > 0 && p > INT64_MAX - c) || p + c < 1)
+            return fail(r, MPRT_ERR_INVALID_ARG,
+                        "visit %zu: costs must be >= 0 and a visit must last at least 1 cycle (process %lld, "
+                        "communication %lld)", j, (long long)p, (long long)c);
+        if (p + c > INT64_MAX / 2 - total)
+            return fail(r, MPRT_ERR_INVALID_ARG, "costs: the visits' cycles add up to more than 2^62");
+        total += p + c;
+        if (j + 1 < nv && a[1].ray == ray) {
+            next = NEXT_VISIT | (int64_t)(a[1].stage & 3) << 2;
+        } else if (st == MPRT_STAGE_SC && a->made > 0) {
+            int64_t k = cs[ray + 1] - cs[ray];
+            if (k != a->made)
+                return TRACE_FAIL(r, "visit %zu made %d rays but %lld have it as parent", j, a->made, (long long)k);
+            next = NEXT_CHILDREN | (int64_t)a->made << 2 | cs[ray] << 10;
+        } else {
+            next = NEXT_RETIRE;
+        }
+        r->vi[j].dur = p + c;
+        r->vi[j].next = next;
+        if (p + c > maxdur) maxdur = p + c;
+        tc[st] += p;
+        tc[3 + st] += c;
+        tc[6 + st]++;
+    }
+    if (prev_t != r->ntrees - 1) return TRACE_FAIL(r, "some primary rays have no visits");
+    for (j = 0; j < r->nr; j++)
+        if (r->ray_first[j] < 0) return TRACE_FAIL(r, "ray %zu has no visits", j);
+    r->total = total;
+    pack(r, maxdur);
+    /* the rays made, as their first visits */
+    for (j = 0; j < (size_t)cs[r->nr]; j++) r->child[j] = r->ray_first[r->child[j]];
+    return MPRT_OK;
+}
+
+void mprt__replay_free_trace(mprt_replay *r)
+{
+    free(r->vi);
+    free(r->vp);
+    r->vp = NULL;
+    free(r->ray_first);
+    free(r->child_start);
+    free(r->tree_of);
+    free(r->child);
+    free(r->tree_first);
+    free(r->tree_cost);
+    free(r->tree_pe);
+    free(r->tree_admit);
+    r->tree_admit = NULL;
+    free(r->tree_busy);
+    r->tree_busy = NULL;
+    r->cap_tree_busy = 0;
+    r->vi = NULL;
+    r->ray_first = r->child_start = r->tree_of = r->child = r->tree_first = r->tree_cost = NULL;
+    r->tree_pe = NULL;
+    r->cap_vi = r->cap_ray = r->cap_ray2 = r->cap_ray3 = r->cap_child = r->cap_tree = r->cap_tree9 = r->cap_tree_pe = r->cap_tree_admit = r->cap_vp = 0;
+    r->loaded = 0;
+}
+
+/* The per-ray arrays are needed while loading only. */
+static void free_ray_arrays(mprt_replay *r)
+{
+    free(r->ray_first);
+    free(r->child_start);
+    free(r->tree_of);
+    r->ray_first = r->child_start = r->tree_of = NULL;
+    r->cap_ray = r->cap_ray2 = r->cap_ray3 = 0;
+}
+
+int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                     size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send)
+{
+    int rc;
+    if (!r) return MPRT_ERR_INVALID_ARG;
+    mprt__replay_free_run(r);
+    r->errmsg[0] = '\0';
+    r->loaded = 0;
+    r->ntrees = r->max_leaves = r->total = 0;
+    if ((nrays && !rays) || (nvisits && !visits)) return fail(r, MPRT_ERR_INVALID_ARG, "rays or visits: missing");
+    r->nv = nvisits;
+    r->nr = nrays;
+    rc = prepare_rays(r, rays, nrays);
+    if (rc == MPRT_OK) rc = prepare_visits(r, rays, visits, nvisits, process, receive, send);
+    free_ray_arrays(r);
+    if (rc != MPRT_OK) return rc;
+    r->loaded = 1;
+    return MPRT_OK;
+}
