@@ -48,6 +48,10 @@ typedef struct {
     uint64_t *idle;              /* bit k: replica k idle */
     int nidle;
     int stage, pe, first, n;     /* stage index, PE, first processor, replicas */
+    int feed;                    /* 0 shared; 1 round-robin, 2 shortest queue: then per replica */
+    fifo *rfs;                   /* ... its receive FIFO (rf unused) */
+    queue *locals;               /* ... its local queue (local unused) */
+    int64_t turn;                /* round-robin: packets assigned so far */
     int64_t generated;
 } node;
 

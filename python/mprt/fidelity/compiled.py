@@ -23,7 +23,7 @@ import numpy as np
 
 from .._lowlevel import binding
 from ..errors import InvalidArgument
-from ..machine.config import DIS_POLICIES, SUBTASKS, SystemConfig, builtin
+from ..machine.config import DIS_POLICIES, FEEDS, SUBTASKS, SystemConfig, builtin
 from ..machine.errors import ConfigError
 from ..trace import TraceError
 from .views import SystemView
@@ -63,6 +63,7 @@ def c_config(config: SystemConfig, gen_cycles: int) -> dict:
             "replicas": [s.replicas for s in config.stages] + [1] * (3 - n),
             "receive_fifo": [s.receive_fifo or 0 for s in config.stages] + pad,
             "send_fifo": [s.send_fifo or 0 for s in config.stages] + pad,
+            "feed": [FEEDS.index(s.feed) for s in config.stages] + pad,
             "pes": config.pes, "dis": _DIS[config.dis], "window": config.window, "gen_cycles": gen_cycles}
 
 
