@@ -297,6 +297,18 @@ INLINE int take_copy(node *nd, int k)
     return nd->first + k;
 }
 
+/* Packet x assigned to replica k of nd: started now if k is idle, else to the tail of
+ * its local queue (local) or receive FIFO. */
+INLINE void give_copy(mprt_replay *r, node *nd, int k, int64_t x, int local)
+{
+    if (copy_idle(r, nd, k))
+        start(r, take_copy(nd, k), x);
+    else if (local)
+        q_push(r, &nd->locals[k], x);
+    else
+        f_put(r, &nd->rfs[k], x);
+}
+
 /* Room to enter nd: an idle replica or a free receive slot (per replica: for the one assigned). */
 INLINE int node_room(mprt_replay *r, node *nd)
 {
@@ -309,13 +321,9 @@ INLINE int node_room(mprt_replay *r, node *nd)
 INLINE void accept(mprt_replay *r, node *nd, int64_t x)
 {
     if (x >= 0) PREFETCH(v_addr(r, x));
-    if (nd->feed) {
-        int k = assign(r, nd, 1, 1);
-        if (copy_idle(r, nd, k))
-            start(r, take_copy(nd, k), x);
-        else
-            f_put(r, &nd->rfs[k], x);
-    } else if (nd->nidle)
+    if (nd->feed)
+        give_copy(r, nd, assign(r, nd, 1, 1), x, 0);
+    else if (nd->nidle)
         start(r, take_idle(nd), x);
     else
         f_put(r, &nd->rf, x);
@@ -351,13 +359,9 @@ INLINE int output(mprt_replay *r, node *src, int64_t x, int g)
 {
     if (g == src->stage) {
         PREFETCH(v_addr(r, x));
-        if (src->feed) {
-            int k = assign(r, src, 1, 0);
-            if (copy_idle(r, src, k))
-                start(r, take_copy(src, k), x);
-            else
-                q_push(r, &src->locals[k], x);
-        } else if (src->nidle)
+        if (src->feed)
+            give_copy(r, src, assign(r, src, 1, 0), x, 1);
+        else if (src->nidle)
             start(r, take_idle(src), x);
         else
             q_push(r, &src->local, x);

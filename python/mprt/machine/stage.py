@@ -112,11 +112,7 @@ class Stage:
         assigned, idle or not."""
         if self.per_copy:
             k = self.assign(True)
-            if self.state[k] == IDLE:
-                self.idle.remove(k)
-                self.start(k, x)
-            else:
-                self.rfs[k].put(x)
+            self.give(k, x, self.rfs[k].put)
         elif self.idle:
             self.start(self.idle.pop(0), x)
         else:
@@ -158,6 +154,14 @@ class Stage:
                 if best < 0 or q < low:
                     best, low = k, q
         return best
+
+    def give(self, k: int, x: int, queue) -> None:
+        """Packet x assigned to copy k: started now if k is idle, else queued (``queue``)."""
+        if self.state[k] == IDLE:
+            self.idle.remove(k)
+            self.start(k, x)
+        else:
+            queue(x)
 
     def take_next(self, k: int) -> None:
         """Copy k (per-copy feed) takes its next packet: its local queue's
@@ -249,11 +253,7 @@ class Stage:
         if g == self.index:
             if self.per_copy:
                 k = self.assign(True, False)
-                if self.state[k] == IDLE:
-                    self.idle.remove(k)
-                    self.start(k, x)
-                else:
-                    self.locals[k].append(x)
+                self.give(k, x, self.locals[k].append)
             elif self.idle:
                 self.start(self.idle.pop(0), x)
             else:
