@@ -269,7 +269,7 @@ INLINE int64_t queued(const mprt_replay *r, const node *nd, int k)
  * replica or a free slot; need_room 0: any replica).  Round-robin: turn mod
  * replicas; shortest queue: the fewest queued, ties to the lowest.  take: the
  * assignment is made (the turn advances). */
-static int assign(mprt_replay *r, node *nd, int take, int need_room)
+static NOINLINE int assign(mprt_replay *r, node *nd, int take, int need_room)
 {
     int k, best = -1;
     int64_t low = 0;
@@ -298,8 +298,9 @@ INLINE int take_copy(node *nd, int k)
 }
 
 /* Packet x assigned to replica k of nd: started now if k is idle, else to the tail of
- * its local queue (local) or receive FIFO. */
-INLINE void give_copy(mprt_replay *r, node *nd, int k, int64_t x, int local)
+ * its local queue (local) or receive FIFO.  Kept out of line (as the other per-replica
+ * paths): the shared feed's paths stay as small as they were. */
+static NOINLINE void give_copy(mprt_replay *r, node *nd, int k, int64_t x, int local)
 {
     if (copy_idle(r, nd, k))
         start(r, take_copy(nd, k), x);
@@ -533,6 +534,23 @@ INLINE int dest(const mprt_replay *r, int64_t a)
     }
 }
 
+/* Replica p (processor i) of a stage fed per replica takes its next packet: its local
+ * queue's head, else its receive FIFO's (a slot freed), else it is idle. */
+static NOINLINE void take_next_copy(mprt_replay *r, int i, proc *p, node *nd)
+{
+    int k = p->k;
+    if (nd->locals[k].len) {
+        start(r, i, q_pop(&nd->locals[k]));
+    } else if (nd->rfs[k].q.len) {
+        start(r, i, f_get(r, &nd->rfs[k]));
+        freed(r, nd);
+    } else {
+        p->state = MPRT_PROC_IDLE;
+        nd->idle[k / 64] |= (uint64_t)1 << (k % 64);
+        nd->nidle++;
+    }
+}
+
 /* Processor i's event: its visit ended, or it resumes after a block. */
 static void handle(mprt_replay *r, int i)
 {
@@ -583,23 +601,13 @@ static void handle(mprt_replay *r, int i)
             if (!ok) return;
         }
     }
-    if (nd->feed) {
-        int k = p->k;
-        if (nd->locals[k].len) {
-            start(r, i, q_pop(&nd->locals[k]));
-        } else if (nd->rfs[k].q.len) {
-            start(r, i, f_get(r, &nd->rfs[k]));
-            freed(r, nd);
-        } else {
-            p->state = MPRT_PROC_IDLE;
-            nd->idle[k / 64] |= (uint64_t)1 << (k % 64);
-            nd->nidle++;
-        }
-    } else if (nd->local.len) {
+    if (nd->local.len) {         /* (fed per replica: local and rf stay empty) */
         start(r, i, q_pop(&nd->local));
     } else if (nd->rf.q.len) {
         start(r, i, f_get(r, &nd->rf));
         freed(r, nd);
+    } else if (nd->feed) {
+        take_next_copy(r, i, p, nd);
     } else {
         p->state = MPRT_PROC_IDLE;
         nd->idle[p->k / 64] |= (uint64_t)1 << (p->k % 64);

@@ -6,7 +6,7 @@ returns the same ``SimResult`` (same cycles, same per-stage processing,
 communication and waiting, same FIFO, processor and PE figures), or raises
 the same ``DeadlockError``.  It supports every configuration without a ring
 (level 2) and without modelled memories (level 3): any stages, mapping,
-replicas, FIFO capacities, PEs, DIS policy and window.  ``unsupported(config)``
+replicas and their feeds, FIFO capacities, PEs, DIS policy and window.  ``unsupported(config)``
 says why a configuration is not one of those.
 
 The costs per visit are the cost model's (``visit_costs`` on the
