@@ -277,11 +277,35 @@ def test_machine_config_of_a_design():
     s = machine_fields(model_s())
     assert len(s["stage"]) == 1 and "ring" not in s and "send_fifo" not in s["stage"][0]
 
-def test_unmodelled_feeds_are_refused_by_name(tmp_path):
-    """Per-copy FIFOs fed round-robin or by the shortest queue are not modelled: a space asking for
-    them is refused naming the field and the feed, rather than evaluated as the shared queue."""
-    from mprt.explore.space import SpaceError, load_space
+def test_feeds_reach_the_machine_and_its_deadlock_bound(tmp_path):
+    """A space's feed choices become the machine's stage feed for replicated processors only;
+    the window respects the feed's deadlock capacity; an unknown feed is refused by name."""
+    from mprt.explore.evaluate import window
+    from mprt.machine.config import stage_capacity
     p = tmp_path / "s.toml"
-    p.write_text('[replication]\nfeed = { choices = ["shared", "round-robin"] }\n')
-    with pytest.raises(SpaceError, match=r"replication\.feed: 'round-robin' is not modelled"):
+    p.write_text('[replication]\nIC = 3\nfeed = { choices = ["shared", "round-robin", "shortest-queue"] }\n')
+    sp = load_space(str(p))
+    feeds = list(sp.variables[sp._pos["replication.feed"]].values)
+    assert feeds == ["shared", "round-robin", "shortest-queue"]
+    d = model_m()
+    for feed in feeds:
+        rep = {**d.replication, "IC": 3}
+        dd = Design(**{**d.__dict__, "replication": rep, "feed": feed, "fifo": 64})
+        cfg = machine_config(dd, leaves=5)
+        st = {s.name: s for s in cfg.stages}
+        assert st["IC"].feed == feed and st["OS"].feed == "shared" and st["SC"].feed == "shared"
+        # window x leaves stays below the machine's own bound, whatever the feed
+        assert cfg.window == window(dd, 5) and cfg.window * 5 < cfg.cycle_capacity
+        assert cfg.cycle_capacity == sorted(stage_capacity(s) for s in cfg.stages)[0] + \
+            sorted(stage_capacity(s) for s in cfg.stages)[1]
+    # without copies the feed means nothing: one design whatever its feed
+    p.write_text('[replication]\nIC = { min = 1, max = 2 }\nfeed = { choices = ["shared", "round-robin"] }\n')
+    sp = load_space(str(p))
+    ic, fd = sp._pos["replication.IC"], sp._pos["replication.feed"]
+    idx = [0] * len(sp.variables)
+    for n_ic, feed, kept in ((0, 1, 0), (1, 1, 1)):
+        idx[ic], idx[fd] = n_ic, feed
+        assert sp.canonical(idx)[fd] == kept
+    p.write_text('[replication]\nfeed = { choices = ["shared", "random"] }\n')
+    with pytest.raises(SpaceError, match=r"replication\.feed: feed 'random' is not one of shared, round-robin"):
         load_space(str(p))

@@ -13,6 +13,7 @@ import mprt
 from mprt.cost import CostModel
 from mprt.fidelity import Analytical, Compiled, at_level, engine_for, evaluate, native_level, replay, unsupported
 from mprt.machine import ConfigError, DeadlockError, SystemConfig, builtin, load_config, make_stage, simulate
+from mprt.machine.config import FEEDS
 from mprt.trace import TraceError
 
 from test_machine import PARENT, PARENT_COSTS, costs, hand_trace
@@ -56,12 +57,30 @@ def level1(cfg):
     return cfg.replace(ring=None, ic_memory=None, sc_memory=None, icgm=None, scgm=None)
 
 
+def with_ic(cfg, **changes):
+    st = list(cfg.stages)
+    i = cfg.stage_of("IC")
+    st[i] = st[i].__class__(**{**st[i].__dict__, **changes})
+    return cfg.replace(stages=tuple(st))
+
+
+def fed(name):
+    """Per-copy feeds on a golden trace: the 3MPPE with IC x2 and model M with IC x3 and
+    receive FIFOs of 2 and OS's send FIFO of 1 (so they fill; only IC's are finite, so it
+    cannot deadlock), feed by the trace's name."""
+    n = NAMES.index(name) % 2
+    small = with_ic(builtin("M"), replicas=3, receive_fifo=2, feed=FEEDS[2 - n])
+    st = list(small.stages)
+    st[0] = make_stage(("OS",), send_fifo=1)
+    return with_ic(level1(builtin("3mppe")), replicas=2, feed=FEEDS[1 + n]), small.replace(stages=tuple(st))
+
+
 # ---- differential: golden traces ---------------------------------------------------
 
 @pytest.mark.parametrize("name", NAMES)
 def test_golden_traces_equal_simpy(traces, name):
     t = traces[name]
-    for cfg in (builtin("S"), builtin("M"), level1(builtin("3mppe")), level1(load_config(FULL))):
+    for cfg in (builtin("S"), builtin("M"), level1(builtin("3mppe")), level1(load_config(FULL))) + fed(name):
         vc = CM.visit_costs(t, cfg.processors())
         a, b = simulate(t, cfg, costs=vc), replay(t, cfg, costs=vc)
         assert a.cycles == b.cycles, cfg.name
@@ -74,14 +93,15 @@ MAPPINGS = [(("OS",), ("IC",), ("SC",)), (("OS", "SC"), ("IC",)), (("OS",), ("IC
             (("OS", "IC", "SC"),), (("IC",), ("OS",), ("SC",)), (("SC",), ("IC", "OS"))]
 
 
-def random_config(rng):
+def random_config(rng, feeds=False):
     stages = []
     for subs in rng.choice(MAPPINGS):
         finite = rng.random() < 0.6
         stages.append(make_stage(subs, rng.choice(["sequential", "paper:OS", "paper:IC", "paper:SC"]),
                                  replicas=rng.choice([1, 1, 2, 3]),
                                  send_fifo=rng.choice([None, 1, 2, 4]) if finite else None,
-                                 receive_fifo=rng.choice([None, 1, 2, 3, 8]) if finite else None))
+                                 receive_fifo=rng.choice([None, 1, 2, 3, 8]) if finite else None,
+                                 feed=rng.choice(FEEDS) if feeds else "shared"))
     return SystemConfig("random", tuple(stages), pes=rng.choice([1, 1, 2, 3]),
                         dis=rng.choice(["blocks", "interleaved", "dynamic"]), window=rng.choice([1, 2, 4, 16, 64, 256]))
 
@@ -93,16 +113,17 @@ def outcome(fn):
         return e
 
 
-@pytest.mark.parametrize("seed", range(3))
-def test_random_configurations_equal_simpy(traces, seed):
-    # 100 configurations per seed: mappings, processors, replicas, finite FIFOs, PEs, DIS
-    # policies, windows, with and without SC making the primary rays; deadlocks included
+@pytest.mark.parametrize("seed,feeds", [(0, False), (1, False), (2, False), (11, True), (12, True), (13, True)])
+def test_random_configurations_equal_simpy(traces, seed, feeds):
+    # 100 configurations per seed: mappings, processors, replicas (with feeds: each stage's
+    # feed shared, round-robin or shortest-queue), finite FIFOs, PEs, DIS policies, windows,
+    # with and without SC making the primary rays; deadlocks included
     rng = random.Random(seed)
     names = sorted(traces)
     deadlocks = 0
     for i in range(100):
         t = head(traces[rng.choice(names)], rng.choice([5, 20, 60]))
-        cfg = random_config(rng)
+        cfg = random_config(rng, feeds)
         vc = CM.visit_costs(t, cfg.processors())
         if rng.random() < 0.3:
             vc.inject_process = vc.inject_send = 0
@@ -112,17 +133,19 @@ def test_random_configurations_equal_simpy(traces, seed):
             deadlocks += 1
             assert type(a) is type(b), (i, cfg)
             assert str(a) == str(b) and a.state == b.state, (i, cfg)
+            # the deadlock bound (per feed, config.stage_capacity) never rules out one that happens
+            assert "the FIFOs can fill" in str(a), (i, cfg)
         else:
             assert a.cycles == b.cycles, (i, cfg)
             assert same(a, b), (i, cfg)
     assert deadlocks > 0      # the comparison covered deadlocks too
 
 
-@pytest.mark.parametrize("seed", range(4))
+@pytest.mark.parametrize("seed", range(8))
 def test_event_logs_equal_simpy(traces, seed):
     rng = random.Random(100 + seed)
     t = head(traces["rings-g9"], 15)
-    cfg = random_config(rng)
+    cfg = random_config(rng, seed >= 4)
     vc = CM.visit_costs(t, cfg.processors())
     a = outcome(lambda: simulate(t, cfg, costs=vc, record=True))
     b = outcome(lambda: replay(t, cfg, costs=vc, record=True))

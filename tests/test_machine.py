@@ -2,6 +2,7 @@
 out by hand (see python/mprt/machine/README.md for the rules applied)."""
 from types import SimpleNamespace
 
+import os
 import numpy as np
 import pytest
 
@@ -285,3 +286,43 @@ def test_global_memory_port_is_shared_with_contention():
     own = GlobalMemory("icgm", GlobalMemoryConfig(latency=20, bandwidth=8, contention=False), pes=2)
     assert own.read(0, 32, 0) == 24 and own.read(0, 32, 1) == 24
     assert (shared.queued, own.queued) == (4, 0)
+
+
+def test_per_copy_feed_can_be_slower_than_shared():
+    # Three primaries, each OS 1 (to IC), IC (return), OS 1 (left); IC 10, 1, 1 for A, B, C;
+    # two IC copies.  Shared: IC0 A 1-11, IC1 B 2-3; C arrives at 3 (OS, rank 1, before
+    # IC1's end) into the FIFO, IC1 takes it 3-4 after sending B to OS (3-4); OS C 4-5,
+    # A 11-12: 12 cycles.  Round-robin: C is the third packet, copy 0's, which waits for A:
+    # IC0 C 11-12, OS A 11-12, C 12-13: 13.  Shortest queue: at 3 both copies hold one
+    # (IC1's end at 3 has not run yet), a tie to copy 0: 13 as well.
+    tr = hand_trace([(-1, PRIMARY)] * 3,
+                    [v for r in range(3) for v in ((r, OS, TO_IC, 0), (r, IC, RETURN, 0), (r, OS, LEFT, 0))])
+    c = costs([1, 10, 1, 1, 1, 1, 1, 1, 1])
+    got = {}
+    for feed in ("shared", "round-robin", "shortest-queue"):
+        cfg = M(stages=(make_stage(("OS",)), make_stage(("IC",), replicas=2, feed=feed), make_stage(("SC",))))
+        res = run(tr, cfg, c)
+        got[feed] = res.cycles
+        ic = [(k, j) for t, what, name, k, j in res.log if what == "start" and name == "PE0.IC"]
+        assert ic == ([(0, 1), (1, 4), (1, 7)] if feed == "shared" else [(0, 1), (1, 4), (0, 7)])
+    assert got == {"shared": 12, "round-robin": 13, "shortest-queue": 13}
+
+
+@pytest.mark.parametrize("feed", ["round-robin", "shortest-queue"])
+def test_one_copy_feeds_equal_shared_and_copies_lose_no_visit(feed):
+    # With one copy every feed is the shared FIFO (same figures); with copies every visit
+    # still runs exactly once and no processor is busier than the run is long.
+    tr = mprt.load_trace(os.path.join(os.path.dirname(__file__), "data", "golden", "rings-g9.npz"))
+    base = builtin("3mppe").replace(ring=None, ic_memory=None, sc_memory=None, icgm=None, scgm=None, window=8)
+    one = base.replace(stages=tuple(s.__class__(**{**s.__dict__, "feed": feed}) for s in base.stages))
+    a, b = simulate(tr, base), simulate(tr, one)
+    assert a.cycles == b.cycles and a.fifos == b.fifos and a.processors == b.processors
+    i = base.stage_of("IC")
+    st = list(base.stages)
+    st[i] = make_stage(("IC",), "paper", replicas=3, send_fifo=8, receive_fifo=4, feed=feed)
+    for ring in (None, builtin("3mppe").ring):     # the ideal network and the ring
+        res = simulate(tr, base.replace(stages=tuple(st), ring=ring), record=True)
+        started = sorted(j for t, what, name, k, j in res.log if what == "start" and j >= 0)
+        assert started == list(range(len(tr.visits)))
+        assert all(p["busy"] + p["blocked"] <= res.cycles for p in res.processors)
+        assert sum(p["visits"] for p in res.processors if p["stage"] == "IC") == res.stages["IC"]["rays_in"]

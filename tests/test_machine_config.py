@@ -5,7 +5,7 @@ import pytest
 
 from mprt.cost import ProcessorConfig
 from mprt.machine import ConfigError, builtin, load_config
-from mprt.machine.config import resolve
+from mprt.machine.config import resolve, stage_capacity
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 
@@ -111,6 +111,9 @@ def test_resolve():
     ('[[stage]]\nsubtasks = ["OS", "IC", "SC"]\nsend_fifo = 1.5\n',
      r"m\.toml: stage\[0\]\.send_fifo: must be a positive integer or \"unbounded\""),
     ('[[stage]]\nsubtasks = ["OS", "IC", "SC"]\nlatency = 1\n', r"m\.toml: stage\[0\]\.latency: unknown field"),
+    ('[[stage]]\nsubtasks = ["OS", "IC", "SC"]\nfeed = "random"\n',
+     r"m\.toml: stage\[0\]\.feed: must be one of \"shared\", \"round-robin\", \"shortest-queue\", not 'random'"),
+    ('[[stage]]\nsubtasks = ["OS", "IC", "SC"]\nfeed = 1\n', r"m\.toml: stage\[0\]\.feed: must be one of"),
     ('base = "M"\n[ic_memory]\nresident = -5\n[icgm]\nlatency = 1\nbandwidth = 1\n',
      r"m\.toml: ic_memory\.resident: must be at least 0, not -5"),
     ('base = "M"\n[ic_memory]\ncache = { size = 1024.0, line = 32, ways = 1 }\n[icgm]\nlatency = 1\nbandwidth = 1\n',
@@ -147,3 +150,23 @@ def test_dataclass_checks_without_a_file():
         m.replace(pes=0)
     with pytest.raises(ConfigError, match="^stage: no stage runs SC"):
         m.replace(stages=m.stages[:2])
+
+
+def test_feed_field_and_deadlock_capacity(tmp_path):
+    text = ('base = "M"\n[[stage]]\nsubtasks = ["OS"]\nsend_fifo = 2\nreceive_fifo = 3\n'
+            '[[stage]]\nsubtasks = ["IC"]\nreplicas = 3\nsend_fifo = 2\nreceive_fifo = 3\nfeed = "FEED"\n'
+            '[[stage]]\nsubtasks = ["SC"]\nsend_fifo = 2\nreceive_fifo = 3\n')
+    caps = {}
+    for feed in ("shared", "round-robin", "shortest-queue"):
+        c = load_config(write(tmp_path, text.replace("FEED", feed)))
+        assert c.stages[1].feed == feed and c.stages[0].feed == "shared"
+        assert c.to_dict()["stages"][1].get("feed", "shared") == feed
+        caps[feed] = (stage_capacity(c.stages[1]), c.cycle_capacity)
+    # the README's deadlock argument: OS and SC hold 2 + 3 + 1 = 6 each when full, IC
+    # (3 copies) 2 + 3 + 3 shared, 2 + 3 + 1 round-robin (only the next copy full),
+    # 2 + 3 x (3 + 1) shortest-queue (every copy full); the smallest two stages count
+    assert caps == {"shared": (8, 12), "round-robin": (6, 12), "shortest-queue": (14, 12)}
+    assert load_config(write(tmp_path, text.replace("FEED", "round-robin").replace("replicas = 3", "replicas = 1")
+                             .replace('receive_fifo = 3\nfeed', 'receive_fifo = 1\nfeed'))).cycle_capacity == 10
+    with pytest.raises(ConfigError, match="^stage\\[0\\]\\.feed: must be one of shared, round-robin"):
+        builtin("S").replace(stages=(builtin("S").stages[0].__class__(("OS", "IC", "SC"), None, feed="fifo"),))

@@ -473,6 +473,9 @@ typedef struct {
     int replicas[3];                    /* processors of each stage (first nstages used), >= 1 */
     int64_t receive_fifo[3];            /* capacity in packets; 0 = unbounded */
     int64_t send_fifo[3];               /* capacity in packets; 0 = unbounded */
+    int feed[3];                        /* how a stage's replicas get packets: 0 one shared receive
+                                         * FIFO; 1 round-robin, 2 shortest queue: a receive FIFO
+                                         * (of receive_fifo) and local queue per replica */
     int pes;                            /* processing elements, >= 1 */
     int dis;                            /* mprt_dis */
     int64_t window;                     /* live rays a PE's DIS admits up to, >= 1 */

@@ -20,6 +20,9 @@
  *   sender's send FIFO and there is room; otherwise the packet waits in the
  *   send FIFO, whose head moves when a slot frees (waiters first come,
  *   first served), and blocked processors then place their packets.
+ * - A stage fed per replica (round-robin or shortest queue) gives each
+ *   replica its own receive FIFO and local queue; a packet entering the
+ *   stage is assigned one (assign()), and "room" is that replica's.
  * - DIS admits its PE's trees while fewer than `window` rays are live; a
  *   tree's primary goes to SC (which spends gen_cycles making it) or
  *   straight to OS; when there is no room it waits for a slot.
@@ -249,10 +252,79 @@ INLINE void start(mprt_replay *r, int i, int64_t j)
     heap_push(r, r->now + d, i + 1, i);
 }
 
+/* ---- a per-replica feed (round-robin, shortest queue) ---- */
+
+INLINE int copy_idle(const mprt_replay *r, const node *nd, int k)
+{
+    return r->procs[nd->first + k].state == MPRT_PROC_IDLE;
+}
+
+/* Replica k's packets: its receive FIFO and local queue, and the one it holds unless idle. */
+INLINE int64_t queued(const mprt_replay *r, const node *nd, int k)
+{
+    return (int64_t)nd->rfs[k].q.len + (int64_t)nd->locals[k].len + !copy_idle(r, nd, k);
+}
+
+/* The replica the next packet for nd goes to, -1: none has room (an idle
+ * replica or a free slot; need_room 0: any replica).  Round-robin: turn mod
+ * replicas; shortest queue: the fewest queued, ties to the lowest.  take: the
+ * assignment is made (the turn advances). */
+static NOINLINE int assign(mprt_replay *r, node *nd, int take, int need_room)
+{
+    int k, best = -1;
+    int64_t low = 0;
+    if (nd->feed == 1) {
+        k = (int)(nd->turn % nd->n);
+        if (need_room && !copy_idle(r, nd, k) && !f_room(&nd->rfs[k])) return -1;
+        if (take) nd->turn++;
+        return k;
+    }
+    for (k = 0; k < nd->n; k++) {
+        if (need_room && !copy_idle(r, nd, k) && !f_room(&nd->rfs[k])) continue;
+        if (best < 0 || queued(r, nd, k) < low) {
+            best = k;
+            low = queued(r, nd, k);
+        }
+    }
+    return best;
+}
+
+/* Replica k of nd (idle) is taken. */
+INLINE int take_copy(node *nd, int k)
+{
+    nd->idle[k / 64] &= ~((uint64_t)1 << (k % 64));
+    nd->nidle--;
+    return nd->first + k;
+}
+
+/* Packet x assigned to replica k of nd: started now if k is idle, else to the tail of
+ * its local queue (local) or receive FIFO.  Kept out of line (as the other per-replica
+ * paths): the shared feed's paths stay as small as they were. */
+static NOINLINE void give_copy(mprt_replay *r, node *nd, int k, int64_t x, int local)
+{
+    if (copy_idle(r, nd, k))
+        start(r, take_copy(nd, k), x);
+    else if (local)
+        q_push(r, &nd->locals[k], x);
+    else
+        f_put(r, &nd->rfs[k], x);
+}
+
+/* Room to enter nd: an idle replica or a free receive slot (per replica: for the one assigned). */
+INLINE int node_room(mprt_replay *r, node *nd)
+{
+    if (nd->feed) return assign(r, nd, 0, 1) >= 0;
+    return nd->nidle || f_room(&nd->rf);
+}
+
+/* A packet enters nd (there is room): its lowest idle processor, else its receive
+ * FIFO; per replica: the replica assigned, idle or not. */
 INLINE void accept(mprt_replay *r, node *nd, int64_t x)
 {
     if (x >= 0) PREFETCH(v_addr(r, x));
-    if (nd->nidle)
+    if (nd->feed)
+        give_copy(r, nd, assign(r, nd, 1, 1), x, 0);
+    else if (nd->nidle)
         start(r, take_idle(nd), x);
     else
         f_put(r, &nd->rf, x);
@@ -263,11 +335,15 @@ INLINE int net_send(mprt_replay *r, node *src, int64_t x, int g)
     node *dst = sibling(src, g);
     PREFETCH(v_addr(r, x));
     if (src->sf.q.len == 0) {
-        if (dst->nidle) {
+        if (dst->feed) {
+            if (node_room(r, dst)) {
+                accept(r, dst, x);
+                return 1;
+            }
+        } else if (dst->nidle) {
             start(r, take_idle(dst), x);
             return 1;
-        }
-        if (f_room(&dst->rf)) {
+        } else if (f_room(&dst->rf)) {
             f_put(r, &dst->rf, x);
             return 1;
         }
@@ -284,7 +360,9 @@ INLINE int output(mprt_replay *r, node *src, int64_t x, int g)
 {
     if (g == src->stage) {
         PREFETCH(v_addr(r, x));
-        if (src->nidle)
+        if (src->feed)
+            give_copy(r, src, assign(r, src, 1, 0), x, 1);
+        else if (src->nidle)
             start(r, take_idle(src), x);
         else
             q_push(r, &src->local, x);
@@ -323,7 +401,14 @@ static void advance(mprt_replay *r, node *src)
     while (src->sf.q.len) {
         int64_t e = src->sf.q.buf[src->sf.q.head], x = e >> 2;
         node *dst = sibling(src, (int)(e & 3));
-        if (dst->nidle) {
+        if (dst->feed) {
+            if (!node_room(r, dst)) {
+                q_push(r, &dst->rwait, src->stage);
+                return;
+            }
+            f_get(r, &src->sf);
+            accept(r, dst, x);
+        } else if (dst->nidle) {
             f_get(r, &src->sf);
             start(r, take_idle(dst), x);
         } else if (f_room(&dst->rf)) {
@@ -390,7 +475,7 @@ static void dis_admit(mprt_replay *r, int pe)
         e->live++;
         if (e->live > e->max_live) e->max_live = e->live;
         e->admitted++;
-        if (dst->nidle || f_room(&dst->rf)) {
+        if (node_room(r, dst)) {
             accept(r, dst, x);
         } else {
             e->holding = 1;
@@ -413,7 +498,7 @@ static void dis_release(mprt_replay *r, int pe)
 /* A receive slot of dst freed: the first waiting sender (or DIS) moves in. */
 static void freed(mprt_replay *r, node *dst)
 {
-    while (dst->rwait.len && f_room(&dst->rf)) {
+    while (dst->rwait.len && (dst->feed ? node_room(r, dst) : f_room(&dst->rf))) {
         int64_t w = q_pop(&dst->rwait);
         if (w == DIS_WAITER)
             dis_release(r, dst->pe);
@@ -446,6 +531,23 @@ INLINE int dest(const mprt_replay *r, int64_t a)
     case NEXT_VISIT: return r->cfg.stage_of[(a >> 2) & 3];
     case NEXT_RETIRE: return RETIRE;
     default: return CHILDREN;
+    }
+}
+
+/* Replica p (processor i) of a stage fed per replica takes its next packet: its local
+ * queue's head, else its receive FIFO's (a slot freed), else it is idle. */
+static NOINLINE void take_next_copy(mprt_replay *r, int i, proc *p, node *nd)
+{
+    int k = p->k;
+    if (nd->locals[k].len) {
+        start(r, i, q_pop(&nd->locals[k]));
+    } else if (nd->rfs[k].q.len) {
+        start(r, i, f_get(r, &nd->rfs[k]));
+        freed(r, nd);
+    } else {
+        p->state = MPRT_PROC_IDLE;
+        nd->idle[k / 64] |= (uint64_t)1 << (k % 64);
+        nd->nidle++;
     }
 }
 
@@ -499,11 +601,13 @@ static void handle(mprt_replay *r, int i)
             if (!ok) return;
         }
     }
-    if (nd->local.len) {
+    if (nd->local.len) {         /* (fed per replica: local and rf stay empty) */
         start(r, i, q_pop(&nd->local));
     } else if (nd->rf.q.len) {
         start(r, i, f_get(r, &nd->rf));
         freed(r, nd);
+    } else if (nd->feed) {
+        take_next_copy(r, i, p, nd);
     } else {
         p->state = MPRT_PROC_IDLE;
         nd->idle[p->k / 64] |= (uint64_t)1 << (p->k % 64);
@@ -513,7 +617,7 @@ static void handle(mprt_replay *r, int i)
 
 void mprt__replay_free_run(mprt_replay *r)
 {
-    int n;
+    int n, k;
     for (n = 0; r->nodes && n < r->nnode; n++) {
         node *nd = &r->nodes[n];
         q_free(&nd->rf.q);
@@ -521,6 +625,10 @@ void mprt__replay_free_run(mprt_replay *r)
         q_free(&nd->local);
         q_free(&nd->rwait);
         q_free(&nd->swait);
+        for (k = 0; nd->rfs && k < nd->n; k++) q_free(&nd->rfs[k].q);
+        for (k = 0; nd->locals && k < nd->n; k++) q_free(&nd->locals[k]);
+        free(nd->rfs);
+        free(nd->locals);
         free(nd->idle);
     }
     free(r->nodes);
@@ -583,6 +691,13 @@ static int build(mprt_replay *r)
             nd->nidle = c->replicas[s];
             nd->idle = calloc((size_t)words, sizeof *nd->idle);
             if (!nd->idle) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
+            nd->feed = c->replicas[s] > 1 ? c->feed[s] : 0;   /* one replica: every feed is the shared one */
+            if (nd->feed) {
+                nd->rfs = calloc((size_t)nd->n, sizeof *nd->rfs);
+                nd->locals = calloc((size_t)nd->n, sizeof *nd->locals);
+                if (!nd->rfs || !nd->locals) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
+                for (k = 0; k < nd->n; k++) nd->rfs[k].cap = c->receive_fifo[s];
+            }
             for (k = 0; k < c->replicas[s]; k++, i++) {
                 proc *q = &r->procs[i];
                 nd->idle[k / 64] |= (uint64_t)1 << (k % 64);

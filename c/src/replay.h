@@ -12,8 +12,10 @@
 
 #if defined(__GNUC__)
 #define INLINE static inline __attribute__((always_inline))
+#define NOINLINE __attribute__((noinline))
 #else
 #define INLINE static inline
+#define NOINLINE
 #endif
 
 #define RETIRE (-1)
@@ -49,6 +51,10 @@ typedef struct {
     int nidle;
     int stage, pe, first, n;     /* stage index, PE, first processor, replicas */
     int64_t generated;
+    int feed;                    /* 0 shared; 1 round-robin, 2 shortest queue: then per replica */
+    fifo *rfs;                   /* ... its receive FIFO (rf unused) */
+    queue *locals;               /* ... its local queue (local unused) */
+    int64_t turn;                /* round-robin: packets assigned so far */
 } node;
 
 typedef struct {

@@ -51,6 +51,9 @@ static int check_config(mprt_replay *r, const mprt_replay_config *c)
         if (c->send_fifo[s] < 0)
             return fail(r, MPRT_ERR_INVALID_ARG, "send_fifo[%d]: must be >= 0 (0: unbounded), not %lld", s,
                         (long long)c->send_fifo[s]);
+        if (c->feed[s] < 0 || c->feed[s] > 2)
+            return fail(r, MPRT_ERR_INVALID_ARG,
+                        "feed[%d]: must be shared (0), round-robin (1) or shortest queue (2), not %d", s, c->feed[s]);
         total += c->replicas[s];
         if (total > MAX_PROCS)
             return fail(r, MPRT_ERR_INVALID_ARG, "replicas: at most %d processors per PE", MAX_PROCS);

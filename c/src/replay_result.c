@@ -56,7 +56,7 @@ int mprt_replay_get_procs(const mprt_replay *r, mprt_replay_proc *out, size_t ca
 
 int mprt_replay_get_nodes(const mprt_replay *r, mprt_replay_node *out, size_t cap)
 {
-    int rc = need_run(r, out, cap, r ? (size_t)r->nnode : 0), n;
+    int rc = need_run(r, out, cap, r ? (size_t)r->nnode : 0), n, k;
     if (rc != MPRT_OK) return rc;
     for (n = 0; n < r->nnode; n++) {
         const node *nd = &r->nodes[n];
@@ -66,11 +66,19 @@ int mprt_replay_get_nodes(const mprt_replay *r, mprt_replay_node *out, size_t ca
         o->receive_max = nd->rf.max;
         o->receive_puts = nd->rf.puts;
         o->receive_area = f_area(&nd->rf, end);
+        o->local_queue = (int64_t)nd->local.len;
+        for (k = 0; nd->feed && k < nd->n; k++) {   /* per replica: summed, the largest max */
+            const fifo *f = &nd->rfs[k];
+            o->receive_occupancy += (int64_t)f->q.len;
+            o->receive_max = f->max > o->receive_max ? f->max : o->receive_max;
+            o->receive_puts += f->puts;
+            o->receive_area += f_area(f, end);
+            o->local_queue += (int64_t)nd->locals[k].len;
+        }
         o->send_occupancy = (int64_t)nd->sf.q.len;
         o->send_max = nd->sf.max;
         o->send_puts = nd->sf.puts;
         o->send_area = f_area(&nd->sf, end);
-        o->local_queue = (int64_t)nd->local.len;
         o->generated = nd->generated;
     }
     return MPRT_OK;

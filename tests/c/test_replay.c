@@ -174,6 +174,30 @@ static void test_replicas_share_the_work(void)
     CHECK(cycles(&h, &s, NULL, 0) == 20);
 }
 
+static void test_feeds_per_replica(void)
+{
+    /* four primaries of 30, 10, 10, 10 cycles on one stage of two processors, all admitted
+     * at 0.  Shared: the second processor runs 10, 10, 10 while the first runs 30: 30 cycles.
+     * Round-robin: the third goes to the first processor (after its 30), the fourth to the
+     * second: 40.  Shortest queue: the third finds one each (a tie, the first), the fourth
+     * two against one (the second): 40 too. */
+    hand h = {0};
+    mprt_replay_config s = model_s();
+    int i;
+    for (i = 0; i < 4; i++) {
+        ray(&h, -1, MPRT_RAY_PRIMARY);
+        visit(&h, i, MPRT_STAGE_OS, 0, i ? 10 : 30);
+    }
+    s.replicas[0] = 2;
+    CHECK(cycles(&h, &s, NULL, 0) == 30);
+    s.feed[0] = 1;
+    CHECK(cycles(&h, &s, NULL, 0) == 40);
+    s.feed[0] = 2;
+    CHECK(cycles(&h, &s, NULL, 0) == 40);
+    s.replicas[0] = 1;       /* one processor: every feed is the shared FIFO */
+    CHECK(cycles(&h, &s, NULL, 0) == 60);
+}
+
 static void test_sc_makes_the_primaries(void)
 {
     /* making a primary costs SC 4 cycles, then OS runs it 12: 16 */
@@ -271,7 +295,7 @@ static void test_bad_configurations(void)
     } cases[] = {{0, "nstages: must be 1, 2 or 3, not 0"}, {1, "stage_of[1]: the stage running IC must be 0..2"},
                  {2, "replicas[2]: must be"}, {3, "receive_fifo[0]: must be >= 0"}, {4, "pes: must be"},
                  {5, "dis: must be"}, {6, "window: must be >= 1"}, {7, "gen_cycles: must be >= 0"},
-                 {8, "stage_of: stage 2 runs no subtask"}};
+                 {8, "stage_of: stage 2 runs no subtask"}, {9, "feed[1]: must be shared (0), round-robin (1)"}};
     size_t i;
     for (i = 0; i < sizeof cases / sizeof cases[0]; i++) {
         mprt_replay_config_init(&c);
@@ -284,6 +308,7 @@ static void test_bad_configurations(void)
         case 5: c.dis = 7; break;
         case 6: c.window = 0; break;
         case 7: c.gen_cycles = -3; break;
+        case 9: c.feed[1] = 3; break;
         default: c.stage_of[2] = 1; break;
         }
         CHECK(mprt_replay_create(&c, &r) == MPRT_ERR_INVALID_ARG);
@@ -363,6 +388,7 @@ int main(void)
     RUN(test_parent_and_children);
     RUN(test_long_visits);
     RUN(test_replicas_share_the_work);
+    RUN(test_feeds_per_replica);
     RUN(test_sc_makes_the_primaries);
     RUN(test_deadlock);
     RUN(test_bad_configurations);

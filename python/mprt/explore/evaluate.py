@@ -22,6 +22,7 @@ import hashlib
 import json
 from collections import OrderedDict
 from dataclasses import dataclass, field
+from types import SimpleNamespace
 
 import numpy as np
 
@@ -96,14 +97,22 @@ def window(design: Design, leaves: int | None = None) -> int:
     """How many primary rays a PE's DIS keeps in flight: WINDOW_PER_COPY per copy of the
     most replicated processor, but with finite FIFOs no more than cannot deadlock for trees
     of up to ``leaves`` leaves (window x leaves below the smallest sum of two stages'
-    send + receive FIFO + copies: the machine model's ``cycle_capacity``)."""
+    capacities, which depend on the feed: the machine model's ``cycle_capacity``)."""
+    from ..machine.config import stage_capacity
+
     groups = processors(design.mapping)
     w = WINDOW_PER_COPY * max(design.processor_copies(g) for g in groups)
     if len(groups) > 1 and leaves:
         cap = _fifo_packets(design)
-        caps = sorted(2 * cap + design.processor_copies(g) for g in groups)
+        caps = sorted(stage_capacity(SimpleNamespace(send_fifo=cap, receive_fifo=cap, feed=_feed(design, g),
+                                                     replicas=design.processor_copies(g))) for g in groups)
         w = min(w, max((caps[0] + caps[1] - 1) // leaves, 1))
     return w
+
+
+def _feed(design: Design, group) -> str:
+    """The feed of a processor's copies: the design's, when it has more than one."""
+    return design.feed if design.processor_copies(group) > 1 else "shared"
 
 
 def _fifo_packets(design: Design) -> int:
@@ -119,6 +128,8 @@ def machine_fields(design: Design, leaves: int | None = None) -> dict:
     for g in groups:
         st = {"subtasks": list(g), "processor": {"units": design.processor_units(g)},
               "replicas": design.processor_copies(g)}
+        if _feed(design, g) != "shared":
+            st["feed"] = design.feed
         if len(groups) > 1:
             st["send_fifo"] = st["receive_fifo"] = _fifo_packets(design)
         stages.append(st)

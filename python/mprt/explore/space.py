@@ -21,16 +21,15 @@ import tomllib
 from dataclasses import dataclass, field
 
 from ..errors import MprtError
+from ..machine.config import FEEDS as MACHINE_FEEDS
 
 STAGE_NAMES = ("OS", "IC", "SC")
 # The stage mappings: '|' separates processors, '+' joins subtasks on one processor.
 MAPPINGS = ("OS|IC|SC", "OS+SC|IC", "OS|IC+SC", "OS+IC+SC")
-# How a processor's copies get their packets.  The machine model gives the copies of a processor
-# one receive FIFO that an idle copy takes the next packet from ("shared": a central queue, which
-# neither round-robin nor shortest-queue dispatch to per-copy FIFOs can beat); per-copy FIFOs fed
-# round-robin or by the shortest queue are not modelled, so they are refused by name.
-FEEDS = ("shared",)
-UNMODELLED_FEEDS = ("round-robin", "shortest-queue")
+# How a processor's copies get their packets (the machine model's stage ``feed``): one receive
+# FIFO that an idle copy takes the next packet from ("shared", a central queue), or a receive
+# FIFO per copy, each packet assigned round-robin or to the shortest queue.
+FEEDS = MACHINE_FEEDS
 UNIT_KINDS = ("int", "fp", "general")
 SHAPES = ("cube", "proportional")
 MAX_VALUES = 4096          # values of one variable (a range longer than this is refused)
@@ -41,10 +40,6 @@ class SpaceError(MprtError, ValueError):
 
 
 def _check_feed(feed, where: str) -> None:
-    if feed in UNMODELLED_FEEDS:
-        raise SpaceError(f"{where}: {feed!r} is not modelled: the machine model's copies of a processor share "
-                         "one receive FIFO, an idle copy taking the next packet (feed = \"shared\"); per-copy "
-                         "FIFOs fed round-robin or by the shortest queue are not built yet")
     if feed not in FEEDS:
         raise SpaceError(f"{where}: feed {feed!r} is not one of {', '.join(FEEDS)}")
 
@@ -221,7 +216,7 @@ shape = "proportional"                   # other axes in proportion to the scene
 OS = { min = 1, max = 3 }
 IC = { min = 1, max = 4 }
 SC = { min = 1, max = 2 }
-feed = "shared"
+feed = { choices = ["shared", "round-robin", "shortest-queue"] }
 
 [units.OS]
 int = { min = 1, max = 3 }
@@ -292,7 +287,8 @@ class Space:
         """The index vector with every variable that cannot change the machine
         set to its first value: units and replication of a subtask that shares
         its processor with an earlier one, the FIFOs
-        when one processor runs everything.  Two vectors
+        when one processor runs everything, the feed when no processor
+        has copies.  Two vectors
         with the same canonical form are one design."""
         idx = list(int(i) for i in idx)
         mapping = self.value(idx, "mapping")
@@ -303,6 +299,8 @@ class Space:
                 idx[i] = 0
         if len(live_stage) == 1:          # one processor: no packets, so no FIFOs
             idx[self._pos["fifo"]] = 0
+        if all(self.value(idx, f"replication.{s}") == 1 for s in live_stage):    # no copies to feed
+            idx[self._pos["replication.feed"]] = 0
         return tuple(idx)
 
     def index_of(self, point: Point) -> tuple:

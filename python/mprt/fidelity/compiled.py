@@ -6,7 +6,7 @@ returns the same ``SimResult`` (same cycles, same per-stage processing,
 communication and waiting, same FIFO, processor and PE figures), or raises
 the same ``DeadlockError``.  It supports every configuration without a ring
 (level 2) and without modelled memories (level 3): any stages, mapping,
-replicas, FIFO capacities, PEs, DIS policy and window.  ``unsupported(config)``
+replicas and their feeds, FIFO capacities, PEs, DIS policy and window.  ``unsupported(config)``
 says why a configuration is not one of those.
 
 The costs per visit are the cost model's (``visit_costs`` on the
@@ -23,7 +23,7 @@ import numpy as np
 
 from .._lowlevel import binding
 from ..errors import InvalidArgument
-from ..machine.config import DIS_POLICIES, SUBTASKS, SystemConfig, builtin
+from ..machine.config import DIS_POLICIES, FEEDS, SUBTASKS, SystemConfig, builtin
 from ..machine.errors import ConfigError
 from ..trace import TraceError
 from .views import SystemView
@@ -63,6 +63,7 @@ def c_config(config: SystemConfig, gen_cycles: int) -> dict:
             "replicas": [s.replicas for s in config.stages] + [1] * (3 - n),
             "receive_fifo": [s.receive_fifo or 0 for s in config.stages] + pad,
             "send_fifo": [s.send_fifo or 0 for s in config.stages] + pad,
+            "feed": [FEEDS.index(s.feed) for s in config.stages] + pad,
             "pes": config.pes, "dis": _DIS[config.dis], "window": config.window, "gen_cycles": gen_cycles}
 
 

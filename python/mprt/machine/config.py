@@ -24,13 +24,19 @@ from .errors import ConfigError
 
 SUBTASKS = ("OS", "IC", "SC")
 DIS_POLICIES = ("blocks", "interleaved", "dynamic")
+# How a stage's copies get their packets: one shared receive FIFO (an idle copy takes the
+# next packet), or a receive FIFO per copy fed round-robin or by the shortest queue.
+FEEDS = ("shared", "round-robin", "shortest-queue")
 
 
 @dataclass(frozen=True)
 class StageConfig:
     """A stage: ``replicas`` processors of one configuration running the
     given subtasks, behind one ring node with a send and a receive FIFO
-    (capacity in packets; None = unbounded)."""
+    (capacity in packets; None = unbounded).  ``feed``: "shared" (the copies
+    share the receive FIFO), "round-robin" or "shortest-queue" (each copy has
+    a receive FIFO of that capacity and a local queue of its own; see the
+    README's event semantics)."""
 
     subtasks: tuple
     processor: Any
@@ -38,6 +44,7 @@ class StageConfig:
     send_fifo: int | None = None
     receive_fifo: int | None = None
     processor_spec: Any = "sequential"
+    feed: str = "shared"
 
     @property
     def name(self) -> str:
@@ -126,9 +133,9 @@ class SystemConfig:
         """The fewest live rays a PE needs for its FIFOs to deadlock (None:
         never): every stage of a cycle then has a full receive FIFO, a full
         send FIFO and a packet in each of its blocked processors, so it is at
-        least the smallest sum of two stages' (receive + send + replicas)."""
-        caps = [None if s.send_fifo is None or s.receive_fifo is None else s.send_fifo + s.receive_fifo + s.replicas
-                for s in self.stages]
+        least the smallest sum of two stages' capacities, a stage's being what
+        it holds when nothing can enter it (``stage_capacity``)."""
+        caps = [stage_capacity(s) for s in self.stages]
         finite = sorted(c for c in caps if c is not None)
         if len(finite) < 2:
             return None
@@ -152,7 +159,8 @@ class SystemConfig:
             "dis": self.dis,
             "window": self.window,
             "stages": [{"subtasks": list(s.subtasks), "processor": _spec_json(s.processor_spec),
-                        "replicas": s.replicas, "send_fifo": s.send_fifo, "receive_fifo": s.receive_fifo}
+                        "replicas": s.replicas, "send_fifo": s.send_fifo, "receive_fifo": s.receive_fifo,
+                        **({} if s.feed == "shared" else {"feed": s.feed})}
                        for s in self.stages],
             "ring": part(self.ring),
             "ic_memory": part(self.ic_memory),
@@ -161,6 +169,22 @@ class SystemConfig:
             "scgm": part(self.scgm),
             "level": self.level,
         }
+
+
+def stage_capacity(s: StageConfig) -> int | None:
+    """The fewest packets a stage holds (None: unbounded) when it is part of a
+    FIFO deadlock: its send FIFO full and no room to enter it, its non-idle
+    copies each blocked with a packet.  Shared: the receive FIFO full and every
+    copy blocked.  Round-robin: the next copy's FIFO full and that copy
+    blocked (the others may be idle).  Shortest-queue: every copy's FIFO full
+    and every copy blocked."""
+    if s.send_fifo is None or s.receive_fifo is None:
+        return None
+    if s.feed == "round-robin":
+        return s.send_fifo + s.receive_fifo + 1
+    if s.feed == "shortest-queue":
+        return s.send_fifo + s.replicas * (s.receive_fifo + 1)
+    return s.send_fifo + s.receive_fifo + s.replicas
 
 
 def _spec_json(spec):
@@ -206,6 +230,8 @@ def _validate(cfg: SystemConfig) -> None:
         _int(s.replicas, w, f"{where}.replicas")
         _int(s.send_fifo, w, f"{where}.send_fifo", allow_none=True)
         _int(s.receive_fifo, w, f"{where}.receive_fifo", allow_none=True)
+        if s.feed not in FEEDS:
+            raise ConfigError(f"{w}{where}.feed: must be one of {', '.join(FEEDS)}, not {s.feed!r}")
     missing = [t for t in SUBTASKS if t not in seen]
     if missing:
         raise ConfigError(f"{w}stage: no stage runs {', '.join(missing)}")
@@ -283,10 +309,12 @@ def make_processor(spec, subtasks, where="processor"):
                       f"units/latency/issue_width, not {spec!r}")
 
 
-def make_stage(subtasks, processor="sequential", replicas=1, send_fifo=None, receive_fifo=None) -> StageConfig:
+def make_stage(subtasks, processor="sequential", replicas=1, send_fifo=None, receive_fifo=None,
+               feed="shared") -> StageConfig:
     """A StageConfig with its processor built from a specification."""
     subtasks = tuple(subtasks)
-    return StageConfig(subtasks, make_processor(processor, subtasks), replicas, send_fifo, receive_fifo, processor)
+    return StageConfig(subtasks, make_processor(processor, subtasks), replicas, send_fifo, receive_fifo, processor,
+                       feed)
 
 
 # ---- built-in configurations --------------------------------------------------
@@ -333,7 +361,7 @@ def builtin(name: str) -> SystemConfig:
 # ---- TOML ---------------------------------------------------------------------------
 
 _TOP = {"base", "name", "pes", "dis", "window", "stage", "ring", "ic_memory", "sc_memory", "icgm", "scgm"}
-_STAGE = {"subtasks", "processor", "replicas", "send_fifo", "receive_fifo"}
+_STAGE = {"subtasks", "processor", "replicas", "send_fifo", "receive_fifo", "feed"}
 _RING = {"flit_time", "buffer_classes"}
 _LOCAL = {"resident", "cache"}
 _CACHE = {"size", "line", "ways"}
@@ -356,6 +384,13 @@ def _fifo(value, where, name):
         raise ConfigError(f"{where}{name}: must be a positive integer or \"unbounded\", not {value!r}")
     if value < 1:
         raise ConfigError(f"{where}{name}: a FIFO holds at least 1 packet, not {value}")
+    return value
+
+
+def _feed(value, where, name):
+    if not isinstance(value, str) or value not in FEEDS:
+        raise ConfigError(f"{where}{name}: must be one of \"shared\", \"round-robin\", \"shortest-queue\", "
+                          f"not {value!r}")
     return value
 
 
@@ -420,7 +455,8 @@ def config_from_dict(data: dict, source: str | None = None) -> SystemConfig:
             proc = make_processor(spec, tuple(subs), where=f"{w}{nm}.processor")
             out.append(StageConfig(tuple(subs), proc, _int(st.get("replicas", 1), w, f"{nm}.replicas"),
                                    _fifo(st.get("send_fifo", "unbounded"), w, f"{nm}.send_fifo"),
-                                   _fifo(st.get("receive_fifo", "unbounded"), w, f"{nm}.receive_fifo"), spec))
+                                   _fifo(st.get("receive_fifo", "unbounded"), w, f"{nm}.receive_fifo"), spec,
+                                   _feed(st.get("feed", "shared"), w, f"{nm}.feed")))
         ch["stages"] = tuple(out)
     if "ring" in data:
         def ring(v):

@@ -83,3 +83,34 @@ class Fifo:
         return {"occupancy": len(self.items), "reserved": self.reserved,
                 "capacity": "unbounded" if self.capacity is None else self.capacity,
                 "waiting_for_a_slot": [getattr(w, "name", str(w)) for w in self.waiters]}
+
+
+class CopyFifos:
+    """The receive FIFOs of a stage whose copies are fed one each (feed
+    round-robin or shortest-queue), seen as one for the figures: occupancy,
+    packets and mean summed over the copies, max the largest copy's;
+    ``waiters`` is the stage's one waiting list (who waits for room to enter
+    the stage)."""
+
+    def __init__(self, name: str, fifos):
+        self.name = name
+        self.fifos = fifos
+        self.capacity = fifos[0].capacity
+        self.waiters = deque()
+
+    @property
+    def max(self) -> int:
+        return max(f.max for f in self.fifos)
+
+    @property
+    def puts(self) -> int:
+        return sum(f.puts for f in self.fifos)
+
+    def mean(self, end) -> float:
+        area = sum(f.area + (len(f.items) + f.reserved) * end for f in self.fifos)
+        return area / end if end else 0.0
+
+    def state(self) -> dict:
+        return {"occupancy": sum(len(f.items) for f in self.fifos), "reserved": sum(f.reserved for f in self.fifos),
+                "capacity": "unbounded" if self.capacity is None else self.capacity,
+                "waiting_for_a_slot": [getattr(w, "name", str(w)) for w in self.waiters]}

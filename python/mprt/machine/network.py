@@ -23,7 +23,8 @@ class Network:
         DIS, or a send FIFO's head) moves in, while there is room."""
         rf = dst.receive
         dis = self.pe.dis
-        while rf.waiters and rf.room():
+        room = dst.room if dst.per_copy else rf.room
+        while rf.waiters and room():
             w = rf.waiters.popleft()
             if w is dis:
                 dis.release()
@@ -41,13 +42,18 @@ class IdealNetwork(Network):
         dst = self.stages[g]
         sf = src.send
         if not sf.items:
-            if dst.idle:
+            if dst.per_copy:
+                if dst.room():
+                    dst.accept(x)
+                    return True
+            elif dst.idle:
                 dst.start(dst.idle.pop(0), x)
                 return True
-            rf = dst.receive
-            if rf.capacity is None or len(rf.items) < rf.capacity:
-                rf.put(x)
-                return True
+            else:
+                rf = dst.receive
+                if rf.capacity is None or len(rf.items) < rf.capacity:
+                    rf.put(x)
+                    return True
         if sf.capacity is None or len(sf.items) < sf.capacity:
             sf.put((x, dst))
             if len(sf.items) == 1:
@@ -60,7 +66,14 @@ class IdealNetwork(Network):
         sf = src.send
         while sf.items:
             x, dst = sf.items[0]
-            if dst.idle:
+            if dst.per_copy:
+                if dst.room():
+                    sf.get()
+                    dst.accept(x)
+                else:
+                    dst.receive.waiters.append(src)
+                    return
+            elif dst.idle:
                 sf.get()
                 dst.start(dst.idle.pop(0), x)
             elif dst.receive.room():

@@ -33,13 +33,14 @@ from __future__ import annotations
 from simpy.events import Event
 
 from .network import Network
+from .stage import IDLE
 
 HOP, CLAIM, BODY = 0, 1, 2
 PHASES = ("header waiting for link/buffer", "header waiting for the receive FIFO", "body waiting for the path")
 
 
 class _Packet:
-    __slots__ = ("x", "src", "dst", "flits", "node", "hops", "held", "phase")
+    __slots__ = ("x", "src", "dst", "flits", "node", "hops", "held", "phase", "copy")
 
     def __init__(self, x, src, dst, flits):
         self.x, self.src, self.dst, self.flits = x, src, dst, flits
@@ -136,10 +137,21 @@ class Ring(Network):
         if pkt.phase == CLAIM:
             d = pkt.dst
             st = self.stages[d]
-            if self.writer[d] is not None or not st.receive.room():
-                return False
-            self.writer[d] = pkt
-            st.receive.reserve()
+            if st.per_copy:     # the copy is assigned now: its FIFO must have a free slot
+                if self.writer[d] is not None:
+                    return False
+                k = st.assign(False, True, False)
+                if k < 0:
+                    return False
+                st.assign(True, True, False)
+                pkt.copy = k
+                self.writer[d] = pkt
+                st.rfs[k].reserve()
+            else:
+                if self.writer[d] is not None or not st.receive.room():
+                    return False
+                self.writer[d] = pkt
+                st.receive.reserve()
             pkt.phase = BODY
         # BODY: the rest of the packet over the whole path
         body = pkt.flits - 1
@@ -175,7 +187,15 @@ class Ring(Network):
         d = pkt.dst
         self.writer[d] = None
         st = self.stages[d]
-        if st.idle:
+        if st.per_copy:
+            k = pkt.copy
+            if st.state[k] == IDLE:
+                st.rfs[k].unreserve()
+                st.idle.remove(k)
+                st.start(k, pkt.x)
+            else:
+                st.rfs[k].fill(pkt.x)
+        elif st.idle:
             st.receive.unreserve()
             st.start(st.idle.pop(0), pkt.x)
         else:

@@ -13,18 +13,27 @@ from collections import deque
 
 from simpy.events import Event
 
-from .fifo import Fifo
+from .fifo import CopyFifos, Fifo
 from .replay import CHILDREN, PAGE_BITS, PAGE_MASK
 
 IDLE, BUSY, BLOCKED, RESUME = 0, 1, 2, 3
 STATE_NAMES = ("idle (receive FIFO empty)", "busy", "blocked (send FIFO full)", "resuming")
 
 
+class _Locals(list):
+    """The copies' local queues (a per-copy feed); its length is all their packets."""
+
+    def __len__(self):
+        return sum(map(len, self.__iter__()))
+
+
 class Stage:
     """A ring node of a PE: ``replicas`` processors of one configuration that
-    share a receive FIFO, a send FIFO and a local queue (packets a stage sends
-    to itself, e.g. IC to OS when one processor runs both: no FIFO, served
-    first)."""
+    share a send FIFO and, with feed "shared", a receive FIFO and a local
+    queue (packets a stage sends to itself, e.g. IC to OS when one processor
+    runs both: no FIFO, served first); with a per-copy feed each copy has a
+    receive FIFO and a local queue of its own, and a packet handed to the
+    stage is assigned to a copy (round-robin or the shortest queue)."""
 
     def __init__(self, system, pe, index: int, cfg, first_rank: int):
         env = system.env
@@ -33,9 +42,18 @@ class Stage:
         n = cfg.replicas
         self.n = n
         tl = system.timeline
-        self.receive = Fifo(env, self.name + ".receive", cfg.receive_fifo, tl)
         self.send = Fifo(env, self.name + ".send", cfg.send_fifo, tl)
-        self.local = deque()
+        self.per_copy = cfg.feed != "shared" and n > 1     # one copy: every feed is the shared one
+        if self.per_copy:
+            self.rfs = [Fifo(env, f"{self.name}.receive{k}", cfg.receive_fifo, tl) for k in range(n)]
+            self.receive = CopyFifos(self.name + ".receive", self.rfs)
+            self.locals = [deque() for _ in range(n)]
+            self.local = _Locals(self.locals)
+            self.shortest = cfg.feed == "shortest-queue"
+            self.turn = 0                     # round-robin: packets assigned so far
+        else:
+            self.receive = Fifo(env, self.name + ".receive", cfg.receive_fifo, tl)
+            self.local = deque()
         self.net = None                       # set by the PE
         self.memory = None                    # LocalMemory of the subtask's data (level 3)
         self.idle = list(range(n))            # idle processors, lowest first
@@ -90,14 +108,75 @@ class Stage:
     def accept(self, x: int) -> None:
         """A packet for this stage from the DIS or the network: to an idle
         processor if there is one (the lowest), else into the receive FIFO
-        (the caller has checked for room)."""
-        if self.idle:
+        (the caller has checked for room).  Per-copy feed: to the copy it is
+        assigned, idle or not."""
+        if self.per_copy:
+            k = self.assign(True)
+            self.give(k, x, self.rfs[k].put)
+        elif self.idle:
             self.start(self.idle.pop(0), x)
         else:
             self.receive.put(x)
 
     def room(self) -> bool:
+        if self.per_copy:
+            return self.assign(False, True) >= 0
         return bool(self.idle) or self.receive.room()
+
+    # -- per-copy feed -----------------------------------------------------------
+    def queued(self, k: int) -> int:
+        """Copy k's packets: its receive FIFO (slots reserved too) and local
+        queue, and the one it holds unless idle."""
+        f = self.rfs[k]
+        return len(f.items) + f.reserved + len(self.locals[k]) + (self.state[k] != IDLE)
+
+    def assign(self, take: bool, need_room: bool = True, idle_ok: bool = True) -> int:
+        """The copy the next packet goes to (-1: none has room).  Round-robin:
+        copy (packets assigned so far) mod copies, if it has room; shortest
+        queue: the copy with the fewest ``queued`` among those with room,
+        ties to the lowest.  Room: idle (when ``idle_ok``) or a free slot in
+        its receive FIFO; without ``need_room`` every copy qualifies (a
+        local queue has no capacity).  ``take``: the assignment is made
+        (round-robin's count advances)."""
+        def fits(k):
+            return not need_room or (idle_ok and self.state[k] == IDLE) or self.rfs[k].room()
+        if not self.shortest:
+            k = self.turn % self.n
+            if not fits(k):
+                return -1
+            if take:
+                self.turn += 1
+            return k
+        best, low = -1, 0
+        for k in range(self.n):
+            if fits(k):
+                q = self.queued(k)
+                if best < 0 or q < low:
+                    best, low = k, q
+        return best
+
+    def give(self, k: int, x: int, queue) -> None:
+        """Packet x assigned to copy k: started now if k is idle, else queued (``queue``)."""
+        if self.state[k] == IDLE:
+            self.idle.remove(k)
+            self.start(k, x)
+        else:
+            queue(x)
+
+    def take_next(self, k: int) -> None:
+        """Copy k (per-copy feed) takes its next packet: its local queue's
+        head, else its receive FIFO's (then the stage's waiters may enter),
+        else it is idle."""
+        local, rf = self.locals[k], self.rfs[k]
+        if local:
+            self.start(k, local.popleft())
+        elif rf.items:
+            self.start(k, rf.get())
+            if self.receive.waiters or not self.ideal:
+                self.net.freed(self)
+        else:
+            self.state[k] = IDLE
+            insort(self.idle, k)
 
     # -- a processor --------------------------------------------------------------
     def _run(self, k: int):
@@ -156,7 +235,9 @@ class Stage:
                     if not ok:
                         continue
             # take the next packet: local queue first, then the receive FIFO
-            if local:
+            if self.per_copy:
+                self.take_next(k)
+            elif local:
                 self.start(k, local.popleft())
             elif rf.items:
                 self.start(k, rf.get())
@@ -170,20 +251,28 @@ class Stage:
         """Send packet x (the visit it starts) of f flits to stage g; False if
         the send FIFO is full (the processor then keeps it)."""
         if g == self.index:
-            if self.idle:
+            if self.per_copy:
+                k = self.assign(True, False)
+                self.give(k, x, self.locals[k].append)
+            elif self.idle:
                 self.start(self.idle.pop(0), x)
             else:
                 self.local.append(x)
             return True
         if self.ideal and not self.send.items:      # the ideal network's common case, inline
             dst = self.pe.stages[g]
-            if dst.idle:
-                dst.start(dst.idle.pop(0), x)
-                return True
-            rf = dst.receive
-            if rf.capacity is None:
-                rf.put(x)
-                return True
+            if dst.per_copy:
+                if dst.room():
+                    dst.accept(x)
+                    return True
+            else:
+                if dst.idle:
+                    dst.start(dst.idle.pop(0), x)
+                    return True
+                rf = dst.receive
+                if rf.capacity is None:
+                    rf.put(x)
+                    return True
         return self.net.send(self, x, g, f)
 
     def _block(self, k, packets):
