@@ -137,7 +137,7 @@ class Design:
             parts.append(f"{processor_name(g)} on {k}x({units})")
         text = "; ".join(parts)
         if any(self.processor_copies(g) > 1 for g in self.processors()):
-            text += f", fed {self.feed}"
+            text += ", copies sharing one queue" if self.feed == "shared" else f", copies fed {self.feed}"
         if len(self.processors()) > 1:
             text += f"; FIFOs {self.fifo} words"
         text += (f"; IC cache {self.cache['IC']} KiB + resident {self.resident['IC']} KiB,"
