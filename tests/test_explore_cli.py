@@ -136,3 +136,15 @@ def test_prepass_check_replays_the_best_candidates_at_full_resolution():
         full = scene.grid(tuple(c["subdivision"])).trace(64, 64)[1]
         assert c["sampled_cycles"] == TraceEvaluator(full).run_config(builtin("3mppe"), 1).cycles
     assert r["subdivision"] == min(checked, key=lambda c: c["sampled_cycles"])["subdivision"]
+
+
+@pytest.mark.parametrize("name", ["balls", "tetra"])
+def test_prepass_stops_one_rung_past_the_best(name):
+    """Walking one rung past the ladder's best (the default) brackets the same minimum as two: the
+    same choice, from a subset of the candidates (the large grids left unbuilt)."""
+    scene = mprt.Scene.spd(name, 1)
+    one, two = prepass(scene, 128, 128, past=1), prepass(scene, 128, 128, past=2)
+    assert one["subdivision"] == two["subdivision"]
+    c1 = {tuple(c["subdivision"]) for c in one["candidates"]}
+    c2 = {tuple(c["subdivision"]) for c in two["candidates"]}
+    assert c1 <= c2 and len(c1) <= len(c2)

@@ -4,8 +4,10 @@ The paper proposes tracing at a fraction of the resolution for a few
 subdivisions and keeping the best.  Here the candidates are searched: the
 subdivision n (voxels along the scene box's longest axis, the other axes in
 proportion, or n per axis with ``shape="cube"``) is tried up a geometric
-ladder over the range until the time has risen on two rungs past the best
-(large grids cost the most to build), then the bracket around the best rung
+ladder over the range until the time has risen on ``past`` rungs past the
+best (default 1: large grids cost the most to build, and the rung past the
+best already closes the bracket; 2 chose the same subdivision on all six SPD
+scenes and the stadium at 512x512, at up to 3x the cost on gears), then the bracket around the best rung
 is narrowed by golden-section steps until its ends are within ``ratio`` (the
 time is close to unimodal in n, fewer tests as voxels shrink, more steps and
 set-up, and flat near its minimum).  Each candidate's
@@ -71,7 +73,7 @@ def default_range(scene, density=(1.0, 32.0), limit: int = 768) -> tuple[int, in
 def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 16,
             design=None, shape: str = "proportional", rungs: int = 7, level: int = 1,
             unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15, check: int = 0,
-            check_sample: str | None = None) -> dict:
+            check_sample: str | None = None, past: int = 1) -> dict:
     """Predict the full-resolution cycles of candidate subdivisions from traces
     at width/fraction x height/fraction, and return the best.  ``candidates``:
     explicit subdivisions (n or (nx, ny, nz)), all evaluated; otherwise n is
@@ -99,12 +101,12 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         if not 1 <= lo <= hi:
             raise ValueError(f"prepass: subdivision range {lo}..{hi} is empty")
         ladder = sorted({int(round(x)) for x in np.geomspace(lo, hi, min(rungs, hi - lo + 1))})
-        # up the ladder until the time has risen on two rungs past the best (the large grids cost most)
+        # up the ladder until the time has risen on `past` rungs past the best (the large grids cost most)
         vals = []
         for n in ladder:
             vals.append(f(n))
             i = int(np.argmin(vals))
-            if len(vals) - 1 - i >= 2:
+            if len(vals) - 1 - i >= past:
                 break
         a, b = ladder[max(i - 1, 0)], ladder[min(i + 1, len(ladder) - 1)]
         _golden(f, a, b, ratio)
