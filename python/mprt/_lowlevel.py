@@ -286,17 +286,23 @@ class Binding:
         self.lib.mprt_render_desc_init(d)
         return _struct_dict(self.ffi, d, "mprt_render_desc")
 
-    def _desc(self, desc: dict):
-        d = self.ffi.new("mprt_render_desc *")
-        self.lib.mprt_render_desc_init(d)
-        for k, v in desc.items():
+    def _struct(self, ctype: str, init, fields: dict, what: str):
+        """A new C struct of type ``ctype``, set to its defaults by ``init`` then field by field
+        from ``fields``; a field it does not have, or a value that does not fit, is an
+        InvalidArgument naming ``what`` and the field."""
+        d = self.ffi.new(ctype + " *")
+        init(d)
+        for k, v in fields.items():
             try:
                 setattr(d, k, v)
             except AttributeError:
-                raise InvalidArgument(f"render description has no field {k!r}") from None
-            except (TypeError, OverflowError) as e:
-                raise InvalidArgument(f"render description field {k!r}: {e}") from None
+                raise InvalidArgument(f"{what} has no field {k!r}") from None
+            except (TypeError, OverflowError, IndexError) as e:
+                raise InvalidArgument(f"{what} field {k!r}: {e}") from None
         return d
+
+    def _desc(self, desc: dict):
+        return self._struct("mprt_render_desc", self.lib.mprt_render_desc_init, desc, "render description")
 
     def _counters(self, c) -> dict:
         """mprt_counters by name; the per-kind array as a dict by kind name."""
@@ -368,16 +374,8 @@ class Binding:
 
     # -- replay ------------------------------------------------------------------------
     def _replay_config(self, config: dict):
-        c = self.ffi.new("mprt_replay_config *")
-        self.lib.mprt_replay_config_init(c)
-        for k, v in config.items():
-            try:
-                setattr(c, k, v)
-            except AttributeError:
-                raise InvalidArgument(f"replay configuration has no field {k!r}") from None
-            except (TypeError, OverflowError, IndexError) as e:
-                raise InvalidArgument(f"replay configuration field {k!r}: {e}") from None
-        return c
+        return self._struct("mprt_replay_config", self.lib.mprt_replay_config_init, config,
+                            "replay configuration")
 
     def replay_create(self, config: dict):
         """A compiled replay of a machine: ``config`` holds mprt_replay_config's fields by name
