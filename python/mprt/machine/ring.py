@@ -140,10 +140,9 @@ class Ring(Network):
             if st.per_copy:     # the copy is assigned now: its FIFO must have a free slot
                 if self.writer[d] is not None:
                     return False
-                k = st.assign(False, True, False)
+                k = st.assign(True, True, False)     # made only when a copy has room
                 if k < 0:
                     return False
-                st.assign(True, True, False)
                 pkt.copy = k
                 self.writer[d] = pkt
                 st.rfs[k].reserve()
