@@ -2,7 +2,7 @@
 paper's 3MPPE and models S and M; whether SC should keep its own processor;
 how the best subdivision moves with the machine.
 
-    .venv/bin/python studies/20_design_space/run.py [--res RES] [--out DIR] [--quick]
+    .venv/bin/python studies/20_design_space/run.py [--res RES] [--out DIR] [--scenes a,b] [--quick]
 Writes DIR/design_space.{csv,md} (default studies/out) and prints the Markdown.  The full run
 explores at level auto (1% tolerance); --quick: tetra at SPD size 1, 32x32, one budget, level 1
 and 300 global evaluations (the committed ref/; the full run's results are in ref/full/).
@@ -35,8 +35,14 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=OUT)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--scenes", default=",".join(mprt.SPD_SCENES),
+                    help="comma-separated SPD scenes (default: all six)")
     a = ap.parse_args(argv)
-    scenes = [("tetra", 1)] if a.quick else [(n, None) for n in mprt.SPD_SCENES]
+    names = [n.strip() for n in a.scenes.split(",") if n.strip()]
+    bad = [n for n in names if n not in mprt.SPD_SCENES]
+    if bad or not names:
+        ap.error(f"--scenes: {', '.join(bad) or 'none given'}: not SPD scenes ({', '.join(mprt.SPD_SCENES)})")
+    scenes = [("tetra", 1)] if a.quick else [(n, None) for n in names]
     budgets = BUDGETS[1:2] if a.quick else BUDGETS
     run(32 if a.quick else a.res, a.out, scenes, budgets, a.threads, 1 if a.quick else "auto",
         300 if a.quick else 1000)
