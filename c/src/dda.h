@@ -337,7 +337,7 @@ static inline int mprt__dda_jump(const mprt_grid *g, mprt__dda *w, const int las
 static inline int mprt__dda_seek(const mprt_grid *g, mprt__dda *w, int32_t *steps)
 {
     const uint8_t *empty = g->empty;
-    const unsigned jump_min = g->jump_min;
+    const uint64_t *plain = g->plain;
     const real te = w->t_end, ts = w->t_start;
     const unsigned n0 = (unsigned)g->n[0], n1 = (unsigned)g->n[1], n2 = (unsigned)g->n[2];
     for (;;) {
@@ -345,30 +345,34 @@ static inline int mprt__dda_seek(const mprt_grid *g, mprt__dda *w, int32_t *step
         int c0 = w->cell[0], c1 = w->cell[1], c2 = w->cell[2];
         long long v = w->voxel;
         int32_t n = 0;
-        unsigned e;
+        unsigned e = 0;
         if (w->t_exit >= te) return empty[v] == 0;
-        /* voxel by voxel while the voxels are empty and no jump pays */
-        while ((e = empty[v]) != 0 && (e < jump_min || mprt__min3(t0, t1, t2) < w->t_jump)) {
+        /* voxel by voxel while the voxels are empty and no jump pays: through
+         * plain voxels (grid.h), and through those a jump may start from while
+         * the walk is still near the ray's origin */
+        for (;;) {
+            if (!(plain[v >> 6] >> (v & 63) & 1) &&
+                ((e = empty[v]) == 0 || !(mprt__min3(t0, t1, t2) < w->t_jump)))
+                break;
             if (t0 <= t1 && t0 <= t2) {
                 last = t0;
-                if (t0 >= te || (unsigned)(c0 += w->step[0]) >= n0) break;
+                if (t0 >= te || (unsigned)(c0 += w->step[0]) >= n0) goto ended;
                 v += w->stride[0];
                 t0 += w->tdelta[0];
             } else if (t1 <= t2) {
                 last = t1;
-                if (t1 >= te || (unsigned)(c1 += w->step[1]) >= n1) break;
+                if (t1 >= te || (unsigned)(c1 += w->step[1]) >= n1) goto ended;
                 v += w->stride[1];
                 t1 += w->tdelta[1];
             } else {
                 last = t2;
-                if (t2 >= te || (unsigned)(c2 += w->step[2]) >= n2) break;
+                if (t2 >= te || (unsigned)(c2 += w->step[2]) >= n2) goto ended;
                 v += w->stride[2];
                 t2 += w->tdelta[2];
             }
             n++;
         }
         *steps += n;
-        if (e != 0 && (e < jump_min || mprt__min3(t0, t1, t2) < w->t_jump)) return 0; /* the walk ended */
         w->tnext[0] = t0;
         w->tnext[1] = t1;
         w->tnext[2] = t2;
@@ -390,6 +394,10 @@ static inline int mprt__dda_seek(const mprt_grid *g, mprt__dda *w, int32_t *step
             mprt__dda_block(g, w, e, lastc);
             if (!mprt__dda_jump(g, w, lastc, steps)) return 0;
         }
+        continue;
+    ended: /* the walk ends in the voxel it is in */
+        *steps += n;
+        return 0;
     }
 }
 

@@ -49,6 +49,7 @@ void mprt_grid_destroy(mprt_grid *g)
     if (g->counted) mprt__scene_count_grid(g->scene, -1);
     free(g->start);
     free(g->empty);
+    free(g->plain);
     free(g->macro_lo[0]);
     free(g->ids);
     free(g->ic.ref);
@@ -340,7 +341,7 @@ static int build(mprt_grid *g, size_t max_bytes)
     long long ntri;
     int st = MPRT_OK;
 
-    fixed = (size_t)(nvox + 1) * sizeof *g->start + (size_t)nvox + ic_bytes(s, &ntri);
+    fixed = (size_t)(nvox + 1) * sizeof *g->start + (size_t)nvox + (size_t)(nvox + 63) / 64 * 8 + ic_bytes(s, &ntri);
     if (fixed > max_bytes)
         return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY,
                          "grid %dx%dx%d needs %zu bytes for its voxel table and intersection data alone, more "
@@ -415,6 +416,10 @@ static int build(mprt_grid *g, size_t max_bytes)
     for (i = 0; i < nvox; i++) g->empty[i] = g->start[i + 1] > g->start[i] ? 0 : 1;
     if (g->jump_min <= 255 && mark_jumps(g) != MPRT_OK) {
         st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the macro cells of %lld voxels", nvox);
+        goto done;
+    }
+    if (mprt__dda_plain(g) != MPRT_OK) {
+        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the walk's bits of %lld voxels", nvox);
         goto done;
     }
     st = build_ic(g, ntri);
@@ -537,7 +542,7 @@ int mprt_grid_get_stats(const mprt_grid *g, mprt_grid_stats *st)
         if (g->empty[v] >= g->jump_min) st->jump_voxels++;
     }
     st->mean_len = st->nonempty ? (double)st->refs / (double)st->nonempty : 0;
-    st->bytes = (long long)((g->voxels + 1) * (long long)sizeof *g->start + g->voxels +
+    st->bytes = (long long)((g->voxels + 1) * (long long)sizeof *g->start + g->voxels + (g->voxels + 63) / 64 * 8 +
                             g->refs * (long long)sizeof *g->ids +
                             (g->macro_lo[0] ? (long long)(g->n[0] + g->n[1] + g->n[2]) * (long long)sizeof(int) : 0));
     st->lo[0] = g->lo.x; st->lo[1] = g->lo.y; st->lo[2] = g->lo.z;

@@ -19,6 +19,10 @@ struct mprt_grid {
                         * empty == 0); 1 when empty; k >= 2 when empty and so is
                         * every macro cell within k - 2 of the voxel's own (chessboard
                         * distance in macro cells): the walk may jump that block */
+    uint64_t *plain;   /* per voxel one bit (voxel v: bit v % 64 of word v / 64): set when the
+                        * voxel is empty and the walk does not jump from it (0 < empty <
+                        * jump_min); the walk's inner loop reads these 1/8-size bits
+                        * (dda.c, mprt__dda_plain) instead of the bytes of empty */
     int macro[3];      /* voxels per macro cell on each axis: about cubic macro cells */
     int *macro_lo[3];  /* per axis, per voxel index: the first index of its macro cell */
     unsigned jump_min; /* the walk jumps from voxels whose empty value is at least this
@@ -50,5 +54,9 @@ vec3 mprt__grid_voxel_lo(const mprt_grid *g, int i, int j, int k);
  * over an n[0] x n[1] x n[2] array of cells (x fastest) holding 0 or 255,
  * capped at 255.  MPRT_ERR_OUT_OF_MEMORY when scratch memory runs out. */
 int mprt__chessboard_distance(const int n[3], uint8_t *d);
+
+/* Fill g->plain from g->empty and g->jump_min (dda.c); MPRT_ERR_OUT_OF_MEMORY
+ * when it cannot be allocated. */
+int mprt__dda_plain(mprt_grid *g);
 
 #endif
