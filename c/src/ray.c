@@ -10,7 +10,7 @@ static real inverse(real x)
 
 void mprt__ray_prepare(mprt__ray *ray, vec3 o, vec3 d)
 {
-    real a[3], ax, ay, az;
+    real ax, ay, az, akx, aky, akz, sx, sy;
     int kx, ky, kz, tmp;
 
     ray->o = o;
@@ -26,12 +26,10 @@ void mprt__ray_prepare(mprt__ray *ray, vec3 o, vec3 d)
     kz = ax >= ay ? (ax >= az ? 0 : 2) : (ay >= az ? 1 : 2);
     kx = kz == 2 ? 0 : kz + 1;
     ky = kx == 2 ? 0 : kx + 1;
-    a[0] = d.x;
-    a[1] = d.y;
-    a[2] = d.z;
+    akz = vget(d, kz);
 
     /* Keep the permuted frame right-handed when the ray runs toward -kz */
-    if (a[kz] < 0) {
+    if (akz < 0) {
         tmp = kx;
         kx = ky;
         ky = tmp;
@@ -39,24 +37,24 @@ void mprt__ray_prepare(mprt__ray *ray, vec3 o, vec3 d)
     ray->kx = kx;
     ray->ky = ky;
     ray->kz = kz;
+    akx = vget(d, kx);
+    aky = vget(d, ky);
 
-    /* Shear constants: p -> (p[kx] + sx p[kz], p[ky] + sy p[kz], sz p[kz]) */
-    if (a[kz] != 0) {
-        ray->sx = -a[kx] / a[kz];
-        ray->sy = -a[ky] / a[kz];
-        ray->sz = 1 / a[kz];
+    /* Shear constants: p -> (p[kx] + sx p[kz], p[ky] + sy p[kz], sz p[kz]);
+     * sz = 1 / d[kz] is inv[kz] */
+    if (akz != 0) {
+        sx = -akx / akz;
+        sy = -aky / akz;
+        ray->sz = vget(ray->inv, kz);
     } else { /* zero direction: no hit is possible, keep the fields finite */
-        ray->sx = ray->sy = 0;
+        sx = sy = 0;
         ray->sz = 0;
     }
-    /* The shear rows as vectors, for branch-free dot products */
-    {
-        real mxa[3] = {0, 0, 0}, mya[3] = {0, 0, 0};
-        mxa[kx] = 1;
-        mxa[kz] = ray->sx;
-        mya[ky] = 1;
-        mya[kz] = ray->sy;
-        ray->mx = v3(mxa[0], mxa[1], mxa[2]);
-        ray->my = v3(mya[0], mya[1], mya[2]);
-    }
+    ray->sx = sx;
+    ray->sy = sy;
+    /* The shear rows as vectors, for branch-free dot products (selected
+     * component by component: a store at a variable index followed by a
+     * vector load stalls on store forwarding) */
+    ray->mx = v3(kx == 0 ? 1 : kz == 0 ? sx : 0, kx == 1 ? 1 : kz == 1 ? sx : 0, kx == 2 ? 1 : kz == 2 ? sx : 0);
+    ray->my = v3(ky == 0 ? 1 : kz == 0 ? sy : 0, ky == 1 ? 1 : kz == 1 ? sy : 0, ky == 2 ? 1 : kz == 2 ? sy : 0);
 }
