@@ -121,6 +121,7 @@ static void render_tile(const mprt__render_setup *setup, int tile, const sample_
     for (y = rect[1]; y < rect[3]; y++)
         for (x = rect[0]; x < rect[2]; x++) {
             double *rgb = out->rgb + 3 * ((size_t)(y - out->y0) * (size_t)out->stride + (size_t)(x - out->x0));
+            double sum[3]; /* the sample's sum: the shared buffer is written once a sample */
             mprt__tree_ray eye;
             memset(&eye, 0, sizeof eye);
             eye.origin = cam->from;
@@ -129,7 +130,10 @@ static void render_tile(const mprt__render_setup *setup, int tile, const sample_
             eye.contribution = 1;
             eye.kind = MPRT_RAY_PRIMARY;
             eye.depth = 1;
-            mprt__trace_sample(setup, eye, y * cam->samples_w + x, rgb, stack, sink);
+            mprt__trace_sample(setup, eye, y * cam->samples_w + x, sum, stack, sink);
+            rgb[0] = sum[0];
+            rgb[1] = sum[1];
+            rgb[2] = sum[2];
             if (sink->over_budget >= 0) return;
         }
 }
@@ -223,6 +227,14 @@ typedef struct {
     pthread_t thread;
 } worker;
 
+/* Memory of its own cache lines: whole 64-byte lines, none shared with
+ * another allocation (a worker writes its ray stack at every ray). */
+static void *lines_alloc(size_t bytes)
+{
+    void *p;
+    return posix_memalign(&p, 64, (bytes + 63) / 64 * 64) == 0 ? p : NULL;
+}
+
 /* A worker counts into a sink in its own stack frame, not into the worker
  * array: the counters change at every stage visit, and neighbouring
  * workers' entries share cache lines. */
@@ -231,7 +243,7 @@ static void *work(void *arg)
     worker *self = arg;
     tile_queue *queue = self->queue;
     mprt__sink sink = self->sink;
-    mprt__tree_ray *stack = malloc(mprt__tree_stack_size(queue->setup) * sizeof *stack);
+    mprt__tree_ray *stack = lines_alloc(mprt__tree_stack_size(queue->setup) * sizeof *stack);
     if (!stack) {
         pthread_mutex_lock(&queue->lock);
         queue->out_of_memory = 1;
