@@ -216,10 +216,78 @@ static void test_chessboard_distance_matches_brute_force(void)
     CHECK_MSG(bad == 0, "%d cells differ from brute force", bad);
 }
 
+/* The walk's inner loop reads the plain bits (grid.h): set exactly for the
+ * voxels that are empty and no jump starts from, nothing past the last
+ * voxel.  And mprt__dda_seek, which reads them, stops at the same voxels
+ * with the same counts as a walk of mprt__dda_next that looks at each
+ * voxel's list: with jumps off, at the default threshold and wherever the
+ * grid allows (MPRT_JUMP_MIN=2). */
+static void test_seek_stops_where_the_lists_are(void)
+{
+    static const char *modes[][2] = {{"MPRT_NO_SKIP", "1"}, {"MPRT_JUMP_MIN", ""}, {"MPRT_JUMP_MIN", "2"}};
+    static const int dims[][3] = {{8, 8, 8}, {13, 5, 9}, {1, 7, 30}, {40, 40, 40}, {65, 3, 2}};
+    mprt_scene *s = corner_scene();
+    rng r;
+    int m, gi, i, bad_bits = 0, bad_walks = 0, stops = 0;
+    rng_seed(&r, 11);
+    for (m = 0; m < 3; m++) {
+        setenv(modes[m][0], modes[m][1], 1);
+        for (gi = 0; gi < 5; gi++) {
+            mprt_grid *g = make_grid(s, dims[gi][0], dims[gi][1], dims[gi][2]);
+            long long v, words = (g->voxels + 63) / 64;
+            for (v = 0; v < words * 64; v++) {
+                int bit = (int)(g->plain[v >> 6] >> (v & 63) & 1);
+                int want = v < g->voxels && g->start[v + 1] == g->start[v] && g->empty[v] < g->jump_min;
+                if (bit != want) bad_bits++;
+            }
+            for (i = 0; i < 400; i++) {
+                mprt__ray ray;
+                mprt__dda a, b;
+                vec3 o, d;
+                int32_t na = 1, nb = 1;
+                int more_a, more_b;
+                hard_ray(&r, g, &o, &d);
+                mprt__ray_prepare(&ray, o, d);
+                if (!mprt__dda_start(g, &ray, 0, (real)INFINITY, &a)) continue;
+                b = a;
+                do {
+                    more_a = mprt__dda_seek(g, &a, &na);
+                    more_b = 1;
+                    while (g->start[b.voxel + 1] == g->start[b.voxel])
+                        if (!mprt__dda_next(g, &b)) {
+                            more_b = 0;
+                            break;
+                        } else {
+                            nb++;
+                        }
+                    if (more_a != more_b || na != nb || (more_a && !same_state(&a, &b))) {
+                        bad_walks++;
+                        break;
+                    }
+                    stops += more_a;
+                    if (more_a) {
+                        more_a = mprt__dda_next(g, &a);
+                        more_b = mprt__dda_next(g, &b);
+                        na += more_a;
+                        nb += more_b;
+                    }
+                } while (more_a && more_b);
+            }
+            mprt_grid_destroy(g);
+        }
+        unsetenv(modes[m][0]);
+    }
+    CHECK_MSG(bad_bits == 0, "%d plain bits wrong", bad_bits);
+    CHECK_MSG(bad_walks == 0, "%d walks differ", bad_walks);
+    CHECK(stops > 500); /* the rays meet the spheres' voxels */
+    mprt_scene_destroy(s);
+}
+
 int main(void)
 {
     RUN(test_a_jump_ends_where_the_plain_walk_leaves_the_block);
     RUN(test_runs_sum_as_the_walk_sums);
     RUN(test_chessboard_distance_matches_brute_force);
+    RUN(test_seek_stops_where_the_lists_are);
     return CHECK_DONE();
 }
