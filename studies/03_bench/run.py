@@ -274,11 +274,14 @@ def side_by_side(before, repeat, name, *args):
 
 # ---- per scene ------------------------------------------------------------------------------------
 
+MAX_CANDIDATE_VOXELS = 1 << 23  # finer shape-following grids pay only for flat scenes (tree)
+
+
 def candidates(scene):
     cands = [(n, n, n) for n in (16, 24, 32, 48, 64, 96, 128)]
-    for density in (1, 2, 3, 4, 6, 8, 12):
+    for density in (1, 2, 3, 4, 6, 8, 12, 16, 24, 32):
         g = tuple(scene.default_grid(density=density, limit=512))
-        if g not in cands:
+        if g not in cands and (density <= 12 or g[0] * g[1] * g[2] <= MAX_CANDIDATE_VOXELS):
             cands.append(g)
     return cands
 
