@@ -137,7 +137,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
                                 **({"sampled_cycles": checked[d]} if d in checked else {})) for d, c in cands],
             "check_sample": check_sample if check > 0 else None,
             "low_resolution": [w, h], "full_resolution": [width, height], "machine": f.design.name,
-            "level": level, "seconds": time.perf_counter() - t0}
+            "level": level, "refine": refine if not candidates else None, "seconds": time.perf_counter() - t0}
 
 
 def _parabola(f, a: int, m: int, b: int) -> None:
