@@ -270,6 +270,133 @@ static int pairs_push(pairs *p, uint32_t v, int32_t id, size_t limit)
     return 0;
 }
 
+/* The voxel range primitive i's bounds touch, grown by the margin (on
+ * MPRT_LIST_BOX_OUTWARD one voxel more on each axis's high side). */
+static int prim_range(mprt_grid *g, long long i, int a0[3], int a1[3])
+{
+    const mprt_scene *s = g->scene;
+    vec3 blo, bhi;
+    int a;
+    if (mprt__prim_bounds(s, i, &blo, &bhi) != MPRT_OK)
+        return grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
+    for (a = 0; a < 3; a++) {
+        a0[a] = axis_cell(g, a, vget(blo, a) - g->pad);
+        a1[a] = axis_cell(g, a, vget(bhi, a) + g->pad);
+        if (g->listing == MPRT_LIST_BOX_OUTWARD && a1[a] < g->n[a] - 1) a1[a]++;
+    }
+    return MPRT_OK;
+}
+
+static int push(mprt_grid *g, pairs *P, int x, int y, int z, long long i, size_t pair_limit, size_t max_bytes)
+{
+    if (!pairs_push(P, (uint32_t)(((long long)z * g->n[1] + y) * g->n[0] + x), (int32_t)i, pair_limit))
+        return MPRT_OK;
+    return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY,
+                     "grid %dx%dx%d: the primitive lists exceed the %zu bytes allowed "
+                     "(or memory ran out) at primitive %lld",
+                     g->n[0], g->n[1], g->n[2], max_bytes, i);
+}
+
+/* The (voxel, primitive) pairs, voxel by voxel as the paper's build would:
+ * kept as the reference the faster list_fast is tested against
+ * (mprt__grid_create_reference, tests/c/test_grid_build.c). */
+static int list_reference(mprt_grid *g, pairs *P, size_t pair_limit, size_t max_bytes)
+{
+    const mprt_scene *s = g->scene;
+    const real margin = g->pad;
+    long long i;
+    int st;
+    for (i = 0; i < s->nprims; i++) {
+        int a0[3], a1[3], x, y, z;
+        if ((st = prim_range(g, i, a0, a1)) != MPRT_OK) return st;
+        for (z = a0[2]; z <= a1[2]; z++)
+            for (y = a0[1]; y <= a1[1]; y++)
+                for (x = a0[0]; x <= a1[0]; x++) {
+                    vec3 lo = mprt__grid_voxel_lo(g, x, y, z);
+                    vec3 hi = mprt__grid_voxel_lo(g, x + 1, y + 1, z + 1);
+                    lo = v3(lo.x - margin, lo.y - margin, lo.z - margin);
+                    hi = v3(hi.x + margin, hi.y + margin, hi.z + margin);
+                    int touch = g->listing != MPRT_LIST_EXACT ? 1 : prim_box(s, i, lo, hi);
+                    if (touch < 0)
+                        return grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
+                    if (touch && (st = push(g, P, x, y, z, i, pair_limit, max_bytes)) != MPRT_OK) return st;
+                }
+    }
+    return MPRT_OK;
+}
+
+/* The same pairs as list_reference, bit for bit, for less work: the voxel
+ * boxes (grown by the margin) come from per-axis tables computed with the
+ * same arithmetic, and polygons are tested column by column (x outermost)
+ * through mprt__polybox, which clips each polygon to a column's x slab
+ * once.  The order of a primitive's own pairs does not matter: the counting
+ * sort keeps primitives in id order within each voxel. */
+static int list_fast(mprt_grid *g, pairs *P, size_t pair_limit, size_t max_bytes)
+{
+    const mprt_scene *s = g->scene;
+    const real margin = g->pad;
+    real *tab, *vlo[3], *vhi[3], *vmag[3];
+    mprt__polybox pb;
+    long long i;
+    int a, k, st = MPRT_OK;
+    tab = malloc(3 * (size_t)(g->n[0] + g->n[1] + g->n[2]) * sizeof *tab);
+    if (!tab) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the voxel bounds");
+    memset(&pb, 0, sizeof pb);
+    for (a = 0, vlo[0] = tab; a < 3; a++) {
+        const real lo = vget(g->lo, a), cell = vget(g->cell, a);
+        vhi[a] = vlo[a] + g->n[a];
+        vmag[a] = vhi[a] + g->n[a];
+        if (a < 2) vlo[a + 1] = vmag[a] + g->n[a];
+        for (k = 0; k < g->n[a]; k++) {
+            real l = lo + (real)k * cell, h = lo + (real)(k + 1) * cell, al, ah;
+            vlo[a][k] = l - margin;
+            vhi[a][k] = h + margin;
+            al = ABS(vlo[a][k]);
+            ah = ABS(vhi[a][k]);
+            vmag[a][k] = al > ah ? al : ah;
+        }
+    }
+    for (i = 0; i < s->nprims && st == MPRT_OK; i++) {
+        const mprt__prim *p = &s->prims[i];
+        int a0[3], a1[3], x, y, z;
+        if ((st = prim_range(g, i, a0, a1)) != MPRT_OK) break;
+        if (p->kind == MPRT_POLYGON && g->listing == MPRT_LIST_EXACT) {
+            mprt__polybox_set(&pb, &s->polygons[p->index], s->verts);
+            for (x = a0[0]; x <= a1[0] && st == MPRT_OK; x++)
+                for (y = a0[1]; y <= a1[1] && st == MPRT_OK; y++) {
+                    real mxy = vmag[0][x] > vmag[1][y] ? vmag[0][x] : vmag[1][y];
+                    for (z = a0[2]; z <= a1[2]; z++) {
+                        int touch = mprt__polybox_test(&pb, v3(vlo[0][x], vlo[1][y], vlo[2][z]),
+                                                       v3(vhi[0][x], vhi[1][y], vhi[2][z]),
+                                                       mxy > vmag[2][z] ? mxy : vmag[2][z]);
+                        if (touch < 0) {
+                            st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory clipping polygon %lld", i);
+                            break;
+                        }
+                        if (touch && (st = push(g, P, x, y, z, i, pair_limit, max_bytes)) != MPRT_OK) break;
+                    }
+                }
+            continue;
+        }
+        for (z = a0[2]; z <= a1[2] && st == MPRT_OK; z++)
+            for (y = a0[1]; y <= a1[1] && st == MPRT_OK; y++)
+                for (x = a0[0]; x <= a1[0]; x++) {
+                    int touch = g->listing != MPRT_LIST_EXACT
+                                    ? 1
+                                    : prim_box(s, i, v3(vlo[0][x], vlo[1][y], vlo[2][z]),
+                                               v3(vhi[0][x], vhi[1][y], vhi[2][z]));
+                    if (touch < 0) {
+                        st = grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
+                        break;
+                    }
+                    if (touch && (st = push(g, P, x, y, z, i, pair_limit, max_bytes)) != MPRT_OK) break;
+                }
+    }
+    mprt__polybox_free(&pb);
+    free(tab);
+    return st;
+}
+
 /* Bytes of IC's copy of the primitives (ic.h). */
 static size_t ic_bytes(const mprt_scene *s, long long *ntri)
 {
@@ -329,14 +456,13 @@ static int build_ic(mprt_grid *g, long long ntri)
     return MPRT_OK;
 }
 
-static int build(mprt_grid *g, size_t max_bytes)
+static int build(mprt_grid *g, size_t max_bytes, int reference)
 {
     const mprt_scene *s = g->scene;
     long long i, nvox = g->voxels;
     pairs P = {NULL, NULL, 0, 0};
     size_t pair_limit, fixed;
     uint32_t *count = NULL;
-    real margin;
     long long ntri;
     int st = MPRT_OK;
 
@@ -352,44 +478,10 @@ static int build(mprt_grid *g, size_t max_bytes)
     if (!g->start) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory allocating %zu bytes of voxel table", fixed);
 
     /* Margin: a few thousand ulps of the scene's extent. */
-    margin = (real)(vmaxabs(vsub(g->hi, g->lo)) + vmaxabs(g->lo) + vmaxabs(g->hi)) * REAL_EPS * R(4096);
-    g->pad = margin;
+    g->pad = (real)(vmaxabs(vsub(g->hi, g->lo)) + vmaxabs(g->lo) + vmaxabs(g->hi)) * REAL_EPS * R(4096);
 
-    for (i = 0; i < s->nprims; i++) {
-        vec3 blo, bhi;
-        int a0[3], a1[3], x, y, z, a;
-        if (mprt__prim_bounds(s, i, &blo, &bhi) != MPRT_OK) {
-            st = grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
-            goto done;
-        }
-        for (a = 0; a < 3; a++) {
-            a0[a] = axis_cell(g, a, vget(blo, a) - margin);
-            a1[a] = axis_cell(g, a, vget(bhi, a) + margin);
-            if (g->listing == MPRT_LIST_BOX_OUTWARD && a1[a] < g->n[a] - 1) a1[a]++;
-        }
-        for (z = a0[2]; z <= a1[2]; z++)
-            for (y = a0[1]; y <= a1[1]; y++)
-                for (x = a0[0]; x <= a1[0]; x++) {
-                    vec3 lo = mprt__grid_voxel_lo(g, x, y, z);
-                    vec3 hi = mprt__grid_voxel_lo(g, x + 1, y + 1, z + 1);
-                    lo = v3(lo.x - margin, lo.y - margin, lo.z - margin);
-                    hi = v3(hi.x + margin, hi.y + margin, hi.z + margin);
-                    int touch = g->listing != MPRT_LIST_EXACT ? 1 : prim_box(s, i, lo, hi);
-                    if (touch < 0) {
-                        st = grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
-                        goto done;
-                    }
-                    if (!touch) continue;
-                    if (pairs_push(&P, (uint32_t)(((long long)z * g->n[1] + y) * g->n[0] + x), (int32_t)i,
-                                   pair_limit)) {
-                        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY,
-                                       "grid %dx%dx%d: the primitive lists exceed the %zu bytes allowed "
-                                       "(or memory ran out) at primitive %lld",
-                                       g->n[0], g->n[1], g->n[2], max_bytes, i);
-                        goto done;
-                    }
-                }
-    }
+    st = reference ? list_reference(g, &P, pair_limit, max_bytes) : list_fast(g, &P, pair_limit, max_bytes);
+    if (st != MPRT_OK) goto done;
     if (P.n > 0xffffffffu) {
         st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "grid: %zu list entries exceed 2^32", P.n);
         goto done;
@@ -461,8 +553,8 @@ int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_byt
     return mprt_grid_create_listing(s, nx, ny, nz, max_bytes, MPRT_LIST_EXACT, out);
 }
 
-int mprt_grid_create_listing(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, int listing,
-                             mprt_grid **out)
+static int create(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, int listing, int reference,
+                  mprt_grid **out)
 {
     mprt_grid *g;
     long long bad;
@@ -510,13 +602,25 @@ int mprt_grid_create_listing(const mprt_scene *s, int nx, int ny, int nz, size_t
     g->cell = v3((g->hi.x - g->lo.x) / (real)nx, (g->hi.y - g->lo.y) / (real)ny, (g->hi.z - g->lo.z) / (real)nz);
     g->inv_cell = v3(1 / g->cell.x, 1 / g->cell.y, 1 / g->cell.z);
     if ((st = jump_threshold(g)) != MPRT_OK) return st;
-    st = build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES);
+    st = build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES, reference);
     if (st == MPRT_OK) {
         /* The scene now refuses changes until this grid is destroyed */
         mprt__scene_count_grid(s, +1);
         g->counted = 1;
     }
     return st;
+}
+
+int mprt_grid_create_listing(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, int listing,
+                             mprt_grid **out)
+{
+    return create(s, nx, ny, nz, max_bytes, listing, 0, out);
+}
+
+int mprt__grid_create_reference(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, int listing,
+                                mprt_grid **out)
+{
+    return create(s, nx, ny, nz, max_bytes, listing, 1, out);
 }
 
 int mprt_grid_get_stats(const mprt_grid *g, mprt_grid_stats *st)
