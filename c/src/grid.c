@@ -205,13 +205,17 @@ static int macro_cells(mprt_grid *g)
  * chessboard distance of each macro cell to the nearest one holding
  * primitives, given to the empty voxels it contains.  A block that is a
  * single voxel is not worth a jump: those voxels stay at 1. */
-static int mark_jumps(mprt_grid *g)
+static int mark_jumps_single(mprt_grid *g);
+
+static int mark_jumps(mprt_grid *g, int reference)
 {
-    int M[3], a, i, x, y, z, single = g->macro[0] == 1 && g->macro[1] == 1 && g->macro[2] == 1;
+    int M[3], a, i, x, y, z, single;
     size_t *of[3] = {NULL, NULL, NULL}; /* per axis and voxel index: macro cell offset in md */
     uint8_t *md = NULL, *e = g->empty;
     int st = MPRT_ERR_OUT_OF_MEMORY;
     if (macro_cells(g) != MPRT_OK) return st;
+    single = g->macro[0] == 1 && g->macro[1] == 1 && g->macro[2] == 1;
+    if (single && !reference) return mark_jumps_single(g);
     for (a = 0; a < 3; a++) M[a] = (g->n[a] + g->macro[a] - 1) / g->macro[a];
     md = malloc((size_t)M[0] * (size_t)M[1] * (size_t)M[2]);
     for (a = 0; a < 3; a++) of[a] = malloc((size_t)g->n[a] * sizeof *of[a]);
@@ -239,6 +243,23 @@ done:
     free(md);
     for (a = 0; a < 3; a++) free(of[a]);
     return st;
+}
+
+/* mark_jumps where every macro cell is one voxel (the reference is
+ * mark_jumps(g, 1)): the distances are the voxels' own, found in place in
+ * the empty flags, 255 for empty and 0 for a voxel with primitives, then
+ * turned into empty values: d + 1 from 2 up (at most 255), else as they were. */
+static int mark_jumps_single(mprt_grid *g)
+{
+    uint8_t *e = g->empty;
+    long long v, n = g->voxels;
+    for (v = 0; v < n; v++) e[v] = e[v] ? 255 : 0;
+    if (mprt__chessboard_distance(g->n, e) != MPRT_OK) return MPRT_ERR_OUT_OF_MEMORY;
+    for (v = 0; v < n; v++) {
+        unsigned d = e[v];
+        e[v] = (uint8_t)(d < 2 ? d : d > 254 ? 255 : d + 1);
+    }
+    return MPRT_OK;
 }
 
 /* (voxel, primitive) pairs, filled while testing, then sorted by voxel. */
@@ -456,13 +477,71 @@ static int build_ic(mprt_grid *g, long long ntri)
     return MPRT_OK;
 }
 
+/* The lists in voxel order (a counting sort: primitives stay in id order
+ * within a voxel), the empty flags and the jumps, the plain way: kept as the
+ * reference for sort_fast. */
+static int sort_reference(mprt_grid *g, const pairs *P)
+{
+    const long long nvox = g->voxels;
+    uint32_t *count;
+    long long i;
+    for (i = 0; i < (long long)P->n; i++) g->start[P->vox[i] + 1]++;
+    for (i = 0; i < nvox; i++) g->start[i + 1] += g->start[i];
+    g->ids = malloc((P->n ? P->n : 1) * sizeof *g->ids);
+    count = malloc((size_t)nvox * sizeof *count);
+    if (!g->ids || !count) {
+        free(count);
+        return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory sorting %zu list entries", P->n);
+    }
+    memcpy(count, g->start, (size_t)nvox * sizeof *count);
+    for (i = 0; i < (long long)P->n; i++) g->ids[count[P->vox[i]]++] = P->prim[i];
+    free(count);
+    g->refs = (long long)P->n;
+    g->empty = malloc((size_t)nvox);
+    if (!g->empty) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %lld voxel flags", nvox);
+    for (i = 0; i < nvox; i++) g->empty[i] = g->start[i + 1] > g->start[i] ? 0 : 1;
+    if (g->jump_min <= 255 && mark_jumps(g, 1) != MPRT_OK)
+        return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the macro cells of %lld voxels", nvox);
+    return MPRT_OK;
+}
+
+/* sort_reference's result in fewer passes over the voxels: voxel v's count
+ * goes to start[v + 2] (start has voxels + 2 entries), so that after the
+ * prefix sum start[v + 1] is where v's list begins and, once the entries are
+ * placed, where it ends, with no cursor array; the empty flags come with
+ * the prefix sum; and on a grid of single-voxel macro cells the distance
+ * transform runs in place on the flags (mark_jumps). */
+static int sort_fast(mprt_grid *g, const pairs *P)
+{
+    const long long nvox = g->voxels;
+    uint32_t *start = g->start, sum = 0;
+    uint8_t *e;
+    long long i;
+    g->ids = malloc((P->n ? P->n : 1) * sizeof *g->ids);
+    if (!g->ids) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory sorting %zu list entries", P->n);
+    g->empty = e = malloc((size_t)nvox);
+    if (!e) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %lld voxel flags", nvox);
+    for (i = 0; i < (long long)P->n; i++) start[P->vox[i] + 2]++;
+    for (i = 0; i < nvox; i++) {
+        uint32_t c = start[i + 2];
+        e[i] = c == 0;
+        start[i + 1] = sum;
+        sum += c;
+    }
+    start[nvox + 1] = 0;
+    for (i = 0; i < (long long)P->n; i++) g->ids[start[P->vox[i] + 1]++] = P->prim[i];
+    g->refs = (long long)P->n;
+    if (g->jump_min <= 255 && mark_jumps(g, 0) != MPRT_OK)
+        return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the macro cells of %lld voxels", nvox);
+    return MPRT_OK;
+}
+
 static int build(mprt_grid *g, size_t max_bytes, int reference)
 {
     const mprt_scene *s = g->scene;
-    long long i, nvox = g->voxels;
+    long long nvox = g->voxels;
     pairs P = {NULL, NULL, 0, 0};
     size_t pair_limit, fixed;
-    uint32_t *count = NULL;
     long long ntri;
     int st = MPRT_OK;
 
@@ -474,7 +553,7 @@ static int build(mprt_grid *g, size_t max_bytes, int reference)
                          g->n[0], g->n[1], g->n[2], fixed, max_bytes);
     /* Pairs cost 8 bytes while building and 4 in the final list. */
     pair_limit = (max_bytes - fixed) / 8;
-    g->start = calloc((size_t)nvox + 1, sizeof *g->start);
+    g->start = calloc((size_t)nvox + 2, sizeof *g->start); /* + 1 for sort_fast */
     if (!g->start) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory allocating %zu bytes of voxel table", fixed);
 
     /* Margin: a few thousand ulps of the scene's extent. */
@@ -487,32 +566,11 @@ static int build(mprt_grid *g, size_t max_bytes, int reference)
         goto done;
     }
 
-    /* Counting sort by voxel; primitives stay in id order within a voxel. */
-    for (i = 0; i < (long long)P.n; i++) g->start[P.vox[i] + 1]++;
-    for (i = 0; i < nvox; i++) g->start[i + 1] += g->start[i];
-    g->ids = malloc((P.n ? P.n : 1) * sizeof *g->ids);
-    count = malloc((size_t)nvox * sizeof *count);
-    if (!g->ids || !count) {
-        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory sorting %zu list entries", P.n);
-        goto done;
-    }
-    memcpy(count, g->start, (size_t)nvox * sizeof *count);
-    for (i = 0; i < (long long)P.n; i++) g->ids[count[P.vox[i]]++] = P.prim[i];
-    g->refs = (long long)P.n;
-    g->empty = malloc((size_t)nvox);
-    if (!g->empty) {
-        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %lld voxel flags", nvox);
-        goto done;
-    }
-    for (i = 0; i < nvox; i++) g->empty[i] = g->start[i + 1] > g->start[i] ? 0 : 1;
-    if (g->jump_min <= 255 && mark_jumps(g) != MPRT_OK) {
-        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the macro cells of %lld voxels", nvox);
-        goto done;
-    }
+    st = reference ? sort_reference(g, &P) : sort_fast(g, &P);
+    if (st != MPRT_OK) goto done;
     st = build_ic(g, ntri);
 
 done:
-    free(count);
     free(P.vox);
     free(P.prim);
     return st;

@@ -17,7 +17,7 @@
 
 #include <string.h>
 
-static long long grids_compared, entries_compared;
+static long long grids_compared, entries_compared, jumps_single, jumps_macro;
 
 /* Build both ways and compare everything the build makes. */
 static void same_grid(const mprt_scene *s, int nx, int ny, int nz, int listing, const char *what)
@@ -49,6 +49,11 @@ static void same_grid(const mprt_scene *s, int nx, int ny, int nz, int listing, 
         }
         grids_compared++;
         entries_compared += a->refs;
+        for (k = 0; k < (int)nv; k++)
+            if (a->empty[k] >= 3) {
+                if (a->macro[0] == 1 && a->macro[1] == 1 && a->macro[2] == 1) jumps_single++;
+                else jumps_macro++;
+            }
     }
     mprt_grid_destroy(a);
     mprt_grid_destroy(b);
@@ -250,7 +255,8 @@ int main(void)
     RUN(test_mixed_magnitudes);
     RUN(test_same_failures);
     /* the comparisons above compared real grids, not empty ones */
-    CHECK(grids_compared > 400 && entries_compared > 500000);
-    printf("compared %lld grids, %lld list entries\n", grids_compared, entries_compared);
+    CHECK(grids_compared > 400 && entries_compared > 500000 && jumps_single > 10000 && jumps_macro > 10000);
+    printf("compared %lld grids, %lld list entries, %lld + %lld voxels to jump from (single-voxel macro cells or not)\n",
+           grids_compared, entries_compared, jumps_single, jumps_macro);
     return CHECK_DONE();
 }
