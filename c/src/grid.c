@@ -166,7 +166,8 @@ static void chamfer_pass(const int n[3], uint8_t *d, uint8_t *p3, uint8_t *cand,
     }
 }
 
-int mprt__chessboard_distance(const int n[3], uint8_t *d)
+/* The two passes above: kept as the reference for mprt__chessboard_distance. */
+static int chessboard_reference(const int n[3], uint8_t *d)
 {
     uint8_t *p3 = malloc((size_t)n[0] * (size_t)n[1]), *cand = malloc(2 * (size_t)n[0]);
     if (!p3 || !cand) {
@@ -177,6 +178,106 @@ int mprt__chessboard_distance(const int n[3], uint8_t *d)
     chamfer_pass(n, d, p3, cand, +1);
     chamfer_pass(n, d, p3, cand, -1);
     free(p3);
+    free(cand);
+    return MPRT_OK;
+}
+
+/* The same passes in fewer sweeps over memory, in loops of fixed length
+ * that compilers vectorize: each row's 3-minimum along x is made once, when
+ * the row is final, into a slice buffer (hc for this slice, hp the slice
+ * before); a row's candidates are the 3-minimum across y of hp and the row
+ * before's entry in hc; then the row is swept from the voxel just done. */
+#define CHUNK 16
+
+static void hmin3(const uint8_t *restrict r, uint8_t *restrict o, int n)
+{
+    int x = 1, k;
+    if (n == 1) {
+        o[0] = r[0];
+        return;
+    }
+    o[0] = (uint8_t)min_u(r[0], r[1]);
+    for (; x + CHUNK <= n - 1; x += CHUNK)
+        for (k = 0; k < CHUNK; k++) o[x + k] = (uint8_t)min_u(min_u(r[x + k - 1], r[x + k]), r[x + k + 1]);
+    for (; x < n - 1; x++) o[x] = (uint8_t)min_u(min_u(r[x - 1], r[x]), r[x + 1]);
+    o[n - 1] = (uint8_t)min_u(r[n - 2], r[n - 1]);
+}
+
+/* o = min(a, b, c) elementwise (rows may repeat at the borders) */
+static void vmin3(const uint8_t *a, const uint8_t *b, const uint8_t *c, uint8_t *restrict o, int n)
+{
+    int x = 0, k;
+    for (; x + CHUNK <= n; x += CHUNK)
+        for (k = 0; k < CHUNK; k++) o[x + k] = (uint8_t)min_u(min_u(a[x + k], b[x + k]), c[x + k]);
+    for (; x < n; x++) o[x] = (uint8_t)min_u(min_u(a[x], b[x]), c[x]);
+}
+
+/* o = min(o, b) elementwise */
+static void vmin2(uint8_t *restrict o, const uint8_t *restrict b, int n)
+{
+    int x = 0, k;
+    for (; x + CHUNK <= n; x += CHUNK)
+        for (k = 0; k < CHUNK; k++) o[x + k] = (uint8_t)min_u(o[x + k], b[x + k]);
+    for (; x < n; x++) o[x] = (uint8_t)min_u(o[x], b[x]);
+}
+
+/* cand = min(row, cand + 1) elementwise, then the sweep along the row */
+static void sweep_row(uint8_t *restrict row, uint8_t *restrict cand, int n, int dir)
+{
+    int x = 0, k;
+    unsigned left = 255;
+    for (; x + CHUNK <= n; x += CHUNK)
+        for (k = 0; k < CHUNK; k++) {
+            unsigned c = cand[x + k], r = row[x + k];
+            cand[x + k] = (uint8_t)(c < r ? c + 1 : r);
+        }
+    for (; x < n; x++) cand[x] = (uint8_t)(cand[x] < row[x] ? cand[x] + 1 : row[x]);
+    if (dir > 0)
+        for (x = 0; x < n; x++) row[x] = (uint8_t)(left = min_u(cand[x], left + 1));
+    else
+        for (x = n - 1; x >= 0; x--) row[x] = (uint8_t)(left = min_u(cand[x], left + 1));
+}
+
+static void chamfer_pass_fast(const int n[3], uint8_t *d, uint8_t *h0, uint8_t *h1, uint8_t *cand, int dir)
+{
+    const int nx = n[0], ny = n[1], nz = n[2];
+    const size_t slice = (size_t)nx * (size_t)ny;
+    int j, k, y, z;
+    for (k = 0; k < nz; k++) {
+        uint8_t *cur, *hc = (k & 1) ? h1 : h0, *hp = (k & 1) ? h0 : h1;
+        z = dir > 0 ? k : nz - 1 - k;
+        cur = d + (size_t)z * slice;
+        for (j = 0; j < ny; j++) {
+            uint8_t *row;
+            y = dir > 0 ? j : ny - 1 - j;
+            row = cur + (size_t)y * (size_t)nx;
+            if (k > 0) /* the 3x3 minimum of the slice before */
+                vmin3(hp + (size_t)(y > 0 ? y - 1 : y) * (size_t)nx, hp + (size_t)y * (size_t)nx,
+                      hp + (size_t)(y < ny - 1 ? y + 1 : y) * (size_t)nx, cand, nx);
+            else
+                memset(cand, 255, (size_t)nx);
+            if (j > 0) { /* and the row before */
+                const uint8_t *b = hc + (size_t)(y - dir) * (size_t)nx;
+                vmin2(cand, b, nx);
+            }
+            sweep_row(row, cand, nx, dir);
+            hmin3(row, hc + (size_t)y * (size_t)nx, nx);
+        }
+    }
+}
+
+int mprt__chessboard_distance(const int n[3], uint8_t *d)
+{
+    const size_t slice = (size_t)n[0] * (size_t)n[1];
+    uint8_t *h = malloc(2 * slice), *cand = malloc((size_t)n[0]);
+    if (!h || !cand) {
+        free(h);
+        free(cand);
+        return MPRT_ERR_OUT_OF_MEMORY;
+    }
+    chamfer_pass_fast(n, d, h, h + slice, cand, +1);
+    chamfer_pass_fast(n, d, h, h + slice, cand, -1);
+    free(h);
     free(cand);
     return MPRT_OK;
 }
@@ -229,7 +330,7 @@ static int mark_jumps(mprt_grid *g, int reference)
         for (y = 0; y < g->n[1]; y++)
             for (x = 0; x < g->n[0]; x++, e++)
                 if (*e == 0) md[of[2][z] + of[1][y] + of[0][x]] = 0;
-    if (mprt__chessboard_distance(M, md) != MPRT_OK) goto done;
+    if ((reference ? chessboard_reference(M, md) : mprt__chessboard_distance(M, md)) != MPRT_OK) goto done;
     /* distance d >= 1: the macro cells within d - 1 are empty; empty = d + 1 */
     e = g->empty;
     for (z = 0; z < g->n[2]; z++)
