@@ -17,15 +17,14 @@ from __future__ import annotations
 
 import argparse
 import hashlib
-import json
 import os
-import subprocess
 import sys
 import time
 
 # numpy's BLAS threads would spin beside the timed builds and count in the process CPU time
 os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")
 import mprt  # noqa: E402
+from run import Before, serve  # noqa: E402  (the worker process of the other build)
 
 PREPASS_DIMS = {
     "gears": [(21, 21, 5), (67, 67, 17), (119, 119, 30), (212, 212, 53), (378, 378, 94)],
@@ -68,36 +67,6 @@ MEASURES = {"t_build": t_build, "t_dims": t_dims,
             "t_version": lambda: os.path.dirname(mprt.__file__)}
 
 
-def serve() -> int:
-    """Worker mode: one JSON request per line on stdin ([name, args]), one JSON answer per line."""
-    out = sys.stdout
-    sys.stdout = sys.stderr
-    for line in sys.stdin:
-        name, args = json.loads(line)
-        out.write(json.dumps(MEASURES[name](*args)) + "\n")
-        out.flush()
-    return 0
-
-
-class Before:
-    """The other build, in a worker process running this file with its package first on the path."""
-
-    def __init__(self, python_dir: str):
-        env = dict(os.environ, PYTHONPATH=os.path.abspath(python_dir))
-        self.proc = subprocess.Popen([sys.executable, os.path.abspath(__file__), "--serve"], env=env,
-                                     stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
-        self.version = self("t_version")
-
-    def __call__(self, name, *args):
-        self.proc.stdin.write(json.dumps([name, list(args)]) + "\n")
-        self.proc.stdin.flush()
-        return json.loads(self.proc.stdout.readline())
-
-    def close(self):
-        self.proc.stdin.close()
-        self.proc.wait()
-
-
 def main(argv=None) -> int:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--before", help="a python folder holding the other build of mprt")
@@ -105,7 +74,7 @@ def main(argv=None) -> int:
     ap.add_argument("--repeat", type=int, default=3)
     ap.add_argument("--listing", default="exact", choices=("exact", "box"))
     a = ap.parse_args(argv)
-    before = Before(a.before) if a.before else None
+    before = Before(a.before, __file__) if a.before else None
     print(f"after:  {os.path.dirname(mprt.__file__)}")
     if before:
         print(f"before: {before.version}")
@@ -142,4 +111,4 @@ def main(argv=None) -> int:
 
 
 if __name__ == "__main__":
-    sys.exit(serve() if sys.argv[1:] == ["--serve"] else main())
+    sys.exit(serve(MEASURES) if sys.argv[1:] == ["--serve"] else main())
