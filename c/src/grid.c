@@ -191,51 +191,60 @@ static int chessboard_reference(const int n[3], uint8_t *d)
 
 static void hmin3(const uint8_t *restrict r, uint8_t *restrict o, int n)
 {
-    int x = 1, k;
+    size_t x = 1, k, m = (size_t)n - 1;
     if (n == 1) {
         o[0] = r[0];
         return;
     }
     o[0] = (uint8_t)min_u(r[0], r[1]);
-    for (; x + CHUNK <= n - 1; x += CHUNK)
-        for (k = 0; k < CHUNK; k++) o[x + k] = (uint8_t)min_u(min_u(r[x + k - 1], r[x + k]), r[x + k + 1]);
-    for (; x < n - 1; x++) o[x] = (uint8_t)min_u(min_u(r[x - 1], r[x]), r[x + 1]);
-    o[n - 1] = (uint8_t)min_u(r[n - 2], r[n - 1]);
+    for (; x + CHUNK <= m; x += CHUNK) {
+        const uint8_t *p = r + x;
+        uint8_t *q = o + x;
+        for (k = 0; k < CHUNK; k++) q[k] = (uint8_t)min_u(min_u(p[k - 1], p[k]), p[k + 1]);
+    }
+    for (; x < m; x++) o[x] = (uint8_t)min_u(min_u(r[x - 1], r[x]), r[x + 1]);
+    o[m] = (uint8_t)min_u(r[m - 1], r[m]);
 }
 
 /* o = min(a, b, c) elementwise (rows may repeat at the borders) */
 static void vmin3(const uint8_t *a, const uint8_t *b, const uint8_t *c, uint8_t *restrict o, int n)
 {
-    int x = 0, k;
-    for (; x + CHUNK <= n; x += CHUNK)
-        for (k = 0; k < CHUNK; k++) o[x + k] = (uint8_t)min_u(min_u(a[x + k], b[x + k]), c[x + k]);
-    for (; x < n; x++) o[x] = (uint8_t)min_u(min_u(a[x], b[x]), c[x]);
+    size_t x = 0, k;
+    for (; x + CHUNK <= (size_t)n; x += CHUNK) {
+        const uint8_t *pa = a + x, *pb = b + x, *pc = c + x;
+        uint8_t *q = o + x;
+        for (k = 0; k < CHUNK; k++) q[k] = (uint8_t)min_u(min_u(pa[k], pb[k]), pc[k]);
+    }
+    for (; x < (size_t)n; x++) o[x] = (uint8_t)min_u(min_u(a[x], b[x]), c[x]);
 }
 
 /* o = min(o, b) elementwise */
 static void vmin2(uint8_t *restrict o, const uint8_t *restrict b, int n)
 {
-    int x = 0, k;
-    for (; x + CHUNK <= n; x += CHUNK)
-        for (k = 0; k < CHUNK; k++) o[x + k] = (uint8_t)min_u(o[x + k], b[x + k]);
-    for (; x < n; x++) o[x] = (uint8_t)min_u(o[x], b[x]);
+    size_t x = 0, k;
+    for (; x + CHUNK <= (size_t)n; x += CHUNK) {
+        const uint8_t *pb = b + x;
+        uint8_t *q = o + x;
+        for (k = 0; k < CHUNK; k++) q[k] = (uint8_t)min_u(q[k], pb[k]);
+    }
+    for (; x < (size_t)n; x++) o[x] = (uint8_t)min_u(o[x], b[x]);
 }
 
 /* cand = min(row, cand + 1) elementwise, then the sweep along the row */
 static void sweep_row(uint8_t *restrict row, uint8_t *restrict cand, int n, int dir)
 {
-    int x = 0, k;
+    size_t x = 0, k;
     unsigned left = 255;
-    for (; x + CHUNK <= n; x += CHUNK)
-        for (k = 0; k < CHUNK; k++) {
-            unsigned c = cand[x + k], r = row[x + k];
-            cand[x + k] = (uint8_t)(c < r ? c + 1 : r);
-        }
-    for (; x < n; x++) cand[x] = (uint8_t)(cand[x] < row[x] ? cand[x] + 1 : row[x]);
+    for (; x + CHUNK <= (size_t)n; x += CHUNK) {
+        const uint8_t *r = row + x;
+        uint8_t *c = cand + x;
+        for (k = 0; k < CHUNK; k++) c[k] = (uint8_t)(c[k] < r[k] ? c[k] + 1 : r[k]);
+    }
+    for (; x < (size_t)n; x++) cand[x] = (uint8_t)(cand[x] < row[x] ? cand[x] + 1 : row[x]);
     if (dir > 0)
-        for (x = 0; x < n; x++) row[x] = (uint8_t)(left = min_u(cand[x], left + 1));
+        for (x = 0; x < (size_t)n; x++) row[x] = (uint8_t)(left = min_u(cand[x], left + 1));
     else
-        for (x = n - 1; x >= 0; x--) row[x] = (uint8_t)(left = min_u(cand[x], left + 1));
+        for (x = (size_t)n; x-- > 0;) row[x] = (uint8_t)(left = min_u(cand[x], left + 1));
 }
 
 static void chamfer_pass_fast(const int n[3], uint8_t *d, uint8_t *h0, uint8_t *h1, uint8_t *cand, int dir)
