@@ -489,6 +489,8 @@ static int list_fast(mprt_grid *g, pairs *P, size_t pair_limit, size_t max_bytes
     }
     for (i = 0; i < s->nprims && st == MPRT_OK; i++) {
         const mprt__prim *p = &s->prims[i];
+        mprt__cone_extent cx;
+        real smag = 0;
         int a0[3], a1[3], x, y, z;
         if ((st = prim_range(g, i, a0, a1)) != MPRT_OK) break;
         if (p->kind == MPRT_POLYGON && g->listing == MPRT_LIST_EXACT) {
@@ -509,13 +511,21 @@ static int list_fast(mprt_grid *g, pairs *P, size_t pair_limit, size_t max_bytes
                 }
             continue;
         }
+        if (g->listing == MPRT_LIST_EXACT && p->kind == MPRT_SPHERE) smag = vmaxabs(s->spheres[p->index].c);
+        if (g->listing == MPRT_LIST_EXACT && (p->kind == MPRT_CYLINDER || p->kind == MPRT_CONE))
+            mprt__cone_box_prepare(&s->cones[p->index], &cx);
         for (z = a0[2]; z <= a1[2] && st == MPRT_OK; z++)
             for (y = a0[1]; y <= a1[1] && st == MPRT_OK; y++)
                 for (x = a0[0]; x <= a1[0]; x++) {
-                    int touch = g->listing != MPRT_LIST_EXACT
-                                    ? 1
-                                    : prim_box(s, i, v3(vlo[0][x], vlo[1][y], vlo[2][z]),
-                                               v3(vhi[0][x], vhi[1][y], vhi[2][z]));
+                    const vec3 lo = v3(vlo[0][x], vlo[1][y], vlo[2][z]), hi = v3(vhi[0][x], vhi[1][y], vhi[2][z]);
+                    real m = vmag[0][x] > vmag[1][y] ? vmag[0][x] : vmag[1][y];
+                    int touch;
+                    if (vmag[2][z] > m) m = vmag[2][z];
+                    if (g->listing != MPRT_LIST_EXACT) touch = 1;
+                    else if (p->kind == MPRT_SPHERE) touch = mprt__sphere_box_with(&s->spheres[p->index], lo, hi, m, smag);
+                    else if (p->kind == MPRT_CYLINDER || p->kind == MPRT_CONE)
+                        touch = mprt__cone_box_with(&s->cones[p->index], &cx, lo, hi, m);
+                    else touch = prim_box(s, i, lo, hi);
                     if (touch < 0) {
                         st = grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
                         break;

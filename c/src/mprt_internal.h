@@ -238,6 +238,8 @@ static inline int mprt__line_misses(vec3 om, vec3 d, real dd, real r2)
 int mprt__sphere_hit(const mprt__sphere *s, const mprt__ray *ray, real tmin, real tmax, real *t);
 vec3 mprt__sphere_normal(const mprt__sphere *s, vec3 p);
 int mprt__sphere_box(const mprt__sphere *s, vec3 lo, vec3 hi);
+/* mprt__sphere_box given mbox = max(vmaxabs(lo), vmaxabs(hi)) and cmag = vmaxabs(s->c). */
+int mprt__sphere_box_with(const mprt__sphere *s, vec3 lo, vec3 hi, real mbox, real cmag);
 void mprt__sphere_bounds(const mprt__sphere *s, vec3 *lo, vec3 *hi);
 
 int mprt__polygon_hit(const mprt__polygon *p, const vec3 *verts, const mprt__ray *ray, real tmin,
@@ -269,6 +271,15 @@ int mprt__cylinder_hit(const mprt__cone *c, const mprt__ray *ray, real tmin, rea
 int mprt__cone_hit(const mprt__cone *c, const mprt__ray *ray, real tmin, real tmax, real *t);
 vec3 mprt__cone_normal(const mprt__cone *c, vec3 p);
 int mprt__cone_box(const mprt__cone *c, vec3 lo, vec3 hi);
+/* What mprt__cone_box finds once per cone: the bounds, the largest coordinate
+ * magnitude of base and apex, sqrt(1 + slope^2). */
+typedef struct {
+    vec3 lo, hi;
+    real mag, lip;
+} mprt__cone_extent;
+void mprt__cone_box_prepare(const mprt__cone *c, mprt__cone_extent *x);
+/* mprt__cone_box given the cone's extent and mbox = max(vmaxabs(lo), vmaxabs(hi)). */
+int mprt__cone_box_with(const mprt__cone *c, const mprt__cone_extent *x, vec3 lo, vec3 hi, real mbox);
 void mprt__cone_bounds(const mprt__cone *c, vec3 *lo, vec3 *hi);
 
 /* ---- NFF (nff.c, nff_write.c) ------------------------------------------ */
