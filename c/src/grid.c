@@ -362,13 +362,18 @@ done:
 static int mark_jumps_single(mprt_grid *g)
 {
     uint8_t *e = g->empty;
-    long long v, n = g->voxels;
-    for (v = 0; v < n; v++) e[v] = e[v] ? 255 : 0;
-    if (mprt__chessboard_distance(g->n, e) != MPRT_OK) return MPRT_ERR_OUT_OF_MEMORY;
-    for (v = 0; v < n; v++) {
-        unsigned d = e[v];
-        e[v] = (uint8_t)(d < 2 ? d : d > 254 ? 255 : d + 1);
+    size_t v = 0, k, n = (size_t)g->voxels;
+    for (; v + CHUNK <= n; v += CHUNK) {
+        uint8_t *p = e + v;
+        for (k = 0; k < CHUNK; k++) p[k] = p[k] ? 255 : 0;
     }
+    for (; v < n; v++) e[v] = e[v] ? 255 : 0;
+    if (mprt__chessboard_distance(g->n, e) != MPRT_OK) return MPRT_ERR_OUT_OF_MEMORY;
+    for (v = 0; v + CHUNK <= n; v += CHUNK) {
+        uint8_t *p = e + v;
+        for (k = 0; k < CHUNK; k++) p[k] = (uint8_t)(p[k] < 2 ? p[k] : p[k] > 254 ? 255 : p[k] + 1);
+    }
+    for (; v < n; v++) e[v] = (uint8_t)(e[v] < 2 ? e[v] : e[v] > 254 ? 255 : e[v] + 1);
     return MPRT_OK;
 }
 
