@@ -6,7 +6,7 @@
  * and fail the same way: on the six SPD scenes at small sizes over cubic and
  * anisotropic subdivisions, and on random and degenerate polygons (concave,
  * non-planar within tolerance, axis-aligned, on voxel boundaries, tiny, huge,
- * far from the origin) where the rounding allowances differ from voxel to
+ * far from the origin), with spheres and cones among them, where the rounding allowances differ from voxel to
  * voxel.  Full-size scenes at the prepass's subdivisions:
  * studies/03_bench/build.py --before. */
 #include "check.h"
@@ -90,7 +90,7 @@ static void outline_poly(mprt_scene *s, const plane3 *pl, int n, const double *x
     add_poly(s, n, v);
 }
 
-/* Random polygons of every awkward kind in a box about centre c of size L. */
+/* Random polygons of every awkward kind, and spheres and cones, in a box about centre c of size L. */
 static mprt_scene *random_scene(rng *r, double c, double L, int count)
 {
     mprt_scene *s;
@@ -99,7 +99,7 @@ static mprt_scene *random_scene(rng *r, double c, double L, int count)
     mprt_scene_create(&s);
     for (i = 0; i < count; i++) {
         plane3 pl;
-        int kind = rnd_int(r, 0, 6);
+        int kind = rnd_int(r, 0, 8);
         double R = L * rnd_in(r, 0.01, 0.4);
         plane_make(&pl, r, c + rnd_in(r, -L, L), c + rnd_in(r, -L, L), c + rnd_in(r, -L, L));
         switch (kind) {
@@ -151,9 +151,27 @@ static mprt_scene *random_scene(rng *r, double c, double L, int count)
             }
             outline_poly(s, &pl, n, x, y, L * 30, NULL);
             break;
-        default: /* a thin sliver along a diagonal */
+        case 7: /* a sphere */
+        {
+            double cc[3];
+            plane_point(&pl, 0, 0, 0, cc);
+            mprt_scene_add_sphere(s, cc, R);
+            break;
+        }
+        case 8: /* a cone or cylinder, often along an axis */
+        {
+            double b0[3], b1[3];
+            plane_point(&pl, 0, 0, 0, b0);
+            plane_point(&pl, 0, 0, 2 * R, b1);
+            if (rnd_int(r, 0, 1)) b1[0] = b0[0], b1[1] = b0[1];
+            mprt_scene_add_cone(s, b0, R * rnd_in(r, 0.1, 1), b1, rnd_int(r, 0, 1) ? 0 : R * rnd(r));
+            break;
+        }
+        case 6: /* a thin sliver along a diagonal */
             x[0] = -1, y[0] = 0, x[1] = 1, y[1] = 1e-3, x[2] = 1, y[2] = -1e-3;
             outline_poly(s, &pl, 3, x, y, R * 3, NULL);
+            break;
+        default:
             break;
         }
     }
