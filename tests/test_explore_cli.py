@@ -148,3 +148,22 @@ def test_prepass_stops_one_rung_past_the_best(name):
     c1 = {tuple(c["subdivision"]) for c in one["candidates"]}
     c2 = {tuple(c["subdivision"]) for c in two["candidates"]}
     assert c1 <= c2 and len(c1) <= len(c2)
+
+
+def test_prepass_parabola_step_evaluates_the_vertex_of_the_bracket():
+    """refine='parabola': the ladder as for the golden section, then exactly one more candidate,
+    strictly inside the bracket around the ladder's best, and the choice is the best evaluated."""
+    scene = mprt.Scene.spd("rings", 1)         # its ladder's best, 22, is inside the ladder (4..40)
+    none = prepass(scene, 64, 64, fraction=2, refine="none")
+    para = prepass(scene, 64, 64, fraction=2, refine="parabola")
+    ladder = {tuple(c["subdivision"]): c["predicted_cycles"] for c in none["candidates"]}
+    got = {tuple(c["subdivision"]): c["predicted_cycles"] for c in para["candidates"]}
+    assert set(ladder) <= set(got) and len(got) <= len(ladder) + 1
+    best = tuple(none["subdivision"])
+    (n,) = set(got) - set(ladder)
+    below = [d for d in ladder if d[0] < best[0]]
+    above = [d for d in ladder if d[0] > best[0]]
+    assert below and above and max(below)[0] < n[0] < min(above)[0]
+    assert para["subdivision"] == list(min(got, key=lambda d: (got[d], d)))
+    with pytest.raises(ValueError, match="refine"):
+        prepass(scene, 64, 64, n_range=(2, 30), fraction=4, refine="brent")

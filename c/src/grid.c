@@ -167,7 +167,8 @@ static void chamfer_pass(const int n[3], uint8_t *d, uint8_t *p3, uint8_t *cand,
     }
 }
 
-int mprt__chessboard_distance(const int n[3], uint8_t *d)
+/* The two passes above: kept as the reference for mprt__chessboard_distance. */
+static int chessboard_reference(const int n[3], uint8_t *d)
 {
     uint8_t *p3 = malloc((size_t)n[0] * (size_t)n[1]), *cand = malloc(2 * (size_t)n[0]);
     if (!p3 || !cand) {
@@ -178,6 +179,115 @@ int mprt__chessboard_distance(const int n[3], uint8_t *d)
     chamfer_pass(n, d, p3, cand, +1);
     chamfer_pass(n, d, p3, cand, -1);
     free(p3);
+    free(cand);
+    return MPRT_OK;
+}
+
+/* The same passes in fewer sweeps over memory, in loops of fixed length
+ * that compilers vectorize: each row's 3-minimum along x is made once, when
+ * the row is final, into a slice buffer (hc for this slice, hp the slice
+ * before); a row's candidates are the 3-minimum across y of hp and the row
+ * before's entry in hc; then the row is swept from the voxel just done. */
+#define CHUNK 16
+
+static void hmin3(const uint8_t *restrict r, uint8_t *restrict o, int n)
+{
+    size_t x = 1, k, m = (size_t)n - 1;
+    if (n == 1) {
+        o[0] = r[0];
+        return;
+    }
+    o[0] = (uint8_t)min_u(r[0], r[1]);
+    for (; x + CHUNK <= m; x += CHUNK) {
+        const uint8_t *p = r + x;
+        uint8_t *q = o + x;
+        for (k = 0; k < CHUNK; k++) q[k] = (uint8_t)min_u(min_u(p[k - 1], p[k]), p[k + 1]);
+    }
+    for (; x < m; x++) o[x] = (uint8_t)min_u(min_u(r[x - 1], r[x]), r[x + 1]);
+    o[m] = (uint8_t)min_u(r[m - 1], r[m]);
+}
+
+/* o = min(a, b, c) elementwise (rows may repeat at the borders) */
+static void vmin3(const uint8_t *a, const uint8_t *b, const uint8_t *c, uint8_t *restrict o, int n)
+{
+    size_t x = 0, k;
+    for (; x + CHUNK <= (size_t)n; x += CHUNK) {
+        const uint8_t *pa = a + x, *pb = b + x, *pc = c + x;
+        uint8_t *q = o + x;
+        for (k = 0; k < CHUNK; k++) q[k] = (uint8_t)min_u(min_u(pa[k], pb[k]), pc[k]);
+    }
+    for (; x < (size_t)n; x++) o[x] = (uint8_t)min_u(min_u(a[x], b[x]), c[x]);
+}
+
+/* o = min(o, b) elementwise */
+static void vmin2(uint8_t *restrict o, const uint8_t *restrict b, int n)
+{
+    size_t x = 0, k;
+    for (; x + CHUNK <= (size_t)n; x += CHUNK) {
+        const uint8_t *pb = b + x;
+        uint8_t *q = o + x;
+        for (k = 0; k < CHUNK; k++) q[k] = (uint8_t)min_u(q[k], pb[k]);
+    }
+    for (; x < (size_t)n; x++) o[x] = (uint8_t)min_u(o[x], b[x]);
+}
+
+/* cand = min(row, cand + 1) elementwise, then the sweep along the row */
+static void sweep_row(uint8_t *restrict row, uint8_t *restrict cand, int n, int dir)
+{
+    size_t x = 0, k;
+    unsigned left = 255;
+    for (; x + CHUNK <= (size_t)n; x += CHUNK) {
+        const uint8_t *r = row + x;
+        uint8_t *c = cand + x;
+        for (k = 0; k < CHUNK; k++) c[k] = (uint8_t)(c[k] < r[k] ? c[k] + 1 : r[k]);
+    }
+    for (; x < (size_t)n; x++) cand[x] = (uint8_t)(cand[x] < row[x] ? cand[x] + 1 : row[x]);
+    if (dir > 0)
+        for (x = 0; x < (size_t)n; x++) row[x] = (uint8_t)(left = min_u(cand[x], left + 1));
+    else
+        for (x = (size_t)n; x-- > 0;) row[x] = (uint8_t)(left = min_u(cand[x], left + 1));
+}
+
+static void chamfer_pass_fast(const int n[3], uint8_t *d, uint8_t *h0, uint8_t *h1, uint8_t *cand, int dir)
+{
+    const int nx = n[0], ny = n[1], nz = n[2];
+    const size_t slice = (size_t)nx * (size_t)ny;
+    int j, k, y, z;
+    for (k = 0; k < nz; k++) {
+        uint8_t *cur, *hc = (k & 1) ? h1 : h0, *hp = (k & 1) ? h0 : h1;
+        z = dir > 0 ? k : nz - 1 - k;
+        cur = d + (size_t)z * slice;
+        for (j = 0; j < ny; j++) {
+            uint8_t *row;
+            y = dir > 0 ? j : ny - 1 - j;
+            row = cur + (size_t)y * (size_t)nx;
+            if (k > 0) /* the 3x3 minimum of the slice before */
+                vmin3(hp + (size_t)(y > 0 ? y - 1 : y) * (size_t)nx, hp + (size_t)y * (size_t)nx,
+                      hp + (size_t)(y < ny - 1 ? y + 1 : y) * (size_t)nx, cand, nx);
+            else
+                memset(cand, 255, (size_t)nx);
+            if (j > 0) { /* and the row before */
+                const uint8_t *b = hc + (size_t)(y - dir) * (size_t)nx;
+                vmin2(cand, b, nx);
+            }
+            sweep_row(row, cand, nx, dir);
+            hmin3(row, hc + (size_t)y * (size_t)nx, nx);
+        }
+    }
+}
+
+int mprt__chessboard_distance(const int n[3], uint8_t *d)
+{
+    const size_t slice = (size_t)n[0] * (size_t)n[1];
+    uint8_t *h = malloc(2 * slice), *cand = malloc((size_t)n[0]);
+    if (!h || !cand) {
+        free(h);
+        free(cand);
+        return MPRT_ERR_OUT_OF_MEMORY;
+    }
+    chamfer_pass_fast(n, d, h, h + slice, cand, +1);
+    chamfer_pass_fast(n, d, h, h + slice, cand, -1);
+    free(h);
     free(cand);
     return MPRT_OK;
 }
@@ -206,13 +316,17 @@ static int macro_cells(mprt_grid *g)
  * chessboard distance of each macro cell to the nearest one holding
  * primitives, given to the empty voxels it contains.  A block that is a
  * single voxel is not worth a jump: those voxels stay at 1. */
-static int mark_jumps(mprt_grid *g)
+static int mark_jumps_single(mprt_grid *g);
+
+static int mark_jumps(mprt_grid *g, int reference)
 {
-    int M[3], a, i, x, y, z, single = g->macro[0] == 1 && g->macro[1] == 1 && g->macro[2] == 1;
+    int M[3], a, i, x, y, z, single;
     size_t *of[3] = {NULL, NULL, NULL}; /* per axis and voxel index: macro cell offset in md */
     uint8_t *md = NULL, *e = g->empty;
     int st = MPRT_ERR_OUT_OF_MEMORY;
     if (macro_cells(g) != MPRT_OK) return st;
+    single = g->macro[0] == 1 && g->macro[1] == 1 && g->macro[2] == 1;
+    if (single && !reference) return mark_jumps_single(g);
     for (a = 0; a < 3; a++) M[a] = (g->n[a] + g->macro[a] - 1) / g->macro[a];
     md = malloc((size_t)M[0] * (size_t)M[1] * (size_t)M[2]);
     for (a = 0; a < 3; a++) of[a] = malloc((size_t)g->n[a] * sizeof *of[a]);
@@ -226,7 +340,7 @@ static int mark_jumps(mprt_grid *g)
         for (y = 0; y < g->n[1]; y++)
             for (x = 0; x < g->n[0]; x++, e++)
                 if (*e == 0) md[of[2][z] + of[1][y] + of[0][x]] = 0;
-    if (mprt__chessboard_distance(M, md) != MPRT_OK) goto done;
+    if ((reference ? chessboard_reference(M, md) : mprt__chessboard_distance(M, md)) != MPRT_OK) goto done;
     /* distance d >= 1: the macro cells within d - 1 are empty; empty = d + 1 */
     e = g->empty;
     for (z = 0; z < g->n[2]; z++)
@@ -240,6 +354,28 @@ done:
     free(md);
     for (a = 0; a < 3; a++) free(of[a]);
     return st;
+}
+
+/* mark_jumps where every macro cell is one voxel (the reference is
+ * mark_jumps(g, 1)): the distances are the voxels' own, found in place in
+ * the empty flags, 255 for empty and 0 for a voxel with primitives, then
+ * turned into empty values: d + 1 from 2 up (at most 255), else as they were. */
+static int mark_jumps_single(mprt_grid *g)
+{
+    uint8_t *e = g->empty;
+    size_t v = 0, k, n = (size_t)g->voxels;
+    for (; v + CHUNK <= n; v += CHUNK) {
+        uint8_t *p = e + v;
+        for (k = 0; k < CHUNK; k++) p[k] = p[k] ? 255 : 0;
+    }
+    for (; v < n; v++) e[v] = e[v] ? 255 : 0;
+    if (mprt__chessboard_distance(g->n, e) != MPRT_OK) return MPRT_ERR_OUT_OF_MEMORY;
+    for (v = 0; v + CHUNK <= n; v += CHUNK) {
+        uint8_t *p = e + v;
+        for (k = 0; k < CHUNK; k++) p[k] = (uint8_t)(p[k] < 2 ? p[k] : p[k] > 254 ? 255 : p[k] + 1);
+    }
+    for (; v < n; v++) e[v] = (uint8_t)(e[v] < 2 ? e[v] : e[v] > 254 ? 255 : e[v] + 1);
+    return MPRT_OK;
 }
 
 /* (voxel, primitive) pairs, filled while testing, then sorted by voxel. */
@@ -269,6 +405,143 @@ static int pairs_push(pairs *p, uint32_t v, int32_t id, size_t limit)
     p->prim[p->n] = id;
     p->n++;
     return 0;
+}
+
+/* The voxel range primitive i's bounds touch, grown by the margin (on
+ * MPRT_LIST_BOX_OUTWARD one voxel more on each axis's high side). */
+static int prim_range(mprt_grid *g, long long i, int a0[3], int a1[3])
+{
+    const mprt_scene *s = g->scene;
+    vec3 blo, bhi;
+    int a;
+    if (mprt__prim_bounds(s, i, &blo, &bhi) != MPRT_OK)
+        return grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
+    for (a = 0; a < 3; a++) {
+        a0[a] = axis_cell(g, a, vget(blo, a) - g->pad);
+        a1[a] = axis_cell(g, a, vget(bhi, a) + g->pad);
+        if (g->listing == MPRT_LIST_BOX_OUTWARD && a1[a] < g->n[a] - 1) a1[a]++;
+    }
+    return MPRT_OK;
+}
+
+static int push(mprt_grid *g, pairs *P, int x, int y, int z, long long i, size_t pair_limit, size_t max_bytes)
+{
+    if (!pairs_push(P, (uint32_t)(((long long)z * g->n[1] + y) * g->n[0] + x), (int32_t)i, pair_limit))
+        return MPRT_OK;
+    return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY,
+                     "grid %dx%dx%d: the primitive lists exceed the %zu bytes allowed "
+                     "(or memory ran out) at primitive %lld",
+                     g->n[0], g->n[1], g->n[2], max_bytes, i);
+}
+
+/* The (voxel, primitive) pairs, voxel by voxel as the paper's build would:
+ * kept as the reference the faster list_fast is tested against
+ * (mprt__grid_create_reference, tests/c/test_grid_build.c). */
+static int list_reference(mprt_grid *g, pairs *P, size_t pair_limit, size_t max_bytes)
+{
+    const mprt_scene *s = g->scene;
+    const real margin = g->pad;
+    long long i;
+    int st;
+    for (i = 0; i < s->nprims; i++) {
+        int a0[3], a1[3], x, y, z;
+        if ((st = prim_range(g, i, a0, a1)) != MPRT_OK) return st;
+        for (z = a0[2]; z <= a1[2]; z++)
+            for (y = a0[1]; y <= a1[1]; y++)
+                for (x = a0[0]; x <= a1[0]; x++) {
+                    vec3 lo = mprt__grid_voxel_lo(g, x, y, z);
+                    vec3 hi = mprt__grid_voxel_lo(g, x + 1, y + 1, z + 1);
+                    lo = v3(lo.x - margin, lo.y - margin, lo.z - margin);
+                    hi = v3(hi.x + margin, hi.y + margin, hi.z + margin);
+                    int touch = g->listing != MPRT_LIST_EXACT ? 1 : prim_box(s, i, lo, hi);
+                    if (touch < 0)
+                        return grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
+                    if (touch && (st = push(g, P, x, y, z, i, pair_limit, max_bytes)) != MPRT_OK) return st;
+                }
+    }
+    return MPRT_OK;
+}
+
+/* The same pairs as list_reference, bit for bit, for less work: the voxel
+ * boxes (grown by the margin) come from per-axis tables computed with the
+ * same arithmetic, and polygons are tested column by column (x outermost)
+ * through mprt__polybox, which clips each polygon to a column's x slab
+ * once.  The order of a primitive's own pairs does not matter: the counting
+ * sort keeps primitives in id order within each voxel. */
+static int list_fast(mprt_grid *g, pairs *P, size_t pair_limit, size_t max_bytes)
+{
+    const mprt_scene *s = g->scene;
+    const real margin = g->pad;
+    real *tab, *vlo[3], *vhi[3], *vmag[3];
+    mprt__polybox pb;
+    long long i;
+    int a, k, st = MPRT_OK;
+    tab = malloc(3 * (size_t)(g->n[0] + g->n[1] + g->n[2]) * sizeof *tab);
+    if (!tab) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the voxel bounds");
+    memset(&pb, 0, sizeof pb);
+    for (a = 0, vlo[0] = tab; a < 3; a++) {
+        const real lo = vget(g->lo, a), cell = vget(g->cell, a);
+        vhi[a] = vlo[a] + g->n[a];
+        vmag[a] = vhi[a] + g->n[a];
+        if (a < 2) vlo[a + 1] = vmag[a] + g->n[a];
+        for (k = 0; k < g->n[a]; k++) {
+            real l = lo + (real)k * cell, h = lo + (real)(k + 1) * cell, al, ah;
+            vlo[a][k] = l - margin;
+            vhi[a][k] = h + margin;
+            al = ABS(vlo[a][k]);
+            ah = ABS(vhi[a][k]);
+            vmag[a][k] = al > ah ? al : ah;
+        }
+    }
+    for (i = 0; i < s->nprims && st == MPRT_OK; i++) {
+        const mprt__prim *p = &s->prims[i];
+        mprt__cone_extent cx;
+        real smag = 0;
+        int a0[3], a1[3], x, y, z;
+        if ((st = prim_range(g, i, a0, a1)) != MPRT_OK) break;
+        if (p->kind == MPRT_POLYGON && g->listing == MPRT_LIST_EXACT) {
+            mprt__polybox_set(&pb, &s->polygons[p->index], s->verts);
+            for (x = a0[0]; x <= a1[0] && st == MPRT_OK; x++)
+                for (y = a0[1]; y <= a1[1] && st == MPRT_OK; y++) {
+                    real mxy = vmag[0][x] > vmag[1][y] ? vmag[0][x] : vmag[1][y];
+                    for (z = a0[2]; z <= a1[2]; z++) {
+                        int touch = mprt__polybox_test(&pb, v3(vlo[0][x], vlo[1][y], vlo[2][z]),
+                                                       v3(vhi[0][x], vhi[1][y], vhi[2][z]),
+                                                       mxy > vmag[2][z] ? mxy : vmag[2][z]);
+                        if (touch < 0) {
+                            st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory clipping polygon %lld", i);
+                            break;
+                        }
+                        if (touch && (st = push(g, P, x, y, z, i, pair_limit, max_bytes)) != MPRT_OK) break;
+                    }
+                }
+            continue;
+        }
+        if (g->listing == MPRT_LIST_EXACT && p->kind == MPRT_SPHERE) smag = vmaxabs(s->spheres[p->index].c);
+        if (g->listing == MPRT_LIST_EXACT && (p->kind == MPRT_CYLINDER || p->kind == MPRT_CONE))
+            mprt__cone_box_prepare(&s->cones[p->index], &cx);
+        for (z = a0[2]; z <= a1[2] && st == MPRT_OK; z++)
+            for (y = a0[1]; y <= a1[1] && st == MPRT_OK; y++)
+                for (x = a0[0]; x <= a1[0]; x++) {
+                    const vec3 lo = v3(vlo[0][x], vlo[1][y], vlo[2][z]), hi = v3(vhi[0][x], vhi[1][y], vhi[2][z]);
+                    real m = vmag[0][x] > vmag[1][y] ? vmag[0][x] : vmag[1][y];
+                    int touch;
+                    if (vmag[2][z] > m) m = vmag[2][z];
+                    if (g->listing != MPRT_LIST_EXACT) touch = 1;
+                    else if (p->kind == MPRT_SPHERE) touch = mprt__sphere_box_with(&s->spheres[p->index], lo, hi, m, smag);
+                    else if (p->kind == MPRT_CYLINDER || p->kind == MPRT_CONE)
+                        touch = mprt__cone_box_with(&s->cones[p->index], &cx, lo, hi, m);
+                    else touch = prim_box(s, i, lo, hi);
+                    if (touch < 0) {
+                        st = grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
+                        break;
+                    }
+                    if (touch && (st = push(g, P, x, y, z, i, pair_limit, max_bytes)) != MPRT_OK) break;
+                }
+    }
+    mprt__polybox_free(&pb);
+    free(tab);
+    return st;
 }
 
 /* Bytes of IC's copy of the primitives (ic.h). */
@@ -330,14 +603,71 @@ static int build_ic(mprt_grid *g, long long ntri)
     return MPRT_OK;
 }
 
-static int build(mprt_grid *g, size_t max_bytes)
+/* The lists in voxel order (a counting sort: primitives stay in id order
+ * within a voxel), the empty flags and the jumps, the plain way: kept as the
+ * reference for sort_fast. */
+static int sort_reference(mprt_grid *g, const pairs *P)
+{
+    const long long nvox = g->voxels;
+    uint32_t *count;
+    long long i;
+    for (i = 0; i < (long long)P->n; i++) g->start[P->vox[i] + 1]++;
+    for (i = 0; i < nvox; i++) g->start[i + 1] += g->start[i];
+    g->ids = malloc((P->n ? P->n : 1) * sizeof *g->ids);
+    count = malloc((size_t)nvox * sizeof *count);
+    if (!g->ids || !count) {
+        free(count);
+        return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory sorting %zu list entries", P->n);
+    }
+    memcpy(count, g->start, (size_t)nvox * sizeof *count);
+    for (i = 0; i < (long long)P->n; i++) g->ids[count[P->vox[i]]++] = P->prim[i];
+    free(count);
+    g->refs = (long long)P->n;
+    g->empty = malloc((size_t)nvox);
+    if (!g->empty) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %lld voxel flags", nvox);
+    for (i = 0; i < nvox; i++) g->empty[i] = g->start[i + 1] > g->start[i] ? 0 : 1;
+    if (g->jump_min <= 255 && mark_jumps(g, 1) != MPRT_OK)
+        return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the macro cells of %lld voxels", nvox);
+    return MPRT_OK;
+}
+
+/* sort_reference's result in fewer passes over the voxels: voxel v's count
+ * goes to start[v + 2] (start has voxels + 2 entries), so that after the
+ * prefix sum start[v + 1] is where v's list begins and, once the entries are
+ * placed, where it ends, with no cursor array; the empty flags come with
+ * the prefix sum; and on a grid of single-voxel macro cells the distance
+ * transform runs in place on the flags (mark_jumps). */
+static int sort_fast(mprt_grid *g, const pairs *P)
+{
+    const long long nvox = g->voxels;
+    uint32_t *start = g->start, sum = 0;
+    uint8_t *e;
+    long long i;
+    g->ids = malloc((P->n ? P->n : 1) * sizeof *g->ids);
+    if (!g->ids) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory sorting %zu list entries", P->n);
+    g->empty = e = malloc((size_t)nvox);
+    if (!e) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %lld voxel flags", nvox);
+    for (i = 0; i < (long long)P->n; i++) start[P->vox[i] + 2]++;
+    for (i = 0; i < nvox; i++) {
+        uint32_t c = start[i + 2];
+        e[i] = c == 0;
+        start[i + 1] = sum;
+        sum += c;
+    }
+    start[nvox + 1] = 0;
+    for (i = 0; i < (long long)P->n; i++) g->ids[start[P->vox[i] + 1]++] = P->prim[i];
+    g->refs = (long long)P->n;
+    if (g->jump_min <= 255 && mark_jumps(g, 0) != MPRT_OK)
+        return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the macro cells of %lld voxels", nvox);
+    return MPRT_OK;
+}
+
+static int build(mprt_grid *g, size_t max_bytes, int reference)
 {
     const mprt_scene *s = g->scene;
-    long long i, nvox = g->voxels;
+    long long nvox = g->voxels;
     pairs P = {NULL, NULL, 0, 0};
     size_t pair_limit, fixed;
-    uint32_t *count = NULL;
-    real margin;
     long long ntri;
     int st = MPRT_OK;
 
@@ -349,75 +679,21 @@ static int build(mprt_grid *g, size_t max_bytes)
                          g->n[0], g->n[1], g->n[2], fixed, max_bytes);
     /* Pairs cost 8 bytes while building and 4 in the final list. */
     pair_limit = (max_bytes - fixed) / 8;
-    g->start = calloc((size_t)nvox + 1, sizeof *g->start);
+    g->start = calloc((size_t)nvox + 2, sizeof *g->start); /* + 1 for sort_fast */
     if (!g->start) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory allocating %zu bytes of voxel table", fixed);
 
     /* Margin: a few thousand ulps of the scene's extent. */
-    margin = (real)(vmaxabs(vsub(g->hi, g->lo)) + vmaxabs(g->lo) + vmaxabs(g->hi)) * REAL_EPS * R(4096);
-    g->pad = margin;
+    g->pad = (real)(vmaxabs(vsub(g->hi, g->lo)) + vmaxabs(g->lo) + vmaxabs(g->hi)) * REAL_EPS * R(4096);
 
-    for (i = 0; i < s->nprims; i++) {
-        vec3 blo, bhi;
-        int a0[3], a1[3], x, y, z, a;
-        if (mprt__prim_bounds(s, i, &blo, &bhi) != MPRT_OK) {
-            st = grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
-            goto done;
-        }
-        for (a = 0; a < 3; a++) {
-            a0[a] = axis_cell(g, a, vget(blo, a) - margin);
-            a1[a] = axis_cell(g, a, vget(bhi, a) + margin);
-            if (g->listing == MPRT_LIST_BOX_OUTWARD && a1[a] < g->n[a] - 1) a1[a]++;
-        }
-        for (z = a0[2]; z <= a1[2]; z++)
-            for (y = a0[1]; y <= a1[1]; y++)
-                for (x = a0[0]; x <= a1[0]; x++) {
-                    vec3 lo = mprt__grid_voxel_lo(g, x, y, z);
-                    vec3 hi = mprt__grid_voxel_lo(g, x + 1, y + 1, z + 1);
-                    lo = v3(lo.x - margin, lo.y - margin, lo.z - margin);
-                    hi = v3(hi.x + margin, hi.y + margin, hi.z + margin);
-                    int touch = g->listing != MPRT_LIST_EXACT ? 1 : prim_box(s, i, lo, hi);
-                    if (touch < 0) {
-                        st = grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
-                        goto done;
-                    }
-                    if (!touch) continue;
-                    if (pairs_push(&P, (uint32_t)(((long long)z * g->n[1] + y) * g->n[0] + x), (int32_t)i,
-                                   pair_limit)) {
-                        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY,
-                                       "grid %dx%dx%d: the primitive lists exceed the %zu bytes allowed "
-                                       "(or memory ran out) at primitive %lld",
-                                       g->n[0], g->n[1], g->n[2], max_bytes, i);
-                        goto done;
-                    }
-                }
-    }
+    st = reference ? list_reference(g, &P, pair_limit, max_bytes) : list_fast(g, &P, pair_limit, max_bytes);
+    if (st != MPRT_OK) goto done;
     if (P.n > 0xffffffffu) {
         st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "grid: %zu list entries exceed 2^32", P.n);
         goto done;
     }
 
-    /* Counting sort by voxel; primitives stay in id order within a voxel. */
-    for (i = 0; i < (long long)P.n; i++) g->start[P.vox[i] + 1]++;
-    for (i = 0; i < nvox; i++) g->start[i + 1] += g->start[i];
-    g->ids = malloc((P.n ? P.n : 1) * sizeof *g->ids);
-    count = malloc((size_t)nvox * sizeof *count);
-    if (!g->ids || !count) {
-        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory sorting %zu list entries", P.n);
-        goto done;
-    }
-    memcpy(count, g->start, (size_t)nvox * sizeof *count);
-    for (i = 0; i < (long long)P.n; i++) g->ids[count[P.vox[i]]++] = P.prim[i];
-    g->refs = (long long)P.n;
-    g->empty = malloc((size_t)nvox);
-    if (!g->empty) {
-        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %lld voxel flags", nvox);
-        goto done;
-    }
-    for (i = 0; i < nvox; i++) g->empty[i] = g->start[i + 1] > g->start[i] ? 0 : 1;
-    if (g->jump_min <= 255 && mark_jumps(g) != MPRT_OK) {
-        st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the macro cells of %lld voxels", nvox);
-        goto done;
-    }
+    st = reference ? sort_reference(g, &P) : sort_fast(g, &P);
+    if (st != MPRT_OK) goto done;
     if (mprt__dda_plain(g) != MPRT_OK) {
         st = grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the walk's bits of %lld voxels", nvox);
         goto done;
@@ -425,7 +701,6 @@ static int build(mprt_grid *g, size_t max_bytes)
     st = build_ic(g, ntri);
 
 done:
-    free(count);
     free(P.vox);
     free(P.prim);
     return st;
@@ -466,8 +741,8 @@ int mprt_grid_create(const mprt_scene *s, int nx, int ny, int nz, size_t max_byt
     return mprt_grid_create_listing(s, nx, ny, nz, max_bytes, MPRT_LIST_EXACT, out);
 }
 
-int mprt_grid_create_listing(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, int listing,
-                             mprt_grid **out)
+static int create(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, int listing, int reference,
+                  mprt_grid **out)
 {
     mprt_grid *g;
     long long bad;
@@ -515,13 +790,25 @@ int mprt_grid_create_listing(const mprt_scene *s, int nx, int ny, int nz, size_t
     g->cell = v3((g->hi.x - g->lo.x) / (real)nx, (g->hi.y - g->lo.y) / (real)ny, (g->hi.z - g->lo.z) / (real)nz);
     g->inv_cell = v3(1 / g->cell.x, 1 / g->cell.y, 1 / g->cell.z);
     if ((st = jump_threshold(g)) != MPRT_OK) return st;
-    st = build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES);
+    st = build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES, reference);
     if (st == MPRT_OK) {
         /* The scene now refuses changes until this grid is destroyed */
         mprt__scene_count_grid(s, +1);
         g->counted = 1;
     }
     return st;
+}
+
+int mprt_grid_create_listing(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, int listing,
+                             mprt_grid **out)
+{
+    return create(s, nx, ny, nz, max_bytes, listing, 0, out);
+}
+
+int mprt__grid_create_reference(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, int listing,
+                                mprt_grid **out)
+{
+    return create(s, nx, ny, nz, max_bytes, listing, 1, out);
 }
 
 int mprt_grid_get_stats(const mprt_grid *g, mprt_grid_stats *st)

@@ -47,6 +47,11 @@ int mprt__grid_fail(mprt_grid *g, int status, const char *fmt, ...)
 #endif
     ;
 
+/* mprt_grid_create_listing built the plain way, voxel by voxel, kept as the
+ * reference the faster build must match bit for bit (tests/c/test_grid_build.c). */
+int mprt__grid_create_reference(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes, int listing,
+                                mprt_grid **out);
+
 /* Lower corner of voxel (i, j, k); i == n gives the upper boundary. */
 vec3 mprt__grid_voxel_lo(const mprt_grid *g, int i, int j, int k);
 

@@ -238,6 +238,8 @@ static inline int mprt__line_misses(vec3 om, vec3 d, real dd, real r2)
 int mprt__sphere_hit(const mprt__sphere *s, const mprt__ray *ray, real tmin, real tmax, real *t);
 vec3 mprt__sphere_normal(const mprt__sphere *s, vec3 p);
 int mprt__sphere_box(const mprt__sphere *s, vec3 lo, vec3 hi);
+/* mprt__sphere_box given mbox = max(vmaxabs(lo), vmaxabs(hi)) and cmag = vmaxabs(s->c). */
+int mprt__sphere_box_with(const mprt__sphere *s, vec3 lo, vec3 hi, real mbox, real cmag);
 void mprt__sphere_bounds(const mprt__sphere *s, vec3 *lo, vec3 *hi);
 
 int mprt__polygon_hit(const mprt__polygon *p, const vec3 *verts, const mprt__ray *ray, real tmin,
@@ -246,11 +248,38 @@ int mprt__polygon_hit(const mprt__polygon *p, const vec3 *verts, const mprt__ray
 vec3 mprt__polygon_normal(const mprt__polygon *p, const vec3 *verts, const vec3 *vnormals, vec3 point);
 int mprt__polygon_box(const mprt__polygon *p, const vec3 *verts, vec3 lo, vec3 hi);
 void mprt__polygon_bounds(const mprt__polygon *p, const vec3 *verts, vec3 *lo, vec3 *hi);
+/* A polygon prepared for box tests against many boxes (the grid's build):
+ * mprt__polybox_test(b, lo, hi, mbox), with mbox = max(vmaxabs(lo),
+ * vmaxabs(hi)), answers exactly as mprt__polygon_box(p, verts, lo, hi) does
+ * (1 or 0), or -1 when memory runs out.  Zero the struct before the first
+ * mprt__polybox_set; mprt__polybox_free releases its buffers. */
+typedef struct {
+    const mprt__polygon *p;
+    const vec3 *v;
+    vec3 plo, phi;      /* vertex bounds */
+    real dev, mag;      /* largest distance from the plane; largest |coordinate| of plo, phi */
+    vec3 *buf[4];       /* clip stage outputs: 1 the outline clipped to the x slab, 3 to x and y */
+    size_t cap[4], len[4];
+    real xkey[2], ykey[2]; /* the slab bounds buffers 1 and 3 were clipped to */
+    int have_x, have_y;
+} mprt__polybox;
+void mprt__polybox_set(mprt__polybox *b, const mprt__polygon *p, const vec3 *verts);
+int mprt__polybox_test(mprt__polybox *b, vec3 lo, vec3 hi, real mbox);
+void mprt__polybox_free(mprt__polybox *b);
 
 int mprt__cylinder_hit(const mprt__cone *c, const mprt__ray *ray, real tmin, real tmax, real *t);
 int mprt__cone_hit(const mprt__cone *c, const mprt__ray *ray, real tmin, real tmax, real *t);
 vec3 mprt__cone_normal(const mprt__cone *c, vec3 p);
 int mprt__cone_box(const mprt__cone *c, vec3 lo, vec3 hi);
+/* What mprt__cone_box finds once per cone: the bounds, the largest coordinate
+ * magnitude of base and apex, sqrt(1 + slope^2). */
+typedef struct {
+    vec3 lo, hi;
+    real mag, lip;
+} mprt__cone_extent;
+void mprt__cone_box_prepare(const mprt__cone *c, mprt__cone_extent *x);
+/* mprt__cone_box given the cone's extent and mbox = max(vmaxabs(lo), vmaxabs(hi)). */
+int mprt__cone_box_with(const mprt__cone *c, const mprt__cone_extent *x, vec3 lo, vec3 hi, real mbox);
 void mprt__cone_bounds(const mprt__cone *c, vec3 *lo, vec3 *hi);
 
 /* ---- NFF (nff.c, nff_write.c) ------------------------------------------ */

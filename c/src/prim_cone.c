@@ -231,23 +231,37 @@ void mprt__cone_bounds(const mprt__cone *c, vec3 *lo, vec3 *hi)
     *hi = v3(h1.x > h2.x ? h1.x : h2.x, h1.y > h2.y ? h1.y : h2.y, h1.z > h2.z ? h1.z : h2.z);
 }
 
+void mprt__cone_box_prepare(const mprt__cone *c, mprt__cone_extent *x)
+{
+    real e;
+    x->mag = vmaxabs(c->base);
+    if ((e = vmaxabs(c->apex)) > x->mag) x->mag = e;
+    mprt__cone_bounds(c, &x->lo, &x->hi);
+    x->lip = SQRT(1 + c->slope * c->slope);
+}
+
 int mprt__cone_box(const mprt__cone *c, vec3 lo, vec3 hi)
 {
-    vec3 blo, bhi, ctr, h, q, corner;
-    real m, e, pad, zc, zh, x, y, z, rho, g, hd, r;
+    mprt__cone_extent x;
+    real m = vmaxabs(lo), e;
+    if ((e = vmaxabs(hi)) > m) m = e;
+    mprt__cone_box_prepare(c, &x);
+    return mprt__cone_box_with(c, &x, lo, hi, m);
+}
+
+int mprt__cone_box_with(const mprt__cone *c, const mprt__cone_extent *x, vec3 lo, vec3 hi, real mbox)
+{
+    vec3 blo = x->lo, bhi = x->hi, ctr, h, q, corner;
+    real m, pad, zc, zh, y_, z, rho, g, hd, r, xx;
     int i;
 
     /* Grow the box by a rounding allowance */
-    m = vmaxabs(lo);
-    if ((e = vmaxabs(hi)) > m) m = e;
-    if ((e = vmaxabs(c->base)) > m) m = e;
-    if ((e = vmaxabs(c->apex)) > m) m = e;
+    m = mbox > x->mag ? mbox : x->mag;
     pad = R(64.0) * REAL_EPS * (m + c->len);
     lo = vsub(lo, v3(pad, pad, pad));
     hi = vadd(hi, v3(pad, pad, pad));
 
     /* Bounding box of the two rims */
-    mprt__cone_bounds(c, &blo, &bhi);
     if (blo.x > hi.x || blo.y > hi.y || blo.z > hi.z || bhi.x < lo.x || bhi.y < lo.y ||
         bhi.z < lo.z)
         return 0;
@@ -262,12 +276,12 @@ int mprt__cone_box(const mprt__cone *c, vec3 lo, vec3 hi)
 
     /* Box wholly off the infinite cone: g = rho - (rb + k z) is
      * sqrt(1 + k^2)-Lipschitz and zero on the surface */
-    x = vdot(q, c->u);
-    y = vdot(q, c->v);
-    rho = SQRT(x * x + y * y);
+    xx = vdot(q, c->u);
+    y_ = vdot(q, c->v);
+    rho = SQRT(xx * xx + y_ * y_);
     g = rho - (c->rb + c->slope * zc);
     hd = vlen(h);
-    if (ABS(g) > SQRT(1 + c->slope * c->slope) * hd) return 0;
+    if (ABS(g) > x->lip * hd) return 0;
 
     /* Box strictly inside the solid frustum (convex): all corners inside */
     for (i = 0; i < 8; i++) {
@@ -275,10 +289,10 @@ int mprt__cone_box(const mprt__cone *c, vec3 lo, vec3 hi)
         q = vsub(corner, c->base);
         z = vdot(q, c->w);
         if (!(z > 0 && z < c->len)) return 1;
-        x = vdot(q, c->u);
-        y = vdot(q, c->v);
+        xx = vdot(q, c->u);
+        y_ = vdot(q, c->v);
         r = c->rb + c->slope * z;
-        if (!(x * x + y * y < r * r)) return 1;
+        if (!(xx * xx + y_ * y_ < r * r)) return 1;
     }
     return 0;
 }

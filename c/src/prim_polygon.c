@@ -23,6 +23,8 @@
 #include "ic.h"
 
 #include <stdio.h>
+#include <stdlib.h>
+#include <string.h>
 
 
 #define AREA_REL 1e-12
@@ -272,18 +274,23 @@ static int clip_inside(const clipper *c, int k, vec3 p)
 
 static void clip_push(clipper *c, int k, vec3 p);
 
+/* Where edge a->b crosses the plane x_axis = bound (the one formula of both
+ * clippers below, so that they agree bit for bit). */
+static vec3 clip_cross(vec3 a, vec3 b, int axis, real bound)
+{
+    real pa = vget(a, axis), pb = vget(b, axis), s = (bound - pa) / (pb - pa);
+    vec3 x = vadd(a, vscale(vsub(b, a), s));
+    if (axis == 0) x.x = bound;
+    else if (axis == 1) x.y = bound;
+    else x.z = bound;
+    return x;
+}
+
 /* Edge a->b through stage k: emit the crossing point and/or b. */
 static void clip_edge(clipper *c, int k, vec3 a, vec3 b)
 {
-    int ina = clip_inside(c, k, a), inb = clip_inside(c, k, b), axis = k >> 1;
-    if (ina != inb) {
-        real pa = vget(a, axis), pb = vget(b, axis), s = (c->bound[k] - pa) / (pb - pa);
-        vec3 x = vadd(a, vscale(vsub(b, a), s));
-        if (axis == 0) x.x = c->bound[k];
-        else if (axis == 1) x.y = c->bound[k];
-        else x.z = c->bound[k];
-        clip_push(c, k + 1, x);
-    }
+    int ina = clip_inside(c, k, a), inb = clip_inside(c, k, b);
+    if (ina != inb) clip_push(c, k + 1, clip_cross(a, b, k >> 1, c->bound[k]));
     if (inb) clip_push(c, k + 1, b);
 }
 
@@ -304,28 +311,29 @@ static void clip_push(clipper *c, int k, vec3 p)
     s->prev = p;
 }
 
-int mprt__polygon_box(const mprt__polygon *p, const vec3 *verts, vec3 lo, vec3 hi)
+/* The polygon's vertex bounds and its largest vertex distance from its plane. */
+static void polygon_extent(const mprt__polygon *p, const vec3 *verts, vec3 *plo, vec3 *phi, real *dev)
 {
     const vec3 *v = verts + p->first;
-    const vec3 nrm = p->normal;
-    vec3 plo, phi, ctr, h;
-    real m, e, pad, dev = 0;
-    clipper c;
-    int i, k;
-
-    /* Vertex bounds and the largest distance of a vertex from the plane */
-    mprt__polygon_bounds(p, verts, &plo, &phi);
+    real e;
+    int i;
+    mprt__polygon_bounds(p, verts, plo, phi);
+    *dev = 0;
     for (i = 0; i < p->n; i++) {
-        e = ABS(vdot(nrm, v[i]) - p->d);
-        if (e > dev) dev = e;
+        e = ABS(vdot(p->normal, v[i]) - p->d);
+        if (e > *dev) *dev = e;
     }
+}
 
-    /* Grow the box by a rounding allowance and by the polygon's non-planarity */
-    m = vmaxabs(lo);
-    if ((e = vmaxabs(hi)) > m) m = e;
-    if ((e = vmaxabs(plo)) > m) m = e;
-    if ((e = vmaxabs(phi)) > m) m = e;
-    pad = R(64.0) * REAL_EPS * m + R(2.0) * dev;
+/* Grow the box by a rounding allowance (m: the largest coordinate magnitude
+ * of box and polygon) and by the polygon's non-planarity dev, then reject it
+ * by bounding boxes and by the plane: 0 when rejected, else 1 with the box
+ * grown. */
+static int polygon_box_pre(const mprt__polygon *p, vec3 plo, vec3 phi, real dev, real m, vec3 *blo, vec3 *bhi)
+{
+    const vec3 nrm = p->normal;
+    vec3 ctr, h, lo = *blo, hi = *bhi;
+    real e, pad = R(64.0) * REAL_EPS * m + R(2.0) * dev;
     lo = vsub(lo, v3(pad, pad, pad));
     hi = vadd(hi, v3(pad, pad, pad));
 
@@ -339,6 +347,25 @@ int mprt__polygon_box(const mprt__polygon *p, const vec3 *verts, vec3 lo, vec3 h
     h = vsub(hi, ctr);
     e = ABS(nrm.x) * h.x + ABS(nrm.y) * h.y + ABS(nrm.z) * h.z;
     if (ABS(vdot(nrm, ctr) - p->d) > e + pad) return 0;
+    *blo = lo;
+    *bhi = hi;
+    return 1;
+}
+
+int mprt__polygon_box(const mprt__polygon *p, const vec3 *verts, vec3 lo, vec3 hi)
+{
+    const vec3 *v = verts + p->first;
+    vec3 plo, phi;
+    real m, e, dev;
+    clipper c;
+    int i, k;
+
+    polygon_extent(p, verts, &plo, &phi, &dev);
+    m = vmaxabs(lo);
+    if ((e = vmaxabs(hi)) > m) m = e;
+    if ((e = vmaxabs(plo)) > m) m = e;
+    if ((e = vmaxabs(phi)) > m) m = e;
+    if (!polygon_box_pre(p, plo, phi, dev, m, &lo, &hi)) return 0;
 
     /* Clip against the six slabs */
     for (k = 0; k < 3; k++) {
@@ -351,4 +378,91 @@ int mprt__polygon_box(const mprt__polygon *p, const vec3 *verts, vec3 lo, vec3 h
     for (k = 0; k < 6 && !c.out; k++)
         if (c.st[k].has) clip_edge(&c, k, c.st[k].prev, c.st[k].first);
     return c.out > 0;
+}
+
+/* ---- The same test against many boxes --------------------------------------
+ * mprt__polybox_test answers as mprt__polygon_box does, bit for bit, for
+ * less work: the bounds and non-planarity are found once per polygon, and
+ * the clipper runs one whole stage at a time (Sutherland-Hodgman in batch),
+ * keeping the outline clipped to the x slab and then to the y slab for the
+ * last bounds it met, so that boxes sharing those bounds (a column of
+ * voxels, a row of a column) clip the polygon once.  A stage in batch
+ * receives the same points in the same order as the streaming stage and
+ * computes each crossing with the same formula, so the last stage's outline
+ * is empty exactly when the streaming clipper reports nothing. */
+
+void mprt__polybox_set(mprt__polybox *b, const mprt__polygon *p, const vec3 *verts)
+{
+    real e;
+    b->p = p;
+    b->v = verts + p->first;
+    polygon_extent(p, verts, &b->plo, &b->phi, &b->dev);
+    b->mag = vmaxabs(b->plo);
+    if ((e = vmaxabs(b->phi)) > b->mag) b->mag = e;
+    b->have_x = b->have_y = 0;
+}
+
+void mprt__polybox_free(mprt__polybox *b)
+{
+    int i;
+    for (i = 0; i < 4; i++) free(b->buf[i]);
+    memset(b, 0, sizeof *b);
+}
+
+/* Stage k (slab face k: axis k / 2, low side for even k) on the closed
+ * outline in[0 .. m), into buffer i; -1 when memory runs out. */
+static int clip_slab(mprt__polybox *b, int i, const vec3 *in, size_t m, int k, real bound)
+{
+    const int axis = k >> 1, high = k & 1;
+    size_t j, o = 0;
+    vec3 *out;
+    int ina, inb;
+    if (b->cap[i] < 2 * m) {
+        size_t nc = 2 * m < 64 ? 64 : 4 * m;
+        out = realloc(b->buf[i], nc * sizeof *out);
+        if (!out) return -1;
+        b->buf[i] = out;
+        b->cap[i] = nc;
+    }
+    out = b->buf[i];
+    if (m) {
+        ina = high ? vget(in[0], axis) <= bound : vget(in[0], axis) >= bound;
+        for (j = 1; j <= m; j++) {
+            const vec3 a = in[j - 1], c = in[j == m ? 0 : j];
+            inb = high ? vget(c, axis) <= bound : vget(c, axis) >= bound;
+            if (ina != inb) out[o++] = clip_cross(a, c, axis, bound);
+            if (inb) out[o++] = c;
+            ina = inb;
+        }
+    }
+    b->len[i] = o;
+    return 0;
+}
+
+int mprt__polybox_test(mprt__polybox *b, vec3 lo, vec3 hi, real mbox)
+{
+    size_t j;
+    if (!polygon_box_pre(b->p, b->plo, b->phi, b->dev, mbox > b->mag ? mbox : b->mag, &lo, &hi)) return 0;
+    if (!b->have_x || memcmp(&b->xkey[0], &lo.x, sizeof lo.x) || memcmp(&b->xkey[1], &hi.x, sizeof hi.x)) {
+        b->have_x = b->have_y = 0;
+        if (clip_slab(b, 0, b->v, (size_t)b->p->n, 0, lo.x) || clip_slab(b, 1, b->buf[0], b->len[0], 1, hi.x))
+            return -1;
+        b->xkey[0] = lo.x;
+        b->xkey[1] = hi.x;
+        b->have_x = 1;
+    }
+    if (!b->have_y || memcmp(&b->ykey[0], &lo.y, sizeof lo.y) || memcmp(&b->ykey[1], &hi.y, sizeof hi.y)) {
+        b->have_y = 0;
+        if (clip_slab(b, 2, b->buf[1], b->len[1], 2, lo.y) || clip_slab(b, 3, b->buf[2], b->len[2], 3, hi.y))
+            return -1;
+        b->ykey[0] = lo.y;
+        b->ykey[1] = hi.y;
+        b->have_y = 1;
+    }
+    /* the z slab (into buffer 0, scratch once the x slab is done): the last
+     * stage emits a point when one of its inputs is inside */
+    if (clip_slab(b, 0, b->buf[3], b->len[3], 4, lo.z)) return -1;
+    for (j = 0; j < b->len[0]; j++)
+        if (b->buf[0][j].z <= hi.z) return 1;
+    return 0;
 }

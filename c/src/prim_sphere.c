@@ -24,14 +24,16 @@ void mprt__sphere_bounds(const mprt__sphere *s, vec3 *lo, vec3 *hi)
 
 int mprt__sphere_box(const mprt__sphere *s, vec3 lo, vec3 hi)
 {
+    real m = vmaxabs(lo), e = vmaxabs(hi);
+    return mprt__sphere_box_with(s, lo, hi, e > m ? e : m, vmaxabs(s->c));
+}
+
+int mprt__sphere_box_with(const mprt__sphere *s, vec3 lo, vec3 hi, real mbox, real cmag)
+{
     real pad, r2, dmin2 = 0, dmax2 = 0, m, lc, hc, e;
 
     /* Grow the box by a rounding allowance relative to the magnitudes involved */
-    m = vmaxabs(lo);
-    e = vmaxabs(hi);
-    if (e > m) m = e;
-    e = vmaxabs(s->c);
-    if (e > m) m = e;
+    m = mbox > cmag ? mbox : cmag;
     pad = R(64.0) * REAL_EPS * (m + s->r);
 
     /* Squared distances from the centre to the nearest and farthest box points */

@@ -216,23 +216,25 @@ def t_trace(name, size, n, res):
 MEASURES = {f.__name__: f for f in (t_intersect, t_render, t_trace)}
 
 
-def serve() -> int:
+def serve(measures=None) -> int:
     """Worker mode: one JSON request per line on stdin ([name, args]), one JSON answer per line."""
+    measures = MEASURES if measures is None else measures
     out = sys.stdout
     sys.stdout = sys.stderr  # nothing else may write to the answers
     for line in sys.stdin:
         name, args = json.loads(line)
-        out.write(json.dumps(MEASURES[name](*args)) + "\n")
+        out.write(json.dumps(measures[name](*args)) + "\n")
         out.flush()
     return 0
 
 
 class Before:
-    """The other build, in a worker process running this file with its package first on the path."""
+    """The other build, in a worker process running this file (or `script`, which serves its own
+    measures with ``--serve``) with its package first on the path."""
 
-    def __init__(self, python_dir: str):
+    def __init__(self, python_dir: str, script: str = __file__):
         env = dict(os.environ, PYTHONPATH=os.path.abspath(python_dir))
-        self.proc = subprocess.Popen([sys.executable, os.path.abspath(__file__), "--serve"], env=env,
+        self.proc = subprocess.Popen([sys.executable, os.path.abspath(script), "--serve"], env=env,
                                      stdin=subprocess.PIPE, stdout=subprocess.PIPE, text=True)
         self.version = self("t_version")
 

@@ -2,12 +2,14 @@
 
 For each scene: the prepass's choice and its cost (searched at 1/16 of the
 resolution, then with and without checking its three best predictions on a
-sixty-fourth of the full-resolution tiles); then full-resolution traces over a
+sixty-fourth of the full-resolution tiles, and with the parabola step in
+place of the golden section); then full-resolution traces over a
 ladder of subdivisions (plus every pick and rule) replayed at level 1 (the
 compiled exact replay of the machine model's 3MPPE without ring and memories)
 give the true best; printed per scene: the choice, the true best, the regret
 (time of the choice over the best's, minus one), the prepass's seconds as a
-share of one full frame traced and replayed at the level the fidelity ladder
+share of one full frame at the best subdivision (its grid built, traced on 2
+threads and replayed, timed in the same run as the prepass) at the level the fidelity ladder
 chooses for the 3MPPE on this scene at 1% (measured on a sixteenth of the best
 frame's tiles: level 1 is the compiled replay's measured time, level 2 or 3
 the SimPy model's measured visits per second on that sample times the frame's
@@ -33,7 +35,8 @@ from mprt.machine.config import builtin
 
 HERE = Path(__file__).resolve().parent
 OUT = HERE.parents[1] / "studies" / "out"
-VARIANTS = ((16, 0), (16, 3))      # (fraction, candidates checked at full resolution)
+# (fraction, candidates checked at full resolution, refinement of the bracket)
+VARIANTS = ((16, 0, "golden"), (16, 3, "golden"), (16, 0, "parabola"))
 CACHE = DiskCache(OUT / "prepass_truth")     # full-resolution truths (and their timings) are kept between runs
 
 
@@ -109,10 +112,10 @@ def main(res=512):
         for d in ladder:
             full(d)
         pres = {}
-        for fr, check in VARIANTS:
+        for fr, check, refine in VARIANTS:
             t0 = time.perf_counter()
-            pre = prepass(scene, res, res, fraction=fr, threads=2, check=check)
-            pres[fr, check] = (pre, time.perf_counter() - t0)
+            pre = prepass(scene, res, res, fraction=fr, threads=2, check=check, refine=refine)
+            pres[fr, check, refine] = (pre, time.perf_counter() - t0)
             for c in pre["candidates"]:
                 if "sampled_cycles" in c:
                     full(tuple(c["subdivision"]))
@@ -128,13 +131,19 @@ def main(res=512):
             n = max(max(best) + k * max(1, max(best) // 20), 1)
             full(grid_dims(scene, (n,), "proportional"))
         best = min(truth, key=truth.get)
-        tr_s, rp_s, visits = cost[best]
+        # the frame's seconds measured now, beside the prepass runs above (the cache's are from other runs)
+        t = time.perf_counter()
+        _, tr = scene.grid(best).trace(res, res, threads=2)
+        t1 = time.perf_counter()
+        TraceEvaluator(tr, counted=False).run_config(machine, 1)
+        tr_s, rp_s, visits = t1 - t, time.perf_counter() - t1, len(tr.visits)
+        del tr
         level, frame, rate = frame_cost(scene, best, res, tr_s, rp_s, visits)
         row = {"scene": name, "best": "x".join(map(str, best)), "frame_level": level, "frame_s": frame,
                "frame_s_level1": tr_s + rp_s, "simpy_visits_per_s": rate, "visits": visits}
-        for (fr, check), (pre, pre_s) in pres.items():
+        for (fr, check, refine), (pre, pre_s) in pres.items():
             choice = tuple(pre["subdivision"])
-            k = f"{fr}_{check}"
+            k = f"{fr}_{check}_{refine}"
             row.update({f"choice_{k}": "x".join(map(str, choice)), f"regret_{k}": truth[choice] / truth[best] - 1,
                         f"prepass_s_{k}": pre_s, f"candidates_{k}": len(pre["candidates"]),
                         f"share_{k}": pre_s / frame, f"share_level1_{k}": pre_s / (tr_s + rp_s)})
@@ -151,13 +160,13 @@ def main(res=512):
     print(f"{res}x{res}, the machine model's 3MPPE, truth at level 1.  Per variant (1/F of the resolution, K best "
           f"checked at full resolution on 1/64 of the tiles): choice, regret, prepass seconds, share of one frame "
           f"traced and replayed at the ladder's level (and at level 1)")
-    head = "| scene | best | frame (level, s) | " + " | ".join(f"1/{fr}, K={c}: choice, regret, s, share"
-                                                                 for fr, c in VARIANTS)
+    head = "| scene | best | frame (level, s) | " + " | ".join(f"1/{fr}, K={c}, {rf}: choice, regret, s, share"
+                                                                 for fr, c, rf in VARIANTS)
     print(head + " | pbrt 3N^1/3 | density 8 | paper 20/50/100 |")
     print("|---" * (3 + len(VARIANTS) + 3) + "|")
     for r in rows:
         cells = [f"{r[f'choice_{k}']}, {r[f'regret_{k}']:.1%}, {r[f'prepass_s_{k}']:.2f} s, {r[f'share_{k}']:.2%} "
-                 f"({r[f'share_level1_{k}']:.0%})" for k in (f"{fr}_{c}" for fr, c in VARIANTS)]
+                 f"({r[f'share_level1_{k}']:.0%})" for k in (f"{fr}_{c}_{rf}" for fr, c, rf in VARIANTS)]
         print(f"| {r['scene']} | {r['best']} | {r['frame_level']}, {r['frame_s']:.0f} s | " + " | ".join(cells)
               + f" | {r['pbrt']} ({r['pbrt_regret']:+.0%}) | {r['density8']} ({r['density8_regret']:+.0%}) "
               f"| {r['paper-best']} ({r['paper-best_regret']:+.0%}) |")

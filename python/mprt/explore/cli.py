@@ -146,6 +146,9 @@ def add_parsers(sub) -> None:
                    help="trace the K best predictions at --res on about 16 of its 16x16 tiles (stratified; a "
                         "sixty-fourth of 512x512) and choose among them by that (default 0: the "
                         "low-resolution prediction alone)")
+    p.add_argument("--refine", choices=("golden", "parabola", "none"), default="golden",
+                   help="narrow the ladder's bracket by golden-section steps (default), by one parabola "
+                        "step (half the candidates, less exact where time is jagged in n), or not at all")
     p.set_defaults(func=run_prepass)
 
     w = sub.add_parser("sweep", help="scenes x subdivisions x designs on Dask, to a CSV and plots")
@@ -255,7 +258,7 @@ def run_prepass(a) -> int:
     if a.check < 0:
         raise opt.UsageError(f"--check {a.check}: give 0 or more candidates")
     r = prepass(scene, w, h, candidates=a.candidates, n_range=a.n_range, fraction=a.fraction, shape=a.shape,
-                threads=a.threads, check=a.check)
+                threads=a.threads, check=a.check, refine=a.refine)
     lw, lh = r["low_resolution"]
     print(f"prepass {scene.name}: {len(r['candidates'])} subdivisions traced at {lw}x{lh} in {r['seconds']:.2f} s; "
           f"cycles predicted for {w}x{h} on the paper's 3MPPE (level {r['level']})"
