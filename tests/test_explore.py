@@ -184,6 +184,26 @@ def test_window_keeps_the_fifos_from_deadlocking():
     assert r.bottleneck == "deadlock" and r.cycles == DEADLOCK_CYCLES
 
 
+
+def test_a_design_deadlocking_on_the_ring_runs_with_a_smaller_window():
+    """The window's bound is the ideal network's: on the ring (level 3) tetra's pipeline with
+    16-word FIFOs deadlocks at it; the evaluator then halves the window until the machine runs,
+    and reports that run's cycles (the same as asking for that window)."""
+    from mprt.machine.config import config_from_dict
+    d = Design.from_dict({"mapping": "OS|IC|SC", "fifo": 16, "pes": 1, "replication": {"OS": 1, "IC": 1, "SC": 1}})
+    ev = TraceEvaluator(mprt.load_trace(DATA / "golden" / "tetra-g9.npz"))
+    fields = machine_fields(d, ev.leaves)
+    assert fields["window"] > 1
+    assert ev.run_config(config_from_dict(fields), 3).bottleneck == "deadlock"
+    assert ev.run_config(config_from_dict(fields), 1).bottleneck != "deadlock"     # live on the ideal network
+    got = ev.run(d, 3)
+    assert got.bottleneck != "deadlock"
+    w = fields["window"] // 2
+    while ev.run_config(config_from_dict({**fields, "window": w}), 3).bottleneck == "deadlock":
+        w //= 2
+    assert got.cycles == ev.run_config(config_from_dict({**fields, "window": w}), 3).cycles
+
+
 # --- search -----------------------------------------------------------------------------------------------------
 
 CASES = [("time", 300.0), ("time", 500.0), ("time*cost", None), ("time", None)]
@@ -309,3 +329,36 @@ def test_feeds_reach_the_machine_and_its_deadlock_bound(tmp_path):
     p.write_text('[replication]\nfeed = { choices = ["shared", "random"] }\n')
     with pytest.raises(SpaceError, match=r"replication\.feed: feed 'random' is not one of shared, round-robin"):
         load_space(str(p))
+
+
+def test_verification_goes_down_the_ranking_past_deadlocks_and_never_returns_one():
+    """The verification checks the search's best few at its level; while every one of them
+    deadlocks there it checks further down the ranking, and if none it checks runs, it says so
+    (an error naming the level) rather than returning a deadlocked design as the best."""
+    from mprt.explore.evaluate import DEADLOCK_CYCLES, Result
+    from mprt.explore.explorer import NoLiveDesignError, _verify
+    from mprt.explore.search import Evaluation
+    sp = load_space(SMALL)
+    import itertools
+    keys = sorted({sp.canonical(k) for k in itertools.product(*(range(n) for n in sp.sizes))})
+    pts = [sp.point(k) for k in keys[:12]]
+    assert len(set(pts)) == 12
+
+    class Fake:
+        width = height = 8
+
+        def __init__(self, live):
+            self.live, self.calls = live, []
+
+        def run(self, p, level):
+            self.calls.append(p)
+            c = 1000.0 + pts.index(p) if p in self.live else DEADLOCK_CYCLES
+            return Result(cycles=c, level=level, cost=1.0, bottleneck="IC" if p in self.live else "deadlock")
+
+    top = [Evaluation(sp.index_of(p), p, 100.0 + i, 1.0, i + 1, Result(100.0 + i, 1, 1.0)) for i, p in enumerate(pts)]
+    full = Fake({pts[6], pts[9]})
+    best, _ = _verify(sp, top, 4, 3, full, full, "time", None, 0, lambda s: None)
+    assert best.point == pts[6] and best.cycles < DEADLOCK_CYCLES
+    assert full.calls == pts[:7]            # the four asked for, then down the ranking to the first live one
+    with pytest.raises(NoLiveDesignError, match="level 3 deadlocks"):
+        _verify(sp, top, 4, 3, Fake(set()), Fake(set()), "time", None, 0, lambda s: None)

@@ -13,8 +13,10 @@ milliseconds, and a few ``fidelity.Evaluator``s, one per set of processors
 (each holds that set's costed, analytical and compiled forms).
 
 The DIS's window is kept small enough that the FIFOs cannot deadlock on the
-trace's largest ray tree (``window``); a machine that deadlocks all the same is
-reported with ``bottleneck = "deadlock"`` and a cycle count no search prefers.
+trace's largest ray tree (``window``; that bound is the ideal network's).  A
+machine that deadlocks all the same (on the ring) is run again with half the
+window, down to 1; one that deadlocks even then is reported with
+``bottleneck = "deadlock"`` and a cycle count no search prefers.
 """
 from __future__ import annotations
 
@@ -187,8 +189,17 @@ class TraceEvaluator:
 
     def run(self, design: Design, level: int = 1, scale: float = 1.0) -> Result:
         """The design at a level; ``scale`` multiplies the cycles (a sampled trace's frame)."""
+        from ..machine.config import config_from_dict
+
         cost = float(sum(cost_breakdown(design, self.unit_costs).values()))
-        return self.run_config(machine_config(design, self.leaves), level, scale, cost)
+        fields = machine_fields(design, self.leaves)
+        r = self.run_config(config_from_dict(fields, source="explored design"), level, scale, cost)
+        # The window's bound is the ideal network's; on the ring (level 3) a machine can still deadlock:
+        # its DIS then keeps fewer rays in flight, halving the window until it runs (or 1 does not)
+        while r.bottleneck == "deadlock" and fields["window"] > 1:
+            fields["window"] //= 2
+            r = self.run_config(config_from_dict(fields, source="explored design"), level, scale, cost)
+        return r
 
     def run_config(self, cfg, level: int = 1, scale: float = 1.0, cost: float = 0.0) -> Result:
         """A machine configuration (``SystemConfig``) at a level."""

@@ -5,6 +5,7 @@ import time
 
 import numpy as np
 
+from ..errors import MprtError
 from .evaluate import DEADLOCK_CYCLES, SceneEvaluator, grid_dims, machine_config
 from .hwcost import UnitCosts, cost_breakdown
 from .prepass import low_resolution
@@ -16,6 +17,7 @@ VERIFY_FREE = ("cache.", "resident.", "pes", "replication.")   # what the verifi
 # level 2 (the ring without memories) is left out of the ladder: SimPy runs are its cost, and
 # where level 2 would do, verifying at 3 costs only its few designs
 LADDER_LEVELS = (0, 1, 3)
+VERIFY_MORE = 12              # designs further down the ranking verified while all above deadlock
 SEARCH_LEVEL_MAX = 1          # the compiled replay: exact, milliseconds a design; SimPy (2, 3) takes seconds
 
 
@@ -90,7 +92,7 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
     elif objective != "pareto":
         top = sorted(problem.memo.values(), key=problem.rank)
     if levels["verify"] > levels["search"]:
-        best, rows = _verify(full_space, top[:verify], levels["verify"], ev, low_ev, objective, budget,
+        best, rows = _verify(full_space, top, verify, levels["verify"], ev, low_ev, objective, budget,
                              verify_polish, say)
         history += [dict(r, level=levels["verify"]) for r in rows]
         evaluations += len(rows)
@@ -202,10 +204,17 @@ def choose_levels(scene, ev: SceneEvaluator, space: Space, level, tolerance: flo
             "ladder_seconds": time.perf_counter() - t0}
 
 
-def _verify(space: Space, top, level: int, full: SceneEvaluator, low: SceneEvaluator, objective, budget,
-            polish_evals: int, say):
-    """The best few designs re-evaluated at the verification level at full
-    resolution; then a lattice polish from the best one at that level on the
+class NoLiveDesignError(MprtError, RuntimeError):
+    """No design the verification checked runs to the end at its level."""
+
+
+def _verify(space: Space, top, verify: int, level: int, full: SceneEvaluator, low: SceneEvaluator, objective,
+            budget, polish_evals: int, say):
+    """The ``verify`` best designs of ``top`` (the search's ranking) re-evaluated
+    at the verification level at full resolution, and further down the ranking
+    (up to ``VERIFY_MORE`` more) while every one verified deadlocks there (the
+    levels below have no ring: a window safe on the ideal network can still
+    deadlock on it); then a lattice polish from the best one at that level on the
     search's resolution (``polish_evals`` designs) over what the levels below
     are blind to or trade against it (memories, and the copies and PEs that
     share the budget with them), its two best re-evaluated at full resolution.
@@ -224,8 +233,17 @@ def _verify(space: Space, top, level: int, full: SceneEvaluator, low: SceneEvalu
             say(f"verify  {what} at level {level}: {e.cycles:,.0f} cycles ({where} level {e_from.result.level}: "
                 f"{e_from.cycles:,.0f}), cost {e.cost:.0f} kGE, {time.perf_counter() - t0:.1f} s")
 
-    for i, e in enumerate(top, 1):
-        check(e, f"{i}/{len(top)}", "searched at")
+    def live():
+        b = vp.best()
+        return b is not None and b.cycles < DEADLOCK_CYCLES
+
+    n_top = min(verify, len(top))
+    for i, e in enumerate(top[:n_top], 1):
+        check(e, f"{i}/{n_top}", "searched at")
+    for i, e in enumerate(top[n_top:n_top + VERIFY_MORE], n_top + 1):
+        if live():
+            break
+        check(e, f"{i} (the ones above deadlock)", "searched at")
     rows = [dict(r, phase="verify", resolution=[full.width, full.height]) for r in vp.history()]
     best = vp.best()
     if polish_evals > 0:
@@ -246,6 +264,10 @@ def _verify(space: Space, top, level: int, full: SceneEvaluator, low: SceneEvalu
             check(e, "polished", f"{low.width}x{low.height} at")
         rows += [dict(r, phase="verify", resolution=[full.width, full.height]) for r in vp.history()[n:]]
         best = vp.best()
+    if not live():
+        raise NoLiveDesignError(f"explore: every design verified at level {level} deadlocks ({len(vp.memo)} "
+                            f"checked at {full.width}x{full.height}): the search's level cannot see the ring; "
+                            f"give FIFOs more room in the space, or search at --level {level}")
     return best, rows
 
 
