@@ -10,10 +10,10 @@ from .evaluate import DEADLOCK_CYCLES, SceneEvaluator, grid_dims, machine_config
 from .hwcost import UnitCosts, cost_breakdown
 from .prepass import low_resolution
 from .search import Problem, compass, cost_range, pareto, search
-from .space import REFERENCE_DESIGNS, Point, Space, Var, default_space, paper_3mppe
+from .space import REFERENCE_DESIGNS, Point, Space, SpaceError, Var, default_space, paper_3mppe
 
 
-VERIFY_FREE = ("cache.", "resident.", "pes", "replication.")   # what the verification polish varies
+VERIFY_FREE = ("cache.", "resident.", "pes", "replication.", "fifo")   # what the verification polish varies
 # level 2 (the ring without memories) is left out of the ladder: SimPy runs are its cost, and
 # where level 2 would do, verifying at 3 costs only its few designs
 LADDER_LEVELS = (0, 1, 3)
@@ -214,7 +214,8 @@ def _verify(space: Space, top, verify: int, level: int, full: SceneEvaluator, lo
     at the verification level at full resolution, and further down the ranking
     (up to ``VERIFY_MORE`` more) while every one verified deadlocks there (the
     levels below have no ring: a window safe on the ideal network can still
-    deadlock on it); then a lattice polish from the best one at that level on the
+    deadlock on it), beside the reference designs (the paper's 3MPPE, models M
+    and S) at the best's subdivision where the space holds them; then a lattice polish from the best one at that level on the
     search's resolution (``polish_evals`` designs) over what the levels below
     are blind to or trade against it (memories, and the copies and PEs that
     share the budget with them), its two best re-evaluated at full resolution.
@@ -240,6 +241,17 @@ def _verify(space: Space, top, verify: int, level: int, full: SceneEvaluator, lo
     n_top = min(verify, len(top))
     for i, e in enumerate(top[:n_top], 1):
         check(e, f"{i}/{n_top}", "searched at")
+    # the paper's designs at the same subdivision, where the space holds them: the search's level cannot
+    # see the ring or the memories, so its best few may all be slower at this level than one of these
+    for name, make in REFERENCE_DESIGNS.items():
+        try:
+            k = space.canonical(space.index_of(Point(top[0].point.subdivision, make())))
+        except SpaceError:
+            continue
+        if k not in vp.memo:
+            vp.evaluate_many([k])
+            say(f"verify  {name} at level {level}: {vp.memo[k].cycles:,.0f} cycles, cost {vp.memo[k].cost:.0f} kGE, "
+                f"{time.perf_counter() - t0:.1f} s")
     for i, e in enumerate(top[n_top:n_top + VERIFY_MORE], n_top + 1):
         if live():
             break
