@@ -89,6 +89,13 @@ def run(res, out, scenes, budgets, threads, level, max_evals):
             pre = prepass(scene, res, res, design=d, fraction=2, threads=threads)
             subs[label] = "x".join(map(str, pre["subdivision"]))
         sub_rows.append((name, subs))
+        _write(out, md, rows, sc_rows, sub_rows, final=False)
+    _write(out, md, rows, sc_rows, sub_rows)
+
+
+def _write(out, md, rows, sc_rows, sub_rows, final=True):
+    """The tables so far (after each scene, so a stopped run keeps what it finished)."""
+    md = list(md)
     md.append(f"\nSC's processor, best design per stage mapping at {BUDGETS[1]:.0f} kGE (cycles; "
               "lower is better):\n")
     md.append("| scene | OS\\|IC\\|SC | OS+SC\\|IC | OS\\|IC+SC | OS+IC+SC (one processor type) | best |")
@@ -107,7 +114,8 @@ def run(res, out, scenes, budgets, threads, level, max_evals):
         w.writerows(rows)
     text = "\n".join(md) + "\n"
     (out / "design_space.md").write_text(text)
-    print(text)
+    if final:
+        print(text)
 
 
 def _design(rows, name, budget):
