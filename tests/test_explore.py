@@ -360,5 +360,9 @@ def test_verification_goes_down_the_ranking_past_deadlocks_and_never_returns_one
     best, _ = _verify(sp, top, 4, 3, full, full, "time", None, 0, lambda s: None)
     assert best.point == pts[6] and best.cycles < DEADLOCK_CYCLES
     assert full.calls == pts[:7]            # the four asked for, then down the ranking to the first live one
+    # the search's best of each mapping is checked after the top few, before going down the ranking
+    full = Fake({pts[6], pts[9]})
+    best, _ = _verify(sp, top, 4, 3, full, full, "time", None, 0, lambda s: None, [top[9]])
+    assert full.calls == pts[:4] + [pts[9]] and best.point == pts[9]
     with pytest.raises(NoLiveDesignError, match="level 3 deadlocks"):
         _verify(sp, top, 4, 3, Fake(set()), Fake(set()), "time", None, 0, lambda s: None)

@@ -92,8 +92,14 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
     elif objective != "pareto":
         top = sorted(problem.memo.values(), key=problem.rank)
     if levels["verify"] > levels["search"]:
+        # the search's best design of each stage mapping: its level is blind to the ring, which only
+        # pipelines use, so its best few can all be pipelines that are slower at the verification's level
+        mappings = {}
+        if objective != "pareto":
+            for e in sorted(problem.memo.values(), key=problem.rank):
+                mappings.setdefault(e.point.design.mapping, e)
         best, rows = _verify(full_space, top, verify, levels["verify"], ev, low_ev, objective, budget,
-                             verify_polish, say)
+                             verify_polish, say, list(mappings.values()))
         history += [dict(r, level=levels["verify"]) for r in rows]
         evaluations += len(rows)
     else:
@@ -209,13 +215,15 @@ class NoLiveDesignError(MprtError, RuntimeError):
 
 
 def _verify(space: Space, top, verify: int, level: int, full: SceneEvaluator, low: SceneEvaluator, objective,
-            budget, polish_evals: int, say):
+            budget, polish_evals: int, say, per_mapping=()):
     """The ``verify`` best designs of ``top`` (the search's ranking) re-evaluated
     at the verification level at full resolution, and further down the ranking
     (up to ``VERIFY_MORE`` more) while every one verified deadlocks there (the
     levels below have no ring: a window safe on the ideal network can still
-    deadlock on it), beside the reference designs (the paper's 3MPPE, models M
-    and S) at the best's subdivision where the space holds them; then a lattice polish from the best one at that level on the
+    deadlock on it), beside ``per_mapping`` (the search's best of each stage
+    mapping, at its own subdivision) and the reference designs (the paper's
+    3MPPE, models M and S) at the best's subdivision where the space holds
+    them; then a lattice polish from the best one at that level on the
     search's resolution (``polish_evals`` designs) over what the levels below
     are blind to or trade against it (memories, and the copies and PEs that
     share the budget with them), its two best re-evaluated at full resolution.
@@ -241,6 +249,8 @@ def _verify(space: Space, top, verify: int, level: int, full: SceneEvaluator, lo
     n_top = min(verify, len(top))
     for i, e in enumerate(top[:n_top], 1):
         check(e, f"{i}/{n_top}", "searched at")
+    for e in per_mapping:
+        check(e, f"best {e.point.design.mapping}", "searched at")
     # the paper's designs at the same subdivision, where the space holds them: the search's level cannot
     # see the ring or the memories, so its best few may all be slower at this level than one of these
     for name, make in REFERENCE_DESIGNS.items():
