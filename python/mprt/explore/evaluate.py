@@ -121,7 +121,7 @@ def _fifo_packets(design: Design) -> int:
     return max(design.fifo // _words_per_packet(), 1)
 
 
-def machine_fields(design: Design, leaves: int | None = None) -> dict:
+def machine_fields(design: Design, leaves: int | None = None, dis_window: int | None = None) -> dict:
     """The machine-configuration fields (a machine TOML file's) of a design, as the
     machine is: FIFOs and ring when it has several processors, memories always; the
     window as ``window(design, leaves)``."""
@@ -136,7 +136,7 @@ def machine_fields(design: Design, leaves: int | None = None) -> dict:
             st["send_fifo"] = st["receive_fifo"] = _fifo_packets(design)
         stages.append(st)
     cfg = {"name": "explored", "stage": stages, "pes": design.pes, "dis": "dynamic",
-           "window": window(design, leaves)}
+           "window": dis_window or window(design, leaves)}
     if len(groups) > 1:
         cfg["ring"] = {"flit_time": 1, "buffer_classes": len(groups)}
     for s in ("IC", "SC"):
@@ -148,11 +148,12 @@ def machine_fields(design: Design, leaves: int | None = None) -> dict:
     return cfg
 
 
-def machine_config(design: Design, leaves: int | None = None):
-    """The design as a machine (``SystemConfig``); the fidelity levels take parts of it away."""
+def machine_config(design: Design, leaves: int | None = None, dis_window: int | None = None):
+    """The design as a machine (``SystemConfig``), its DIS window ``dis_window`` if given;
+    the fidelity levels take parts of it away."""
     from ..machine.config import config_from_dict
 
-    return config_from_dict(machine_fields(design, leaves), source="explored design")
+    return config_from_dict(machine_fields(design, leaves, dis_window), source="explored design")
 
 
 class TraceEvaluator:
@@ -189,16 +190,14 @@ class TraceEvaluator:
 
     def run(self, design: Design, level: int = 1, scale: float = 1.0) -> Result:
         """The design at a level; ``scale`` multiplies the cycles (a sampled trace's frame)."""
-        from ..machine.config import config_from_dict
-
         cost = float(sum(cost_breakdown(design, self.unit_costs).values()))
-        fields = machine_fields(design, self.leaves)
-        r = self.run_config(config_from_dict(fields, source="explored design"), level, scale, cost)
+        cfg = machine_config(design, self.leaves)
+        r = self.run_config(cfg, level, scale, cost)
         # The window's bound is the ideal network's; on the ring (level 3) a machine can still deadlock:
         # its DIS then keeps fewer rays in flight, halving the window until it runs (or 1 does not)
-        while r.bottleneck == "deadlock" and fields["window"] > 1:
-            fields["window"] //= 2
-            r = self.run_config(config_from_dict(fields, source="explored design"), level, scale, cost)
+        while r.bottleneck == "deadlock" and cfg.window > 1:
+            cfg = machine_config(design, self.leaves, cfg.window // 2)
+            r = self.run_config(cfg, level, scale, cost)
         return r
 
     def run_config(self, cfg, level: int = 1, scale: float = 1.0, cost: float = 0.0) -> Result:
