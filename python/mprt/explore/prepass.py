@@ -85,6 +85,8 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
     Default sample: ``stratified:K:1`` with K such that about 16 tiles of 16x16
     are traced (a sixty-fourth of a 512x512 frame; all of a frame of 16 tiles
     or fewer)."""
+    if refine not in ("golden", "parabola", "none"):
+        raise ValueError(f"prepass: refine must be 'parabola', 'golden' or 'none', not {refine!r}")
     t0 = time.perf_counter()
     w, h = low_resolution(width, height, fraction)
     scale = (width * height) / (w * h)
@@ -112,8 +114,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
             _parabola(f, ladder[max(i - 1, 0)], ladder[i], ladder[min(i + 1, len(ladder) - 1)])
         elif refine == "golden":
             _golden(f, ladder[max(i - 1, 0)], ladder[min(i + 1, len(ladder) - 1)], ratio)
-        elif refine != "none":
-            raise ValueError(f"prepass: refine must be 'parabola', 'golden' or 'none', not {refine!r}")
+
     cands = sorted(f.seen.items(), key=lambda kv: kv[0])
     best = min(cands, key=lambda kv: (kv[1], kv[0]))
     checked = {}
@@ -150,10 +151,7 @@ def _parabola(f, a: int, m: int, b: int) -> None:
     if not a < m < b:
         return
     x = np.log([a, m, b])
-    y = np.array([f(a), f(m), f(b)], dtype=float)
-    den = (x[0] - x[1]) * (x[0] - x[2]) * (x[1] - x[2])
-    c2 = (x[2] * (y[1] - y[0]) + x[1] * (y[0] - y[2]) + x[0] * (y[2] - y[1])) / den
-    c1 = (x[2] ** 2 * (y[0] - y[1]) + x[1] ** 2 * (y[2] - y[0]) + x[0] ** 2 * (y[1] - y[2])) / den
+    c2, c1, _ = np.polyfit(x, [f(a), f(m), f(b)], 2)
     if not c2 > 0:
         return
     n = int(round(math.exp(min(max(-c1 / (2 * c2), x[0]), x[2]))))
