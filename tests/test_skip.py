@@ -1,12 +1,13 @@
 """Empty-space skipping changes no count: the 3DDDA's jumps over empty voxels
 give the same traces, hits and counters as the voxel-by-voxel walk.
 
-Grids read two environment variables when they are made: MPRT_NO_SKIP=1 (the
-plain walk) and MPRT_JUMP_MIN=2 (jump from every block of empty voxels the
-grid knows, the smallest included, wherever the walk is; the default jumps
-from large ones only, away from the ray's origin).
-Each comparison runs the same work under both, and the default, on grids of
-their own."""
+Grids read three environment variables when they are made: MPRT_SKIP=1 (jump
+from large blocks of empty voxels, away from the ray's origin), MPRT_JUMP_MIN=2
+(jump from every block the grid knows, the smallest included, wherever the walk
+is) and MPRT_NO_SKIP=1 (the plain walk, whatever the others say).  By default
+the walk is plain: at the grids studies/03_bench measured, jumps cost renders
+more than the voxels they pass.  Each comparison runs the same work under
+these, on grids of their own."""
 import os
 
 import numpy as np
@@ -17,14 +18,15 @@ import mprt
 GOLDEN = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "golden")
 GOLDEN_FILES = sorted(f for f in os.listdir(GOLDEN) if f.endswith(".npz"))
 SCENE_SIZES = {"balls": 1, "gears": 1, "mount": 2, "rings": 1, "tetra": 2, "tree": 4}
-PLAIN, EVERYWHERE, DEFAULT = {"MPRT_NO_SKIP": "1"}, {"MPRT_JUMP_MIN": "2"}, {}
+PLAIN, EVERYWHERE, SKIP, DEFAULT = {"MPRT_NO_SKIP": "1"}, {"MPRT_JUMP_MIN": "2"}, {"MPRT_SKIP": "1"}, {}
+VARIABLES = ("MPRT_NO_SKIP", "MPRT_JUMP_MIN", "MPRT_SKIP")
 
 
 def grid_under(monkeypatch, env: dict, scene, n):
-    """A grid made while the environment holds env (and neither variable otherwise)."""
+    """A grid made while the environment holds env (and none of the variables otherwise)."""
     with monkeypatch.context() as m:
-        m.delenv("MPRT_NO_SKIP", raising=False)
-        m.delenv("MPRT_JUMP_MIN", raising=False)
+        for k in VARIABLES:
+            m.delenv(k, raising=False)
         for k, v in env.items():
             m.setenv(k, v)
         return scene.grid(n)
@@ -64,13 +66,13 @@ def test_random_and_eye_rays_hit_and_count_the_same_with_jumps(name, monkeypatch
     o, d = np.concatenate([ro, po]), np.concatenate([rd, pd])
     for n in ((48, 48, 48), (96, 40, 48)):
         results = {}
-        for label, env in (("plain", PLAIN), ("everywhere", EVERYWHERE), ("default", DEFAULT)):
+        for label, env in (("plain", PLAIN), ("everywhere", EVERYWHERE), ("skip", SKIP), ("default", DEFAULT)):
             grid = grid_under(monkeypatch, env, scene, n)
             results[label] = grid.intersect(o, d, return_counters=True), grid.stats()["jump_voxels"]
             del grid
         (tp, pp, cp), jumps_plain = results["plain"]
         assert jumps_plain == 0
-        for label in ("everywhere", "default"):
+        for label in ("everywhere", "skip", "default"):
             (t, p, c), _ = results[label]
             assert np.array_equal(t, tp) and np.array_equal(p, pp) and c == cp, (n, label)
         # the comparison means something: the jumping grid has blocks to jump, and rays enter empty voxels
@@ -98,3 +100,16 @@ def test_a_bad_jump_threshold_is_an_error_naming_the_variable(monkeypatch):
     for bad in ("1", "256", "ten"):
         with pytest.raises(mprt.InvalidArgument, match="MPRT_JUMP_MIN"):
             grid_under(monkeypatch, {"MPRT_JUMP_MIN": bad}, scene, 8)
+
+
+def test_the_walk_is_plain_unless_jumps_are_asked_for(monkeypatch):
+    """By default a grid marks no voxel to jump from; MPRT_SKIP=1 and MPRT_JUMP_MIN mark some, and
+    MPRT_NO_SKIP=1 wins over both; MPRT_SKIP=0 or empty is off."""
+    scene = mprt.Scene.spd("tetra", 2)
+
+    def jumps(env):
+        return grid_under(monkeypatch, env, scene, (48, 48, 48)).stats()["jump_voxels"]
+
+    assert jumps(DEFAULT) == 0 and jumps({"MPRT_SKIP": "0"}) == 0 and jumps({"MPRT_SKIP": ""}) == 0
+    assert jumps(SKIP) > 0 and jumps(EVERYWHERE) >= jumps(SKIP)
+    assert jumps(dict(SKIP, **PLAIN)) == 0 and jumps(dict(EVERYWHERE, **PLAIN)) == 0

@@ -220,7 +220,8 @@ typedef struct {
     double mean_len;             /* refs / nonempty (0 if none) */
     long long bytes;             /* memory of the grid's arrays */
     long long jump_voxels;       /* empty voxels from which the 3DDDA jumps over empty space
-                                  * (0 with the environment MPRT_NO_SKIP=1 when the grid was made) */
+                                  * (0 unless the environment held MPRT_SKIP=1 or MPRT_JUMP_MIN=k
+                                  * when the grid was made) */
     double lo[3], hi[3];         /* box the grid covers */
     int listing;                 /* mprt_listing */
 } mprt_grid_stats;

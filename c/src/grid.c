@@ -14,7 +14,7 @@
  * empty voxel holds the chessboard distance from its macro cell to the
  * nearest macro cell with primitives (grid.h, empty), which lets the walk
  * jump across the block of empty macro cells around it (dda.h) with the
- * same counts.
+ * same counts, when the environment asks for jumps (jump_threshold).
  *
  * IC's copy of the primitives (ic.h) is made with the grid and counts
  * against its memory bound; mprt_grid_stats.bytes reports the voxel table
@@ -706,32 +706,45 @@ done:
     return st;
 }
 
-/* Empty values from which the walk jumps by default, and how far from the
- * ray's origin (in voxels) it must be: smaller blocks, and jumps near the
- * origin, cost more than the voxels they pass (studies/03_bench measures
- * it). */
+/* Empty values from which the walk jumps when asked to (MPRT_SKIP), and how
+ * far from the ray's origin (in voxels) it must be: smaller blocks, and
+ * jumps near the origin, cost more than the voxels they pass. */
 #define DEFAULT_JUMP_MIN 16
 #define DEFAULT_JUMP_FAR 8
 
-/* The jump threshold the environment asks for: MPRT_NO_SKIP set to
- * anything but "" or "0" turns jumps off (the plain voxel-by-voxel walk);
+/* Whether environment variable name is set to anything but "" or "0". */
+static int env_on(const char *name)
+{
+    const char *v = getenv(name);
+    return v && *v && strcmp(v, "0") != 0;
+}
+
+/* The jump threshold the environment asks for.  By default the walk goes
+ * voxel by voxel: jumps change no count, but at every grid studies/03_bench
+ * measured they cost renders more time than the voxels they pass (a jump
+ * sets up its runs afresh for every ray, and secondary rays' walks are
+ * short).  MPRT_SKIP set (to anything but "" or "0") jumps from blocks of
+ * empty value DEFAULT_JUMP_MIN and up, away from the ray's origin;
  * MPRT_JUMP_MIN=k (2..255) jumps from blocks of empty value k and up
- * wherever the walk is (the tests use 2, to jump wherever the grid allows).  Read once per grid, when
- * it is made.  Returns MPRT_OK or fails the grid naming the variable. */
+ * wherever the walk is (the tests use 2, to jump wherever the grid allows);
+ * MPRT_NO_SKIP set turns jumps off whatever the others say.  Read once per
+ * grid, when it is made.  Returns MPRT_OK or fails the grid naming the
+ * variable. */
 static int jump_threshold(mprt_grid *g)
 {
-    const char *off = getenv("MPRT_NO_SKIP"), *k = getenv("MPRT_JUMP_MIN");
-    g->jump_min = DEFAULT_JUMP_MIN;
-    g->jump_far = DEFAULT_JUMP_FAR;
-    if (off && *off && strcmp(off, "0") != 0) {
-        g->jump_min = 256;
-    } else if (k && *k) {
+    const char *k = getenv("MPRT_JUMP_MIN");
+    g->jump_min = 256;
+    g->jump_far = 0;
+    if (env_on("MPRT_NO_SKIP")) return MPRT_OK;
+    if (k && *k) {
         char *end;
         long v = strtol(k, &end, 10);
         if (*end || v < 2 || v > 255)
             return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: environment MPRT_JUMP_MIN=%.40s is not a whole number in 2..255", k);
         g->jump_min = (unsigned)v;
-        g->jump_far = 0;
+    } else if (env_on("MPRT_SKIP")) {
+        g->jump_min = DEFAULT_JUMP_MIN;
+        g->jump_far = DEFAULT_JUMP_FAR;
     }
     return MPRT_OK;
 }

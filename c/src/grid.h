@@ -26,8 +26,9 @@ struct mprt_grid {
     int macro[3];      /* voxels per macro cell on each axis: about cubic macro cells */
     int *macro_lo[3];  /* per axis, per voxel index: the first index of its macro cell */
     unsigned jump_min; /* the walk jumps from voxels whose empty value is at least this
-                        * (dda.h); above 255 (environment MPRT_NO_SKIP=1 when the grid
-                        * was made): never, voxel by voxel, and empty is never above 1 */
+                        * (dda.h); above 255 (the default, unless the environment held
+                        * MPRT_SKIP or MPRT_JUMP_MIN when the grid was made): never, voxel
+                        * by voxel, and empty is never above 1 */
     int jump_far;      /* ... and only once the walk is this many voxels from the ray's
                         * origin on every axis (runs of the walk's sums are short before) */
     int32_t *ids;      /* primitive ids, voxel by voxel */

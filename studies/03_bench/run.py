@@ -4,8 +4,9 @@ For each SPD scene at its default size:
   1. finds the fastest grid subdivision for the scene's 512x512 primary rays
      among cubic and shape-following (pbrt-rule) candidates;
   2. measures rays per second of ``Grid.intersect`` on those primary rays and
-     on random rays, with empty-space jumps and without (MPRT_NO_SKIP=1),
-     there and on a fine 256^3 grid,
+     on random rays (each build as it walks by default), and the gain of
+     empty-space jumps (MPRT_SKIP=1 against MPRT_NO_SKIP=1) there, on a fine
+     256^3 grid and on the render,
      and, for the triangle scenes (tetra; mount's 8192 triangles without its
      4 spheres), Embree's single-ray ``rtcIntersect1`` loop (the embreex
      package) on the same rays, side by side; for the scenes of spheres and
@@ -134,20 +135,23 @@ def scene_of(name, size, tris_only=False):
 
 
 @contextlib.contextmanager
-def skipping(on: bool):
-    """Grids made inside jump over empty space (on) or walk voxel by voxel."""
-    old = os.environ.pop("MPRT_NO_SKIP", None)
-    if not on:
-        os.environ["MPRT_NO_SKIP"] = "1"
+def skipping(on):
+    """Grids made inside jump over empty space (on: MPRT_SKIP=1), walk voxel by voxel (False:
+    MPRT_NO_SKIP=1) or do what the build does by default (None: no variable; this build walks voxel
+    by voxel, builds before it jumped)."""
+    names = ("MPRT_SKIP", "MPRT_NO_SKIP", "MPRT_JUMP_MIN")
+    old = {k: os.environ.pop(k) for k in names if k in os.environ}
+    if on is not None:
+        os.environ["MPRT_SKIP" if on else "MPRT_NO_SKIP"] = "1"
     try:
         yield
     finally:
-        os.environ.pop("MPRT_NO_SKIP", None)
-        if old is not None:
-            os.environ["MPRT_NO_SKIP"] = old
+        for k in names:
+            os.environ.pop(k, None)
+        os.environ.update(old)
 
 
-def grid_of(name, size, n, tris_only=False, skip=True):
+def grid_of(name, size, n, tris_only=False, skip=None):
     def make():
         with skipping(skip):
             return scene_of(name, size, tris_only).grid(tuple(n))
@@ -170,7 +174,7 @@ def cpu_clock(fn):
     return time.process_time() - t, out
 
 
-def t_intersect(name, size, n, which, tris_only=False, skip=True, res=RES, nrand=NRAND):
+def t_intersect(name, size, n, which, tris_only=False, skip=None, res=RES, nrand=NRAND):
     """CPU time of one intersect call; and the hit count."""
     g = grid_of(name, size, n, tris_only, skip)
     o, d = rays_of(name, size, which, res, nrand)
@@ -178,10 +182,10 @@ def t_intersect(name, size, n, which, tris_only=False, skip=True, res=RES, nrand
     return t, int(np.count_nonzero(prim >= 0))
 
 
-def t_render(name, size, n, res, rules, threads=0):
+def t_render(name, size, n, res, rules, threads=0, skip=None):
     """CPU time of one render on this thread; with threads, [wall-clock time, process CPU time] on that
     many (the CPU time grows with the threads only when they get in each other's way)."""
-    g = grid_of(name, size, n)
+    g = grid_of(name, size, n, skip=skip)
     if not threads:
         return cpu_clock(lambda: g.render(res, res, rules=rules))[0]
     t = time.perf_counter()
@@ -296,7 +300,7 @@ def fastest_grid(name, size, tris_only=False):
         t = min(t_intersect(name, size, n, "primary", tris_only)[0] for _ in range(2))
         if best is None or t < best[1]:
             best = (n, t, t_build)
-        _cache.pop(("grid", name, size, n, tris_only, True))
+        _cache.pop(("grid", name, size, n, tris_only, None))
     return best[0], best[2]
 
 
@@ -364,19 +368,24 @@ def bench_scene(name, size, before, repeat) -> dict:
     row = {"scene": name, "grid": "x".join(map(str, n)), "build_s": t_build}
     for which in ("primary", "random"):
         (t, _), there = side_by_side(before, repeat, "t_intersect", name, size, n, which)
-        t0 = min(t_intersect(name, size, n, which, skip=False)[0] for _ in range(repeat))
+        t_on = min(t_intersect(name, size, n, which, skip=True)[0] for _ in range(repeat))
+        t_off = min(t_intersect(name, size, n, which, skip=False)[0] for _ in range(repeat))
         rays = len(rays_of(name, size, which)[0])
         row[f"{which}_Mrays"] = rays / t / 1e6
-        row[f"{which}_jumps_gain"] = t0 / t  # >1: jumping over empty space pays
+        row[f"{which}_jumps_gain"] = t_off / t_on  # >1: jumping over empty space (MPRT_SKIP=1) pays
         if there:
             row[f"{which}_before_Mrays"] = rays / there[0] / 1e6
             row[f"{which}_speedup"] = there[0] / t
     # jumps on a fine grid, where empty blocks are many voxels wide
-    t_on = min(t_intersect(name, size, FINE, "primary")[0] for _ in range(repeat))
+    t_on = min(t_intersect(name, size, FINE, "primary", skip=True)[0] for _ in range(repeat))
     t_off = min(t_intersect(name, size, FINE, "primary", skip=False)[0] for _ in range(repeat))
     row["fine_primary_jumps_gain"] = t_off / t_on
-    _cache.pop(("grid", name, size, FINE, False, True))
-    _cache.pop(("grid", name, size, FINE, False, False))
+    for skip in (True, False):
+        _cache.pop(("grid", name, size, FINE, False, skip))
+    # and on the render (eye, shadow and secondary rays), the work a trace records
+    t_on = min(t_render(name, size, n, RES, "paper", skip=True) for _ in range(repeat))
+    t_off = min(t_render(name, size, n, RES, "paper", skip=False) for _ in range(repeat))
+    row["render_jumps_gain"] = t_off / t_on
     for rules in ("paper", "spd"):
         t, there = side_by_side(before, repeat, "t_render", name, size, n, RES, rules)
         row[f"render_{rules}_s"] = t
@@ -417,7 +426,7 @@ def quick_row(name) -> dict:
 
 
 SUMMARY = ("scene", "grid", "primary_Mrays", "primary_speedup", "random_Mrays", "random_speedup", "primary_jumps_gain",
-           "random_jumps_gain", "fine_primary_jumps_gain",
+           "random_jumps_gain", "fine_primary_jumps_gain", "render_jumps_gain",
            "render_paper_s", "render_paper_speedup", "render_spd_speedup", "threads2_speedup",
            "threads2_cpu_ratio", "threads2_before_speedup", "tracer_alone_vs_render", "trace_vs_render", "trace_speedup",
            "tri_primary_vs_embree", "tri_primary_before_vs_embree", "tri_random_vs_embree",

@@ -220,11 +220,11 @@ static void test_chessboard_distance_matches_brute_force(void)
  * voxels that are empty and no jump starts from, nothing past the last
  * voxel.  And mprt__dda_seek, which reads them, stops at the same voxels
  * with the same counts as a walk of mprt__dda_next that looks at each
- * voxel's list: with jumps off, at the default threshold and wherever the
- * grid allows (MPRT_JUMP_MIN=2). */
+ * voxel's list: with jumps off (the default), at MPRT_SKIP's threshold and
+ * wherever the grid allows (MPRT_JUMP_MIN=2). */
 static void test_seek_stops_where_the_lists_are(void)
 {
-    static const char *modes[][2] = {{"MPRT_NO_SKIP", "1"}, {"MPRT_JUMP_MIN", ""}, {"MPRT_JUMP_MIN", "2"}};
+    static const char *modes[][2] = {{"MPRT_NO_SKIP", ""}, {"MPRT_SKIP", "1"}, {"MPRT_JUMP_MIN", "2"}};
     static const int dims[][3] = {{8, 8, 8}, {13, 5, 9}, {1, 7, 30}, {40, 40, 40}, {65, 3, 2}};
     mprt_scene *s = corner_scene();
     rng r;
