@@ -53,3 +53,15 @@ def test_fit_costs_are_never_negative(limits):
         p["ns_per_ray"] -= 0.5 * p["ic_visits"]
     got, _ = limits.fit(pts, 20.0)
     assert min(got.values()) >= 0.0
+
+
+def test_a_rare_kind_of_test_is_fitted_with_the_main_kind(limits):
+    # cones make nearly every test; a polygon in one row in ten, at the cones' cost
+    coef = {"voxels": 2.0, "ic_visits": 5.0, "cone_tests": 4.0}
+    pts = synthetic(limits, coef, 15.0, seed=7)
+    for i, p in enumerate(pts):
+        p["polygon_tests"] = 1.0 if i % 10 == 0 else 0.0
+        p["ns_per_ray"] += 4.0 * p["polygon_tests"]
+    got, r2 = limits.fit(pts, 15.0)
+    assert got["polygon_tests"] == got["cone_tests"] == pytest.approx(4.0)
+    assert r2 == pytest.approx(1.0)
