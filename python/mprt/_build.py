@@ -15,6 +15,8 @@ from cffi import FFI
 ROOT = os.path.normpath(os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", ".."))
 INCLUDE = os.path.join(ROOT, "c", "include")
 SOURCES = sorted(glob.glob(os.path.join(ROOT, "c", "src", "*.c")))
+# the headers too: without them a change to a header alone (dda.h, ic.h) rebuilds nothing
+HEADERS = sorted(glob.glob(os.path.join(ROOT, "c", "src", "*.h"))) + [os.path.join(INCLUDE, "mprt.h")]
 
 
 def _cdef_text():
@@ -35,6 +37,7 @@ def _make(module, defines):
         module,
         '#include "mprt.h"\nstatic const char *mprt_ext_version(void) { return MPRT_VERSION; }\n',
         sources=[os.path.relpath(s, ROOT) for s in SOURCES],
+        depends=[os.path.relpath(h, ROOT) for h in HEADERS],
         include_dirs=[os.path.relpath(INCLUDE, ROOT), os.path.join("c", "src")],
         define_macros=defines + [("_POSIX_C_SOURCE", "200809L")],
         extra_compile_args=["-std=c99", "-O2", "-ffp-contract=off"],
