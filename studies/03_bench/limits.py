@@ -58,10 +58,9 @@ def setup_ns(name, size, which, repeat, res, nrand) -> float:
 def point(name, size, n, which, repeat, res, nrand) -> dict:
     """Time and work per ray of one (scene, grid, rays)."""
     tris = name in TRIS
-    g = bench.grid_of(name, size, n, tris)
+    t = min(bench.t_intersect(name, size, n, which, tris, res=res, nrand=nrand)[0] for _ in range(repeat))
     o, d = bench.rays_of(name, size, which, res, nrand)
-    t = min(bench.cpu_clock(lambda: g.intersect(o, d))[0] for _ in range(repeat))
-    c = g.intersect(o, d, return_counters=True)[2]
+    c = bench.grid_of(name, size, n, tris).intersect(o, d, return_counters=True)[2]
     bench._cache.pop(("grid", name, size, tuple(n), tris, None))
     k = len(o)
     tests = c["tests"]
@@ -77,11 +76,8 @@ def embree_ns(name, size, which, repeat, res, nrand):
         return None
     scene = bench.scene_of(name, size)
     tris = bench.triangles(scene) if name in TRIS else bench.tessellation(scene)
-    es = bench._ers.EmbreeScene()
-    bench._emc.TriangleMesh(es, tris.astype(np.float32))
-    o, d = (x.astype(np.float32) for x in bench.rays_of(name, size, which, res, nrand))
-    es.run(o[:1], d[:1])  # the BVH build, outside the timing
-    return min(bench.cpu_clock(lambda: es.run(o, d))[0] for _ in range(repeat)) / len(o) * 1e9
+    o, d = bench.rays_of(name, size, which, res, nrand)
+    return bench.t_embree(tris, o, d, repeat)[0] / len(o) * 1e9
 
 
 TEST_KINDS = ("polygon_tests", "sphere_tests", "cone_tests")

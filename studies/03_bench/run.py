@@ -308,19 +308,25 @@ def ratio(a, b):
     return a / b if a and b else None
 
 
+def t_embree(tris, o, d, repeat):
+    """Best of repeat process CPU times of Embree's single-ray ``rtcIntersect1`` loop (embreex) over the
+    rays, on the triangles (tris: (N, 3, 3)), the BVH built outside the timing; and its primitive ids."""
+    es = _ers.EmbreeScene()
+    _emc.TriangleMesh(es, tris.astype(np.float32))
+    o, d = o.astype(np.float32), d.astype(np.float32)
+    es.run(o[:1], d[:1])  # commit (BVH build)
+    return min(cpu_clock(lambda: es.run(o, d))[0] for _ in range(repeat)), es.run(o, d)
+
+
 def embree_row(name, size, before, repeat) -> dict:
     """mprt on the scene's triangles alone against Embree on the same triangles and rays."""
     tris = triangles(scene_of(name, size))
     n, _ = fastest_grid(name, size, tris_only=True)
-    es = _ers.EmbreeScene()
-    _emc.TriangleMesh(es, tris.astype(np.float32))
     row = {"tri_grid": "x".join(map(str, n))}
     for which in ("primary", "random"):
-        o, d = (x.astype(np.float32) for x in rays_of(name, size, which))
-        es.run(o[:1], d[:1])  # commit (BVH build) outside the timing
-        t_e = min(cpu_clock(lambda: es.run(o, d))[0] for _ in range(repeat))
+        o, d = rays_of(name, size, which)
+        t_e, ep = t_embree(tris, o, d, repeat)
         (t_m, hits), there = side_by_side(before, repeat, "t_intersect", name, size, n, which, True)
-        _, ep = cpu_clock(lambda: es.run(o, d))
         rows = len(o)
         row[f"tri_{which}_Mrays"] = rows / t_m / 1e6
         row[f"embree_{which}_Mrays"] = rows / t_e / 1e6
@@ -335,14 +341,10 @@ def embree_row(name, size, before, repeat) -> dict:
 def embree_tess_row(name, size, n, before, repeat) -> dict:
     """mprt on the whole scene (analytic shapes, grid n) against Embree on a tessellation of it."""
     tris = tessellation(scene_of(name, size))
-    es = _ers.EmbreeScene()
-    _emc.TriangleMesh(es, tris.astype(np.float32))
     row = {"tess_triangles": len(tris)}
-    o, d = (x.astype(np.float32) for x in rays_of(name, size, "primary"))
-    es.run(o[:1], d[:1])
-    t_e = min(cpu_clock(lambda: es.run(o, d))[0] for _ in range(repeat))
+    o, d = rays_of(name, size, "primary")
+    t_e, ep = t_embree(tris, o, d, repeat)
     (t_m, hits), there = side_by_side(before, repeat, "t_intersect", name, size, n, "primary")
-    ep = es.run(o, d)
     row["embree_tess_primary_Mrays"] = len(o) / t_e / 1e6
     row["primary_vs_embree_tess"] = t_e / t_m
     if there:
