@@ -84,6 +84,11 @@ VISIT_DTYPE = _record_dtype(_FFI, "mprt_trace_visit")
 REPLAY_PROC_DTYPE = _record_dtype(_FFI, "mprt_replay_proc")
 REPLAY_NODE_DTYPE = _record_dtype(_FFI, "mprt_replay_node")
 REPLAY_PE_DTYPE = _record_dtype(_FFI, "mprt_replay_pe")
+# What each C element type of a buffer argument is in numpy (Binding._buffer checks it).
+_CTYPE_DTYPES = {"double": np.dtype(np.float64), "float": np.dtype(np.float32), "int32_t": np.dtype(np.int32),
+                 "int64_t": np.dtype(np.int64), "uint32_t": np.dtype(np.uint32), "mprt_trace_ray": RAY_DTYPE,
+                 "mprt_trace_visit": VISIT_DTYPE, "mprt_replay_proc": REPLAY_PROC_DTYPE,
+                 "mprt_replay_node": REPLAY_NODE_DTYPE, "mprt_replay_pe": REPLAY_PE_DTYPE}
 for _ctype, _dt in (("mprt_trace_ray", RAY_DTYPE), ("mprt_trace_visit", VISIT_DTYPE)):
     if _record_dtype(_mprt32.ffi, _ctype) != _dt:
         raise ImportError(f"{_ctype} differs between the double and the single build")
@@ -139,11 +144,39 @@ class Binding:
     def _grid(self, h, rc):
         self._check(rc, self.lib.mprt_grid_errmsg, h)
 
-    def _in(self, ctype: str, a: np.ndarray):
-        return self.ffi.from_buffer(ctype + "[]", a)
+    def _buffer(self, ctype: str, a, n, writable: bool):
+        """A typed view of a for C, after checking what C will do with it: a numpy array of
+        ctype's exact dtype, C-contiguous (writable for outputs), holding at least n elements
+        of ctype (None: C is told a's own size).  Anything else is InvalidArgument, so no
+        caller can make C read or write past a buffer."""
+        want = _CTYPE_DTYPES[ctype]
+        if not isinstance(a, np.ndarray):
+            raise InvalidArgument(f"{ctype} buffer: expected a numpy array, not {type(a).__name__}")
+        if a.dtype != want:
+            raise InvalidArgument(f"{ctype} buffer: dtype {a.dtype} is not {want} (C reads {ctype} records)")
+        if not a.flags.c_contiguous:
+            raise InvalidArgument(f"{ctype} buffer: the array is not C-contiguous")
+        if writable and not a.flags.writeable:
+            raise InvalidArgument(f"{ctype} buffer: the array is read-only, and C writes into it")
+        if n is not None and (int(n) < 0 or a.size < int(n)):
+            raise InvalidArgument(f"{ctype} buffer: holds {a.size} elements, C {'writes' if writable else 'reads'} {int(n)}")
+        return self.ffi.from_buffer(ctype + "[]", a, require_writable=writable)
 
-    def _out(self, ctype: str, a: np.ndarray):
-        return self.ffi.from_buffer(ctype + "[]", a, require_writable=True)
+    def _in(self, ctype: str, a: np.ndarray, n=None):
+        return self._buffer(ctype, a, n, False)
+
+    def _out(self, ctype: str, a: np.ndarray, n=None):
+        return self._buffer(ctype, a, n, True)
+
+    @staticmethod
+    def _records(name: str, a, dtype: np.dtype) -> np.ndarray:
+        """A one-dimensional array of records of dtype (C takes its length as the count)."""
+        if not isinstance(a, np.ndarray) or a.ndim != 1:
+            raise InvalidArgument(f"{name} must be a one-dimensional numpy array of records, not "
+                                  f"{getattr(a, 'shape', type(a).__name__)}")
+        if a.dtype != dtype:
+            raise InvalidArgument(f"{name}: dtype {a.dtype} is not the C library's record {dtype}")
+        return a
 
     # -- scene -------------------------------------------------------------------------
     def scene_create(self):
@@ -335,7 +368,7 @@ class Binding:
     def grid_render(self, h, desc: dict, rgb: np.ndarray) -> dict:
         """Render into rgb (float32, C order, height*width*3); returns the counters."""
         c = self.ffi.new("mprt_counters *")
-        self._grid(h, self.lib.mprt_grid_render(h, self._desc(desc), self._out("float", rgb), rgb.size, c))
+        self._grid(h, self.lib.mprt_grid_render(h, self._desc(desc), self._out("float", rgb, rgb.size), rgb.size, c))
         return self._counters(c)
 
     def grid_intersect(self, h, origins, directions):
@@ -365,7 +398,8 @@ class Binding:
         nr, nv = ffi.new("size_t *"), ffi.new("size_t *")
         rc = self.lib.mprt_grid_trace_tile(
             h, self._desc(desc), int(tile), self._out("double", samples), samples.size,
-            self._out("mprt_trace_ray", rays), len(rays), nr, self._out("mprt_trace_visit", visits), len(visits),
+            self._out("mprt_trace_ray", self._records("rays", rays, RAY_DTYPE)), len(rays), nr,
+            self._out("mprt_trace_visit", self._records("visits", visits, VISIT_DTYPE)), len(visits),
             nv, ffi.NULL)
         if rc == Status.ERR_CAPACITY and (nr[0] > len(rays) or nv[0] > len(visits)):
             return int(nr[0]), int(nv[0]), False
@@ -398,13 +432,15 @@ class Binding:
     def replay_load(self, h, rays: np.ndarray, visits: np.ndarray, process: np.ndarray, receive: np.ndarray,
                     send: np.ndarray) -> None:
         """Load the records (RAY_DTYPE, VISIT_DTYPE) with int64 costs per visit (copied)."""
+        rays, visits = self._records("rays", rays, RAY_DTYPE), self._records("visits", visits, VISIT_DTYPE)
         costs = [np.ascontiguousarray(a, dtype=np.int64) for a in (process, receive, send)]
         for name, a in zip(("process", "receive", "send"), costs):
             if a.shape != (len(visits),):
                 raise InvalidArgument(f"costs.{name} has shape {a.shape}, the trace has {len(visits)} visits")
-        self._check(self.lib.mprt_replay_load(h, self._in("mprt_trace_ray", np.ascontiguousarray(rays)), len(rays),
-                                              self._in("mprt_trace_visit", np.ascontiguousarray(visits)),
-                                              len(visits), *(self._in("int64_t", a) for a in costs)),
+        self._check(self.lib.mprt_replay_load(h, self._in("mprt_trace_ray", np.ascontiguousarray(rays), len(rays)),
+                                              len(rays),
+                                              self._in("mprt_trace_visit", np.ascontiguousarray(visits), len(visits)),
+                                              len(visits), *(self._in("int64_t", a, len(visits)) for a in costs)),
                     self.lib.mprt_replay_errmsg, h)
 
     def replay_run(self, h, log: np.ndarray | None = None) -> bool:
@@ -412,7 +448,7 @@ class Binding:
         receives the events.  False when the machine deadlocked (its state stays readable
         by the getters)."""
         lib = self.lib
-        rc = lib.mprt_replay_run(h, self.ffi.NULL if log is None else self._out("int64_t", log),
+        rc = lib.mprt_replay_run(h, self.ffi.NULL if log is None else self._out("int64_t", log, log.size),
                                  0 if log is None else log.size)
         if rc == Status.ERR_STATE and self.replay_get_info(h)["deadlocked"]:
             return False
@@ -433,25 +469,25 @@ class Binding:
     def replay_get_procs(self, h, n: int) -> np.ndarray:
         """mprt_replay_proc per processor (REPLAY_PROC_DTYPE[n])."""
         out = np.zeros(n, dtype=REPLAY_PROC_DTYPE)
-        self._got(self.lib.mprt_replay_get_procs(h, self._out("mprt_replay_proc", out), n), "procs")
+        self._got(self.lib.mprt_replay_get_procs(h, self._out("mprt_replay_proc", out, n), n), "procs")
         return out
 
     def replay_get_nodes(self, h, n: int) -> np.ndarray:
         """mprt_replay_node per stage of each PE (REPLAY_NODE_DTYPE[n])."""
         out = np.zeros(n, dtype=REPLAY_NODE_DTYPE)
-        self._got(self.lib.mprt_replay_get_nodes(h, self._out("mprt_replay_node", out), n), "nodes")
+        self._got(self.lib.mprt_replay_get_nodes(h, self._out("mprt_replay_node", out, n), n), "nodes")
         return out
 
     def replay_get_pes(self, h, n: int) -> np.ndarray:
         """mprt_replay_pe per PE (REPLAY_PE_DTYPE[n])."""
         out = np.zeros(n, dtype=REPLAY_PE_DTYPE)
-        self._got(self.lib.mprt_replay_get_pes(h, self._out("mprt_replay_pe", out), n), "pes")
+        self._got(self.lib.mprt_replay_get_pes(h, self._out("mprt_replay_pe", out, n), n), "pes")
         return out
 
     def replay_get_trees(self, h, n: int):
         """Per primary ray (tree): (PE that admitted it int32[n], when int64[n]); -1: never."""
         pe, when = np.zeros(n, dtype=np.int32), np.zeros(n, dtype=np.int64)
-        self._got(self.lib.mprt_replay_get_trees(h, self._out("int32_t", pe), self._out("int64_t", when), n), "trees")
+        self._got(self.lib.mprt_replay_get_trees(h, self._out("int32_t", pe, n), self._out("int64_t", when, n), n), "trees")
         return pe, when
 
     def replay_record_busy(self, h, on: bool) -> None:
@@ -492,7 +528,10 @@ class Binding:
 
     def image_write_png(self, path, rgb: np.ndarray) -> None:
         """Write rgb (float32, C order, (H, W, 3)) as an 8-bit PNG."""
-        rc = self.lib.mprt_image_write_png(os.fsencode(path), rgb.shape[1], rgb.shape[0], self._in("float", rgb))
+        if not isinstance(rgb, np.ndarray) or rgb.ndim != 3 or rgb.shape[2] != 3:
+            raise InvalidArgument(f"rgb must have shape (h, w, 3), not {getattr(rgb, 'shape', type(rgb).__name__)}")
+        rc = self.lib.mprt_image_write_png(os.fsencode(path), rgb.shape[1], rgb.shape[0],
+                                           self._in("float", rgb, rgb.size))
         if rc != Status.OK:
             raise error_class(rc)(f"{os.fspath(path)}: cannot write PNG ({self.status_str(rc)})")
 
