@@ -121,12 +121,12 @@ def test_latency_override_on_the_processor_wins():
     ({"units": {"int": 2}}, ["units", "fadd"]),
     ({"units": {"int": 2, "fp": 0}}, ["units", "fadd"]),
     ({"units": {"int": 2, "fpu": 2}}, ["units['fpu']", "unknown unit kind"]),
-    ({"units": {"int": -1, "fp": 1}}, ["units['int']", ">= 0"]),
+    ({"units": {"int": -1, "fp": 1}}, ["units['int']", "in 0..64"]),
     ({"units": {"int": 1.5, "fp": 1}}, ["units['int']", "whole number"]),
     ({"units": {}}, ["units", "no functional unit"]),
-    ({"units": {"general": 1}, "latency": {"fadd": -2}}, ["latency['fadd']", ">= 1"]),
+    ({"units": {"general": 1}, "latency": {"fadd": -2}}, ["latency['fadd']", "in 1..1024"]),
     ({"units": {"general": 1}, "latency": {"fma": 2}}, ["latency['fma']", "unknown operation class"]),
-    ({"units": {"general": 1}, "issue_width": 0}, ["issue_width", ">= 1"]),
+    ({"units": {"general": 1}, "issue_width": 0}, ["issue_width", "in 1..64"]),
     ({"units": {"general": 1}, "pipelined": "yes"}, ["pipelined"]),
 ])
 def test_bad_processor_configs_name_the_field(kw, words):

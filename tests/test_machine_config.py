@@ -133,6 +133,21 @@ def test_resolve():
     ('base = "M"\nstage = 3\n', r"m\.toml: stage: must be an array of tables"),
     ("pes = 2\n", r"m\.toml: stage: missing"),
     ('base = "M"\npes = [1\n', r"m\.toml: not valid TOML"),
+    # upper bounds: one value must not make a replay's work or memory run away (issue 19)
+    ('base = "3mppe"\n[ic_memory]\ncache = { size = 1152921504606846976, line = 32, ways = 4 }\n',
+     r"m\.toml: ic_memory\.cache\.size: must be at most 1073741824, not 1152921504606846976"),
+    ('base = "3mppe"\n[ic_memory]\ncache = { size = 1073741824, line = 32, ways = 4 }\n',
+     r"m\.toml: ic_memory\.cache: 33554432 lines of 32 bytes; at most 4194304 lines"),
+    ('base = "M"\npes = 1000000\n', r"m\.toml: pes: must be at most 1024, not 1000000"),
+    ('[[stage]]\nsubtasks = ["OS", "IC", "SC"]\nreplicas = 1000000\n',
+     r"m\.toml: stage\[0\]\.replicas: must be at most 256"),
+    ('base = "3mppe"\n[ring]\nflit_time = 1000000000000000000\n', r"m\.toml: ring\.flit_time: must be at most 65536"),
+    ('base = "3mppe"\n[icgm]\nlatency = 1000000000\nbandwidth = 8\n', r"m\.toml: icgm\.latency: must be at most"),
+    ('base = "M"\nwindow = 9223372036854775807\n', r"m\.toml: window: must be at most 1048576"),
+    ('[[stage]]\nsubtasks = ["OS", "IC", "SC"]\nprocessor = { units = { int = 1, fp = 1 }, latency = { fadd = 1000000 } }\n',
+     r"m\.toml: stage\[0\]\.processor.*latency\['fadd'\] = 1000000: must be a whole number in 1\.\.1024"),
+    ('[[stage]]\nsubtasks = ["OS", "IC", "SC"]\nprocessor = { units = { int = 100000, fp = 1 } }\n',
+     r"m\.toml: stage\[0\]\.processor.*units\['int'\] = 100000: must be a whole number in 0\.\.64"),
 ])
 def test_errors_name_field_and_file(tmp_path, text, message):
     with pytest.raises(ConfigError, match=message):

@@ -39,6 +39,10 @@ UNIT_KINDS = {
 }
 
 _FIELDS = ("units", "latency", "issue_width", "pipelined", "name")
+# Bounds that keep the list scheduler's work finite: it advances a cycle at a time, so an
+# operation latency of 10^6 would take minutes per graph (1,000 takes under a second).
+MAX_LATENCY = 1024
+MAX_UNITS = 64
 
 
 def _is_int(x):
@@ -67,8 +71,8 @@ class ProcessorConfig:
         for k, n in self.units.items():
             if k not in UNIT_KINDS:
                 raise CostModelError(f"{where}.units[{k!r}]: unknown unit kind (known: {', '.join(UNIT_KINDS)})")
-            if not _is_int(n) or n < 0:
-                raise CostModelError(f"{where}.units[{k!r}] = {n!r}: must be a whole number >= 0")
+            if not _is_int(n) or n < 0 or n > MAX_UNITS:
+                raise CostModelError(f"{where}.units[{k!r}] = {n!r}: must be a whole number in 0..{MAX_UNITS}")
             if n:
                 units[k] = n
         if not units:
@@ -78,12 +82,13 @@ class ProcessorConfig:
                 need = [k for k in UNIT_KINDS if c in UNIT_KINDS[k]]
                 raise CostModelError(f"{where}.units: no unit runs operation class {c!r} "
                                      f"(give at least one of: {', '.join(need)})")
-        lat = int_table(f"{where}.latency", self.latency, OP_CLASSES, 1, default=0, what="operation class")
+        lat = int_table(f"{where}.latency", self.latency, OP_CLASSES, 1, MAX_LATENCY, default=0,
+                        what="operation class")
         width = self.issue_width
         if width is None:
             width = sum(units.values())
-        elif not _is_int(width) or width < 1:
-            raise CostModelError(f"{where}.issue_width = {width!r}: must be a whole number >= 1")
+        elif not _is_int(width) or width < 1 or width > MAX_UNITS:
+            raise CostModelError(f"{where}.issue_width = {width!r}: must be a whole number in 1..{MAX_UNITS}")
         if not isinstance(self.pipelined, bool):
             raise CostModelError(f"{where}.pipelined = {self.pipelined!r}: must be true or false")
         # canonical, immutable: zero counts dropped, kinds in the order given

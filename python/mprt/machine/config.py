@@ -197,14 +197,37 @@ def _where(cfg) -> str:
     return f"{cfg.source}: " if cfg.source else ""
 
 
+# Upper bounds of every numeric field (by its last name), so that no value can make a
+# replay's work or memory run away: a machine larger than these is not one of the paper's
+# family, and each stays far above any design the explorer or a study considers.
+LIMITS = {
+    "replicas": 256,            # processors of one stage
+    "pes": 1024,
+    "window": 1 << 20,          # live rays per PE
+    "send_fifo": 1 << 20,       # packets
+    "receive_fifo": 1 << 20,
+    "flit_time": 1 << 16,       # cycles per flit
+    "resident": 1 << 40,        # bytes
+    "size": 1 << 30,            # cache bytes
+    "line": 1 << 12,            # cache line bytes
+    "ways": 1 << 10,
+    "latency": 1 << 20,         # global memory cycles
+    "bandwidth": 1 << 20,       # bytes per cycle
+}
+MAX_CACHE_LINES = 1 << 22       # size / line: the cache's tags are kept in flat arrays
+
+
 def _int(value, where, name, lo=1, allow_none=False):
-    """An integer >= lo (bool is not an integer here)."""
+    """An integer in lo..LIMITS[field] (bool is not an integer here)."""
     if value is None and allow_none:
         return None
     if isinstance(value, bool) or not isinstance(value, int):
         raise ConfigError(f"{where}{name}: must be an integer, not {value!r}")
     if value < lo:
         raise ConfigError(f"{where}{name}: must be at least {lo}, not {value}")
+    hi = LIMITS.get(name.rsplit(".", 1)[-1].lstrip("-"))
+    if hi is not None and value > hi:
+        raise ConfigError(f"{where}{name}: must be at most {hi}, not {value}")
     return value
 
 
@@ -256,6 +279,9 @@ def _validate(cfg: SystemConfig) -> None:
                                       f"the cache ({c.size} bytes)")
                 if c.line & (c.line - 1):
                     raise ConfigError(f"{w}{tag}_memory.cache.line: must be a power of two, not {c.line}")
+                if c.size // c.line > MAX_CACHE_LINES:
+                    raise ConfigError(f"{w}{tag}_memory.cache: {c.size // c.line} lines of {c.line} bytes; at most "
+                                      f"{MAX_CACHE_LINES} lines (use longer lines or a smaller cache)")
                 if c.size % (c.line * c.ways):
                     raise ConfigError(f"{w}{tag}_memory.cache.size: {c.size} bytes is not a whole number of "
                                       f"sets of {c.ways} ways x {c.line}-byte lines")
