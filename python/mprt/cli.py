@@ -30,6 +30,7 @@ from .options import UsageError
 from .scene import SPD_SCENES
 from .trace import load_trace
 from .tracing import select_tiles, trace
+from .atomic import open_replacing
 
 EPILOG = ("exit status: 0 done; 1 an error during the work (a malformed scene file, a damaged trace, ...); "
           "2 a bad option, scene or output path, found before any work")
@@ -60,7 +61,7 @@ def cmd_scene(a) -> int:
     scene, _ = options.load_scene(name if n is None else f"{name}:{n}")
     text = scene.to_nff()
     if a.output:
-        with open(a.output, "w") as f:
+        with open_replacing(a.output) as f:
             f.write(text)
     else:
         sys.stdout.write(text)
@@ -359,6 +360,9 @@ def main(argv=None) -> int:
     except UsageError as e:
         print(f"mprt {args.cmd}: error: {e}", file=sys.stderr)
         return 2
+    except KeyboardInterrupt:     # outputs are written through a temporary (atomic.py): none is left half-made
+        print(f"mprt {args.cmd}: interrupted", file=sys.stderr)
+        return 130
     except BrokenPipeError:   # the reader went away (mprt scene balls | head): not an error of ours
         sys.stdout = open(os.devnull, "w")
         return 0

@@ -15,6 +15,7 @@ import numpy as np
 from ._lowlevel import RULES, binding
 from .errors import InvalidArgument
 from .scene import Scene
+from .atomic import replacing
 
 
 # How a grid lists primitives in voxels (mprt_listing).
@@ -169,4 +170,5 @@ def write_png(path, image) -> None:
     img = np.ascontiguousarray(image, dtype=np.float32)
     if img.ndim != 3 or img.shape[2] != 3:
         raise InvalidArgument(f"image must have shape (H, W, 3), not {img.shape}")
-    binding().image_write_png(path, img)
+    with replacing(path) as tmp:
+        binding().image_write_png(tmp, img)

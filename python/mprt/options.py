@@ -39,6 +39,7 @@ from fractions import Fraction
 from ._lowlevel import EXT_VERSION, RULES, binding
 from .errors import InvalidArgument
 from .scene import SPD_DEFAULT_SIZES, SPD_SCENES, Scene
+from .atomic import open_replacing
 
 # The ranges the library accepts (render.c, grid.c, spd.c; tests/test_cli_options.py
 # checks each against the library), except where the command line is stricter:
@@ -381,5 +382,5 @@ def write_json(path, data: dict) -> None:
         json.dump(data, path, indent=2)
         path.write("\n")
         return
-    with open(path, "w") as f:
+    with open_replacing(path) as f:
         write_json(f, data)

@@ -33,6 +33,7 @@ import numpy as np
 from .errors import CostModelError
 from .kernels import KERNELS, OP_CLASSES
 from .model import DEFAULT_FILE, STAGE_KERNELS, STAGES, CostModel, trace_kernel_counts
+from ..atomic import open_replacing
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 COUNTS_FILE = os.path.join(HERE, "calibration_counts.csv")
@@ -134,7 +135,7 @@ def collect(scenes: Sequence[str] = SCENES, subdivisions: Sequence[int] = SUBDIV
 
 def write_counts(rows, path=COUNTS_FILE):
     cols = _columns()
-    with open(path, "w", newline="") as f:
+    with open_replacing(path, newline="") as f:
         w = csv.DictWriter(f, fieldnames=cols, lineterminator="\n")
         w.writeheader()
         for r in rows:

@@ -21,6 +21,7 @@ from .errors import CostModelError, int_table
 from .kernels import HIT_KERNELS, KERNEL_STAGE, KERNELS, OP_CLASSES, TEST_KERNELS
 from .packets import STAGES, packet_flits
 from .schedule import ProcessorConfig, schedule_cycles
+from ..atomic import open_replacing
 
 DEFAULT_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "default_model.json")
 
@@ -135,7 +136,7 @@ class CostModel:
         return cls(d["latency"], d.get("visit_overhead"), d.get("scale"), d.get("info"), where=path)
 
     def save(self, path) -> None:
-        with open(path, "w") as f:
+        with open_replacing(path) as f:
             json.dump({"latency": self.latency, "visit_overhead": self.visit_overhead, "scale": self.scale,
                        "info": self.info}, f,
                       indent=1, sort_keys=False)

@@ -16,6 +16,7 @@ import sys
 import time
 
 from .. import options as opt
+from ..atomic import open_replacing
 
 
 def _positive(kind):
@@ -210,7 +211,7 @@ def run_explore(a) -> int:
         show.end()
     print_report(rep)
     if a.json:
-        with open(a.json, "w") as f:
+        with open_replacing(a.json) as f:
             json.dump(rep, f, indent=1)
         print(f"wrote   {a.json}")
     if a.plot:
@@ -270,7 +271,7 @@ def run_prepass(a) -> int:
         print(f"  {'x'.join(map(str, c['subdivision'])):>12s} {c['predicted_cycles']:16,.0f}{checked}{mark}")
     print(f"best    subdivision {'x'.join(map(str, best))}")
     if a.json:
-        with open(a.json, "w") as f:
+        with open_replacing(a.json) as f:
             json.dump(r, f, indent=1)
         print(f"wrote   {a.json}")
     return 0

@@ -11,6 +11,7 @@ from .hwcost import UnitCosts, cost_breakdown
 from .prepass import low_resolution
 from .search import Problem, compass, cost_range, pareto, search
 from .space import REFERENCE_DESIGNS, Point, Space, SpaceError, Var, default_space, paper_3mppe
+from ..atomic import replacing
 
 
 VERIFY_FREE = ("cache.", "resident.", "pes", "replication.", "fifo")   # what the verification polish varies
@@ -379,5 +380,6 @@ def plot(report: dict, path) -> None:
                  f"{report['evaluations']} evaluations, "
                  f"level {report['level']['search']} (search), {report['level']['verify']} (verify)")
     fig.tight_layout()
-    fig.savefig(path, dpi=100)
+    with replacing(path) as tmp:
+        fig.savefig(tmp, dpi=100)
     plt.close(fig)

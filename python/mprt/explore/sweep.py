@@ -24,6 +24,7 @@ import time
 
 from .distributed import DiskCache, cache_key, client, map_cached
 from .space import REFERENCE_DESIGNS, SHAPES, Design, SpaceError
+from ..atomic import open_replacing, replacing
 
 _KEYS = {"scenes", "res", "subdivisions", "shape", "level", "batch", "designs", "rules"}
 
@@ -136,7 +137,7 @@ def run_sweep(spec: dict, out_dir, scheduler=None, workers=None, progress=None) 
             rows.append(row)
     fields = list(dict.fromkeys(k for r in rows for k in r))
     path = os.path.join(out_dir, "sweep.csv")
-    with open(path, "w", newline="") as f:
+    with open_replacing(path, newline="") as f:
         wr = csv.DictWriter(f, fieldnames=fields, restval="")
         wr.writeheader()
         wr.writerows(rows)
@@ -162,5 +163,6 @@ def _plot(rows, spec, path):
         ax.set(yscale="log", title=sc, xlabel="subdivision", ylabel="cycles")
         ax.legend(fontsize=7)
     fig.tight_layout()
-    fig.savefig(path, dpi=90)
+    with replacing(path) as tmp:
+        fig.savefig(tmp, dpi=90)
     plt.close(fig)

@@ -17,6 +17,7 @@ import time
 from .. import options as opt
 from .config import BUILTIN, resolve
 from .errors import ConfigError, DeadlockError
+from ..atomic import open_replacing
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -140,7 +141,7 @@ def run(a, load=None, replay=None) -> int:
         out["replay_seconds"] = res.wall_seconds
         out["settings"] = {**settings, "model": cfg.name, "config_file": cfg.source, "pes": cfg.pes,
                            "mprt_version": EXT_VERSION, "cost_model": "default"}
-        with open(a.json, "w") as f:
+        with open_replacing(a.json) as f:
             json.dump(out, f, indent=2)
         print(f"wrote   {a.json}")
     if a.plot:

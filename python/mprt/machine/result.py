@@ -4,6 +4,8 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 
+from ..atomic import replacing
+
 SUBTASKS = ("OS", "IC", "SC")
 CATEGORIES = ("processing", "communication", "waiting")
 
@@ -198,5 +200,6 @@ class SimResult:
             ax.set_xlabel("million cycles")
             ax.legend(fontsize=7, ncol=2)
         fig.tight_layout()
-        fig.savefig(path, dpi=100)
+        with replacing(path) as tmp:
+            fig.savefig(tmp, dpi=100)
         plt.close(fig)
