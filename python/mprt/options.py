@@ -53,7 +53,7 @@ MAX_RAYS_MAX = 1 << 24   # ray budget of a sample: 1..MAX_RAYS_MAX (the library:
 CUTOFF_RULES = ("paper", "paper1992")   # rule sets with a contribution cutoff (--threshold)
 SPD_MAX_SIZES = {"balls": 8, "gears": 69, "mount": 12, "rings": 135, "tetra": 12, "tree": 23}
 
-OUTPUT_SUFFIX = {"png": ".png", "plot": ".png", "npz": ".npz"}   # outputs whose format mprt fixes
+OUTPUT_SUFFIX = {"png": ".png", "plot": ".png", "npz": ".npz", "html": ".html"}   # outputs whose format mprt fixes
 OUTPUT_HELP = {
     "png": "PNG image to write (the name must end in .png)",
     "npz": "trace file to write (the name must end in .npz)",

@@ -128,6 +128,9 @@ def add_parsers(sub) -> None:
                         "(default: about 64 pixels across; 1: search at --res)")
     e.add_argument("--scheduler", metavar="ADDRESS", help="run the search on this Dask scheduler")
     e.add_argument("--plot", metavar="OUT.png", help="history, cost against cycles, utilisation")
+    e.add_argument("--report", metavar="OUT.html",
+                   help="write one self-contained HTML page: the answer, the references, the ladder (speed "
+                        "against error), the search's history, the plots and the command that reproduces it")
     e.set_defaults(func=run_explore)
 
     p = sub.add_parser("prepass", help="choose the voxel subdivision from low-resolution traces",
@@ -156,6 +159,8 @@ def add_parsers(sub) -> None:
     w.add_argument("spec", metavar="SPEC.toml")
     w.add_argument("--out", required=True, metavar="DIR", help="directory for sweep.csv, sweep.png and the cache")
     w.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (default: a LocalCluster)")
+    w.add_argument("--report", metavar="OUT.html",
+                   help="also write one self-contained HTML page: the rows, the plot and the command")
     w.add_argument("--workers", type=int, default=None,
                    help="LocalCluster worker processes (default: one per core; 0: run in this process)")
     w.set_defaults(func=run_sweep)
@@ -194,7 +199,7 @@ def run_explore(a) -> int:
     from .explorer import explore, plot
     from .space import default_space, load_space
 
-    opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"))
+    opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"), ("--report", a.report, "html"))
     space = load_space(a.space) if a.space else default_space()
     scene = opt.load_scene(a.scene)[0]
     w, h = a.res
@@ -217,6 +222,10 @@ def run_explore(a) -> int:
     if a.plot:
         plot(rep, a.plot)
         print(f"wrote   {a.plot}")
+    if a.report:
+        from .. import report
+        report.write(a.report, report.explore_html(rep, getattr(a, "argv", None), a.plot))
+        print(f"wrote   {a.report}")
     return 0
 
 
@@ -281,6 +290,8 @@ def run_sweep(a) -> int:
     from .sweep import load_spec, run_sweep as sweep
 
     spec = load_spec(a.spec)
+    if a.report:
+        opt.check_outputs(("--report", a.report, "html"))
     check_output(os.path.join(a.out, "x"))  if os.path.isdir(a.out) else check_output(a.out)
     n = [0]
 
@@ -293,4 +304,8 @@ def run_sweep(a) -> int:
         print(file=sys.stderr)
     print(f"sweep   {r['rows']} rows from {r['tasks']} tasks ({r['cached']} from the cache) in {r['seconds']:.1f} s")
     print(f"wrote   {r['csv']}\nwrote   {r['png']}")
+    if a.report:
+        from .. import report
+        report.write(a.report, report.sweep_html(r, getattr(a, "argv", None)))
+        print(f"wrote   {a.report}")
     return 0

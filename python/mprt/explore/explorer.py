@@ -324,15 +324,28 @@ def _refine(problem, space, full, objective, budget, refine, refine_evals):
     return [e for _, e in sorted(found, key=lambda t: t[0][:2])], rows, n
 
 
+def _plain_log_axis(axis) -> None:
+    """A log axis labelled 1, 2, 5 x 10^k in plain numbers, minor ticks unlabelled (no overlaps)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
+    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:,.0f}" if v >= 1 else f"{v:g}"))
+    axis.set_minor_formatter(NullFormatter())
+
+
 def plot(report: dict, path) -> None:
     """History, cycles against cost (with the front), and the best design's
-    utilisation per processor beside the paper's 3MPPE."""
+    utilisation per processor beside the paper's 3MPPE.  The search's points are
+    estimates at the search's level (scaled to the full resolution); the star is the
+    answer, verified at the verification's level: the legends say which is which, and
+    sit below the axes so that they cover no data."""
     import matplotlib
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
 
-    fig, ax = plt.subplots(1, 3, figsize=(15, 4.2))
+    fig, ax = plt.subplots(1, 3, figsize=(16, 5.6))
     h = report["history"]
+    lv = report["level"]
     n = np.array([r["evaluation"] for r in h])
     W, H = report["width"], report["height"]
     # search-phase cycles scaled to the full resolution (the prepass's prediction)
@@ -344,41 +357,51 @@ def plot(report: dict, path) -> None:
     full = np.array([r["phase"] == "full" for r in h])
     ver = np.array([r["phase"].startswith("verify") for r in h])
     best = np.minimum.accumulate(np.where(feas, cyc, np.inf))
-    ax[0].scatter(n[feas & ~full], cyc[feas & ~full], s=6, c="tab:blue", label="search (scaled to full res.)")
-    ax[0].scatter(n[feas & full], cyc[feas & full], s=8, c="tab:green", label="full-resolution polish")
-    if ver.any():
-        ax[0].scatter(n[feas & ver], cyc[feas & ver], s=14, c="tab:purple", marker="D",
-                      label=f"verified at level {report['level']['verify']}")
-    ax[0].scatter(n[~feas & live], cyc[~feas & live], s=6, c="tab:gray", marker="x", label="over budget")
-    ax[0].step(n, best, where="post", c="tab:red", label="best so far")
+
+    def dots(a, mask, *args, **kw):
+        if mask.any():                      # no legend entry without points
+            a.scatter(*(x[mask] for x in args), **kw)
+
+    dots(ax[0], feas & ~full & ~ver, n, cyc, s=6, c="tab:blue",
+         label=f"search at level {lv['search']} (estimate, scaled to full res.)")
+    dots(ax[0], feas & full, n, cyc, s=8, c="tab:green", label="full-resolution polish")
+    dots(ax[0], feas & ver, n, cyc, s=14, c="tab:purple", marker="D", label=f"verified at level {lv['verify']}")
+    dots(ax[0], ~feas & live, n, cyc, s=6, c="tab:gray", marker="x", label="over budget")
+    if np.isfinite(best).any():
+        ax[0].step(n, best, where="post", c="tab:red", label="best so far")
     ax[0].set(yscale="log", xlabel="evaluation", ylabel="cycles", title="search history")
-    ax[0].legend(fontsize=8)
+    _plain_log_axis(ax[0].yaxis)
     cost = np.array([r["cost"] for r in h])
-    ax[1].scatter(cost[live], cyc[live], s=6, c="tab:blue", alpha=0.5,
-                  label=f"evaluated (scaled; {int((~live).sum())} deadlocked left out)")
-    if "front" in report:
+    dead = int((~live).sum())
+    dots(ax[1], live & ~ver, cost, cyc, s=6, c="tab:blue", alpha=0.45,
+         label=f"evaluated at level {lv['search']} (estimates)" + (f"; {dead} deadlocked left out" if dead else ""))
+    dots(ax[1], live & ver, cost, cyc, s=14, c="tab:purple", marker="D", label=f"verified at level {lv['verify']}")
+    if report.get("front"):
         fr = sorted((f["cost"], f["cycles"]) for f in report["front"])
         ax[1].step([c for c, _ in fr], [y for _, y in fr], where="post", c="tab:red", marker="o", ms=3,
                    label="Pareto front")
-    for name, r in report["references"].items():
-        ax[1].scatter([r["cost"]], [r["cycles"]], marker="s", s=30, label=f"model {name}" if name != "3mppe"
-                      else "paper 3MPPE")
-    ax[1].scatter([report["best"]["cost"]], [report["best"]["cycles"]], marker="*", s=120, c="gold",
-                  edgecolors="k", label="best", zorder=5)
+    for (name, r), mk in zip(report["references"].items(), ("s", "^", "v")):
+        ax[1].scatter([r["cost"]], [r["cycles"]], marker=mk, s=40, edgecolors="k", zorder=4,
+                      label=(f"model {name}" if name != "3mppe" else "paper 3MPPE") + f" (level {lv['verify']})")
+    ax[1].scatter([report["best"]["cost"]], [report["best"]["cycles"]], marker="*", s=220, c="gold",
+                  edgecolors="k", label=f"answer (level {lv['verify']})", zorder=5)
     if report.get("budget"):
         ax[1].axvline(report["budget"], c="k", ls=":", lw=1, label="budget")
     ax[1].set(xscale="log", yscale="log", xlabel="cost (kGE)", ylabel="cycles", title="cycles against cost")
-    ax[1].legend(fontsize=7)
+    _plain_log_axis(ax[1].xaxis)
+    _plain_log_axis(ax[1].yaxis)
+    for a in ax[:2]:
+        a.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)
     bu, pu = report["best"]["utilisation"], report["references"]["3mppe"]["utilisation"]
     names = list(bu) + [f"{k} (3MPPE)" for k in pu]
     vals = list(bu.values()) + list(pu.values())
     colours = ["tab:red"] * len(bu) + ["tab:gray"] * len(pu)
     ax[2].bar(range(len(vals)), vals, color=colours)
     ax[2].set_xticks(range(len(vals)), names, rotation=30, ha="right", fontsize=8)
-    ax[2].set(ylim=(0, 1.05), ylabel="utilisation", title="best design (red) and the paper's 3MPPE")
+    ax[2].set(ylim=(0, 1.05), ylabel="utilisation", title="answer (red) and the paper's 3MPPE (grey)")
     fig.suptitle(f"{report['scene']} {report['width']}x{report['height']}: objective {report['objective']}, "
                  f"{report['evaluations']} evaluations, "
-                 f"level {report['level']['search']} (search), {report['level']['verify']} (verify)")
+                 f"level {lv['search']} (search), {lv['verify']} (verify)")
     fig.tight_layout()
     with replacing(path) as tmp:
         fig.savefig(tmp, dpi=100)

@@ -136,7 +136,7 @@ def _replay(trace, cfg, a):
     else:
         level = native_level(cfg) if a.level is None else int(a.level)
     ev = Evaluator(trace)
-    e = ev.evaluate(cfg, level, a.engine, timeline=bool(a.plot) and a.engine == "simpy",
+    e = ev.evaluate(cfg, level, a.engine, timeline=bool(a.plot or getattr(a, "report", None)),
                     progress=sys.stderr.isatty())
     res = e.result
     extra = {"level": level, "engine": e.engine, "sampled": 1.0, "cycles_interval": [res.cycles, res.cycles]}

@@ -29,6 +29,9 @@ LEVELS = (0, 1, 2, 3)
 ENGINES = ("auto", "analytical", "compiled", "simpy")
 
 
+TIMELINE_VISITS = 1 << 22
+
+
 def at_level(config: SystemConfig, level: int) -> SystemConfig:
     """The machine as a level models it (level 0 and 1: no ring, no memories; 2: no memories)."""
     if level not in LEVELS:
@@ -121,7 +124,16 @@ class Evaluator:
         elif eng == "compiled":
             if "compiled" not in c:
                 c["compiled"] = Compiled(self.trace, c["costs"])
-            res = c["compiled"].result(cfg, record=record)
+            # a timeline comes from the event log (64 bytes a visit), so only for traces of
+            # up to TIMELINE_VISITS visits
+            log = record or (timeline and len(self.trace.visits) <= TIMELINE_VISITS)
+            res = c["compiled"].result(cfg, record=log)
+            if timeline and log:
+                from ..machine.result import Timeline
+
+                res.timeline = Timeline.from_log(res.log)
+                if not record:
+                    res.log = None
         else:
             from ..machine.system import System
 

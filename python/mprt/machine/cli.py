@@ -48,6 +48,8 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     o.add_argument("--json", metavar="OUT.json", default=None, help="write the figures and settings as JSON")
     o.add_argument("--plot", metavar="OUT.png", default=None,
                    help="write per-stage load bars, utilisation and FIFO occupancy over time (PNG)")
+    o.add_argument("--report", metavar="OUT.html", default=None,
+                   help="write one self-contained HTML page: the answer, the stages, the plots and the command")
     s.set_defaults(func=run)
     return s
 
@@ -102,7 +104,7 @@ def run(a, load=None, replay=None) -> int:
                   "its own settings (see 'mprt stats')", file=sys.stderr)
             return 2
     try:
-        opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"))
+        opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"), ("--report", a.report, "html"))
         if a.source.endswith(".npz"):
             opt.check_input("TRACE", a.source)
         if a.threshold is not None and (a.rules or "paper") != "paper":
@@ -115,7 +117,7 @@ def run(a, load=None, replay=None) -> int:
         trace, settings, how = (load or _load_source)(a)
         print(how)
         if replay is None:
-            res, extra = System(trace, cfg, timeline=bool(a.plot)).run(progress=sys.stderr.isatty()), {}
+            res, extra = System(trace, cfg, timeline=bool(a.plot or a.report)).run(progress=sys.stderr.isatty()), {}
         else:
             res, extra = replay(trace, cfg, a)
     except ConfigError as e:
@@ -134,20 +136,30 @@ def run(a, load=None, replay=None) -> int:
     print(res.report())
     print(f"time    {res.wall_seconds:.2f} s replay ({res.visits / max(res.wall_seconds, 1e-9):,.0f} visits/s), "
           f"{wall:.2f} s in all")
+    out = res.to_dict()
+    out.update(extra)
+    out["wall_seconds"] = wall
+    out["replay_seconds"] = res.wall_seconds
+    out["settings"] = {**settings, "model": cfg.name, "config_file": cfg.source, "pes": cfg.pes,
+                       "mprt_version": EXT_VERSION, "cost_model": "default"}
     if a.json:
-        out = res.to_dict()
-        out.update(extra)
-        out["wall_seconds"] = wall
-        out["replay_seconds"] = res.wall_seconds
-        out["settings"] = {**settings, "model": cfg.name, "config_file": cfg.source, "pes": cfg.pes,
-                           "mprt_version": EXT_VERSION, "cost_model": "default"}
         with open_replacing(a.json) as f:
             json.dump(out, f, indent=2)
         print(f"wrote   {a.json}")
+    title = f"{settings['scene']} grid {settings['grid']}: model {cfg.name}, {res.cycles:,} cycles"
     if a.plot:
-        res.plot(a.plot, title=f"{settings['scene']} grid {settings['grid']}: model {cfg.name}, "
-                                f"{res.cycles:,} cycles")
+        res.plot(a.plot, title=title)
         print(f"wrote   {a.plot}")
+    if a.report:
+        import tempfile
+
+        from .. import report
+        with tempfile.TemporaryDirectory() as d:
+            png = a.plot or os.path.join(d, "simulate.png")
+            if not a.plot:
+                res.plot(png, title=title)
+            report.write(a.report, report.simulate_html(out, getattr(a, "argv", None), png))
+        print(f"wrote   {a.report}")
     return 0
 
 

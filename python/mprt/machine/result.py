@@ -61,6 +61,20 @@ class Timeline:
             self._add(name, t0, end, n0)
             self.lastlevel[name] = (end, n0)
 
+    @classmethod
+    def from_log(cls, log, nbins: int = 256) -> "Timeline":
+        """The busy series of an event log ((cycle, 'start'|'end', stage, replica, visit), as
+        SimPy and the compiled replay record it); no FIFO series (the log has no FIFO events)."""
+        tl = cls(nbins)
+        started = {}
+        for t, what, name, k, _ in log:
+            if what == "start":
+                started[(name, k)] = t
+            else:
+                t0 = started.pop((name, k))
+                tl.busy(name, k, t0, t - t0)
+        return tl
+
     def mean_series(self, name, end, divisor=1):
         """(bin start times, mean value per bin) up to end."""
         w = self.width
@@ -167,7 +181,7 @@ class SimResult:
 
         tl = self.timeline
         nplots = 3 if tl is not None else 1
-        fig, axes = plt.subplots(nplots, 1, figsize=(8, 3.2 * nplots), squeeze=False)
+        fig, axes = plt.subplots(nplots, 1, figsize=(10, 3.2 * nplots), squeeze=False)
         ax = axes[0][0]
         colours = {"processing": "#4878a8", "communication": "#e0a040", "waiting": "#c8c8c8"}
         bottom = [0.0] * 3
@@ -178,7 +192,7 @@ class SimResult:
         ax.invert_yaxis()
         ax.set_xlabel("million cycles (summed over PEs)")
         ax.set_title(title or f"model {self.model}: {self.cycles:,} cycles")
-        ax.legend(loc="lower right", fontsize=8)
+        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
         if tl is not None:
             tl.finish(self.cycles)
             ax = axes[1][0]
@@ -190,15 +204,23 @@ class SimResult:
             ax.set_ylabel("utilisation")
             ax.set_ylim(0, 1.05)
             ax.set_xlabel("million cycles")
-            ax.legend(fontsize=7, ncol=3)
+            ax.legend(fontsize=7, ncol=1, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
             ax = axes[2][0]
+            fifo = False
             for name, kind in tl.kind.items():
                 if kind == "fifo" and self.fifos.get(name, {}).get("packets"):
                     t, v = tl.mean_series(name, self.cycles)
                     ax.plot([x / 1e6 for x in t], v, label=name, lw=1)
+                    fifo = True
             ax.set_ylabel("FIFO occupancy (packets)")
             ax.set_xlabel("million cycles")
-            ax.legend(fontsize=7, ncol=2)
+            if fifo:
+                ax.legend(fontsize=7, ncol=1, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+            else:
+                ax.text(0.5, 0.5, "no FIFO series: the compiled replay logs visits, not FIFO levels\n"
+                        "(--engine simpy draws them)" if not any(k == "fifo" for k in tl.kind.values())
+                        else "no packet went through a FIFO", ha="center", va="center",
+                        transform=ax.transAxes, fontsize=9, color="0.4")
         fig.tight_layout()
         with replacing(path) as tmp:
             fig.savefig(tmp, dpi=100)
