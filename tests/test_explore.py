@@ -45,6 +45,10 @@ def level0s():
     ("[subdivision]\nn = 4\nnx = 3", "subdivision: give n, or nx, ny and nz, not both"),
     ("[subdivision]\nn = 4\nshape = 'round'", "subdivision.shape"),
     ("fifo = { choices = [4, 4] }", "fifo.choices: repeated"),
+    # bounded before anything is made (issue 19: max = 1e18 built a list until MemoryError)
+    ("pes = { min = 1, max = 1000000000000000000 }", "pes.max: 1000000000000000000 is above the maximum"),
+    ("pes = { min = 1, max = 100000, step = 1 }", "pes: 100000 values; at most 4096"),
+    ("[subdivision]\nn = 1000000000000000000", "subdivision.n: 1000000000000000000 is above the maximum"),
 ])
 def test_space_errors_name_file_and_field(tmp_path, text, field):
     p = tmp_path / "bad.toml"
@@ -52,6 +56,20 @@ def test_space_errors_name_file_and_field(tmp_path, text, field):
     with pytest.raises(SpaceError) as e:
         load_space(p)
     assert str(e.value).startswith(f"{p}: ") and field in str(e.value)
+
+
+def test_toml_nested_too_deeply_is_one_line(tmp_path):
+    p = tmp_path / "deep.toml"
+    p.write_text("x = " + "[" * 100000 + "]" * 100000 + "\n")
+    with pytest.raises(SpaceError, match="nested too deeply"):
+        load_space(p)
+    from mprt.explore.sweep import load_spec
+    with pytest.raises(SpaceError, match="nested too deeply"):
+        load_spec(p)
+    q = tmp_path / "spec.toml"
+    q.write_text('scenes = ["tetra:1"]\nsubdivisions = [1099511627776]\n[designs]\nS = "S"\n')
+    with pytest.raises(SpaceError, match=r"subdivisions\[0\]: .* integers in 1\.\.1024"):
+        load_spec(q)
 
 
 def test_space_unreadable_and_malformed(tmp_path):

@@ -154,6 +154,11 @@ def test_errors_name_field_and_file(tmp_path, text, message):
         load_config(write(tmp_path, text))
 
 
+def test_nested_too_deeply(tmp_path):
+    with pytest.raises(ConfigError, match=r"m\.toml: not a TOML file mprt reads \(nested too deeply\)"):
+        load_config(write(tmp_path, "pes = " + "[" * 100000 + "]" * 100000 + "\n"))
+
+
 def test_missing_file(tmp_path):
     with pytest.raises(ConfigError, match=r"nope\.toml: cannot read the configuration"):
         load_config(tmp_path / "nope.toml")

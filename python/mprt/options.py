@@ -332,6 +332,8 @@ def read_toml(path, what: str, error=UsageError) -> dict:
         raise error(f"{path}: not UTF-8 text ({e.reason} at byte {e.start})") from None
     except tomllib.TOMLDecodeError as e:
         raise error(f"{path}: not valid TOML ({e})") from None
+    except RecursionError:
+        raise error(f"{path}: not a TOML file mprt reads (nested too deeply)") from None
 
 
 def check_input(option: str, path) -> None:

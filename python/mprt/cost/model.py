@@ -126,6 +126,8 @@ class CostModel:
                     d = json.load(f)
         except (OSError, ValueError) as e:
             raise CostModelError(f"{path}: cannot read the cost model ({e})") from None
+        except RecursionError:
+            raise CostModelError(f"{path}: cannot read the cost model (nested too deeply)") from None
         if not isinstance(d, dict):
             raise CostModelError(f"{path}: expected a table at the top level")
         for k in d:

@@ -346,6 +346,9 @@ class Space:
         return list(itertools.product(*(v.values for v in names)))
 
 
+MAX_LEAF = 1 << 40     # above every machine limit (mprt.machine.config.LIMITS); keeps arithmetic exact
+
+
 def _leaf(v, where: str, kind: str, lo: int | None = None, names: tuple = ()) -> tuple:
     """The values of one leaf: a scalar, {min, max, step} or {choices}."""
     def one(x, w):
@@ -357,6 +360,8 @@ def _leaf(v, where: str, kind: str, lo: int | None = None, names: tuple = ()) ->
             raise SpaceError(f"{w}: {x!r} is not an integer")
         if lo is not None and x < lo:
             raise SpaceError(f"{w}: {x} is below the minimum {lo}")
+        if x > MAX_LEAF:
+            raise SpaceError(f"{w}: {x} is above the maximum {MAX_LEAF} of any design variable")
         return x
 
     if isinstance(v, dict):
@@ -376,10 +381,10 @@ def _leaf(v, where: str, kind: str, lo: int | None = None, names: tuple = ()) ->
                 raise SpaceError(f"{where}.step: {step} is not positive")
             if b < a:
                 raise SpaceError(f"{where}: max {b} is below min {a}")
-            vals = tuple(range(a, b + 1, step))
-            if len(vals) > MAX_VALUES:
-                raise SpaceError(f"{where}: {len(vals)} values; at most {MAX_VALUES} (use a step)")
-            return vals
+            span = range(a, b + 1, step)       # counted before it is made: max may be huge
+            if len(span) > MAX_VALUES:
+                raise SpaceError(f"{where}: {len(span)} values; at most {MAX_VALUES} (use a step)")
+            return tuple(span)
         allowed = "{choices}" if kind == "name" else "{min, max[, step]} or {choices}"
         raise SpaceError(f"{where}: a table must be {allowed}, not keys {sorted(keys)}")
     return (one(v, where),)
@@ -401,6 +406,8 @@ def parse_space(text: str, source: str = "<space>") -> Space:
         doc = tomllib.loads(text)
     except tomllib.TOMLDecodeError as e:
         raise SpaceError(f"{source}: {e}") from None
+    except RecursionError:
+        raise SpaceError(f"{source}: not a TOML file mprt reads (nested too deeply)") from None
     base = tomllib.loads(DEFAULT_SPACE_TOML) if source != "<default space>" else {}
     _table(doc, f"{source}: ", _TOP)
 

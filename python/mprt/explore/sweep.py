@@ -30,7 +30,7 @@ _KEYS = {"scenes", "res", "subdivisions", "shape", "level", "batch", "designs", 
 
 
 def load_spec(path) -> dict:
-    from ..options import read_toml, resolution_arg
+    from ..options import GRID_MAX, read_toml, resolution_arg
 
     doc = read_toml(path, "sweep spec", SpaceError)
     w = lambda k: f"{path}: {k}"  # noqa: E731
@@ -53,8 +53,9 @@ def load_spec(path) -> dict:
         raise SpaceError(f"{w('subdivisions')}: must be a non-empty list")
     for i, s in enumerate(doc["subdivisions"]):
         t = s if isinstance(s, list) else [s]
-        if len(t) not in (1, 3) or not all(isinstance(v, int) and not isinstance(v, bool) and v >= 1 for v in t):
-            raise SpaceError(f"{w(f'subdivisions[{i}]')}: {s!r} is not n or [nx, ny, nz] of positive integers")
+        if len(t) not in (1, 3) or not all(isinstance(v, int) and not isinstance(v, bool) and 1 <= v <= GRID_MAX
+                                           for v in t):
+            raise SpaceError(f"{w(f'subdivisions[{i}]')}: {s!r} is not n or [nx, ny, nz] of integers in 1..{GRID_MAX}")
         subs.append(tuple(t))
     shape = doc.get("shape", "cube")
     if shape not in SHAPES:
@@ -63,8 +64,8 @@ def load_spec(path) -> dict:
     if level not in (0, 1, 2, 3):
         raise SpaceError(f"{w('level')}: {level!r} is not 0, 1, 2 or 3")
     batch = doc.get("batch", 64)
-    if isinstance(batch, bool) or not isinstance(batch, int) or batch < 1:
-        raise SpaceError(f"{w('batch')}: {batch!r} is not a positive integer")
+    if isinstance(batch, bool) or not isinstance(batch, int) or not 1 <= batch <= 1 << 16:
+        raise SpaceError(f"{w('batch')}: {batch!r} is not an integer in 1..65536")
     rules = doc.get("rules", "paper")
     if rules not in ("paper", "spd"):
         raise SpaceError(f"{w('rules')}: {rules!r} is not paper or spd")
