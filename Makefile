@@ -84,13 +84,22 @@ asan:
 # that ever failed, with gcc and the sanitizers of make asan (part of make
 # test; no clang needed).
 SAN = -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
+# The second target, tests/fuzz/fuzz_machine.c, builds machine configurations and
+# ray-tree traces (well formed, then damaged) from its input and replays them on
+# the compiled replay; its corpus and failures are tests/fuzz/corpus_machine and
+# tests/fuzz/crashes_machine.
 FUZZ_SRC = tests/fuzz/fuzz_nff.c
 fuzz-replay:
-	@$(MAKE) -s B=build/asan OPT="-O1 -g" EXTRA="$(SAN)" EXTRA_LD="-fsanitize=address,undefined" build/asan/fuzz_replay
+	@$(MAKE) -s B=build/asan OPT="-O1 -g" EXTRA="$(SAN)" EXTRA_LD="-fsanitize=address,undefined" \
+	    build/asan/fuzz_replay build/asan/fuzz_machine_replay
 	build/asan/fuzz_replay tests/fuzz/corpus tests/fuzz/crashes
+	build/asan/fuzz_machine_replay tests/fuzz/corpus_machine tests/fuzz/crashes_machine
 
 $(B)/fuzz_replay: $(FUZZ_SRC) tests/fuzz/replay.c $(B)/libmprt.a
 	$(CC) $(CFLAGS) $(FUZZ_SRC) tests/fuzz/replay.c $(B)/libmprt.a -o $@ $(LDLIBS)
+
+$(B)/fuzz_machine_replay: tests/fuzz/fuzz_machine.c tests/fuzz/replay.c $(B)/libmprt.a
+	$(CC) $(CFLAGS) tests/fuzz/fuzz_machine.c tests/fuzz/replay.c $(B)/libmprt.a -o $@ $(LDLIBS)
 
 # libFuzzer on the same target, with Debian's clang (apt-get install clang):
 # FUZZ_TIME seconds from the seed corpus and dictionary in tests/fuzz; new
@@ -108,6 +117,12 @@ fuzz:
 	@mkdir -p build/fuzz/corpus build/fuzz/found
 	build/fuzz/fuzz_nff -dict=tests/fuzz/nff.dict -max_total_time=$(FUZZ_TIME) -timeout=10 -print_final_stats=1 \
 	    -artifact_prefix=build/fuzz/found/ build/fuzz/corpus tests/fuzz/corpus
+	$(FUZZ_CC) -O1 -g -std=c99 -D_POSIX_C_SOURCE=200809L -Ic/include -Ic/src \
+	    -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all tests/fuzz/fuzz_machine.c build/fuzz/libmprt.a \
+	    -lm -lpthread -o build/fuzz/fuzz_machine
+	@mkdir -p build/fuzz/corpus_machine build/fuzz/found_machine
+	build/fuzz/fuzz_machine -max_total_time=$(FUZZ_TIME) -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
+	    -artifact_prefix=build/fuzz/found_machine/ build/fuzz/corpus_machine tests/fuzz/corpus_machine
 
 # The C tests under ThreadSanitizer (threaded renders, concurrent tile traces).
 tsan:

@@ -64,7 +64,7 @@ int main(int argc, char **argv)
                 snprintf(names[n++], len, "%s/%s", argv[i], e->d_name);
             }
             closedir(d);
-            qsort(names, n, sizeof *names, by_name);
+            if (n) qsort(names, n, sizeof *names, by_name);
             for (k = 0; k < n; k++) {
                 errors += replay_file(names[k]);
                 files++;
