@@ -18,7 +18,7 @@ SRC := $(wildcard c/src/*.c)
 HDR := c/include/mprt.h $(wildcard c/src/*.h)
 TESTS := $(patsubst tests/c/%.c,$(B)/%,$(wildcard tests/c/test_*.c))
 
-.PHONY: all test ctest pytest demo bench asan tsan single clean install fuzz fuzz-replay
+.PHONY: all test ctest pytest demo bench asan tsan single clean install fuzz fuzz-replay fuzz-python
 
 all: $(B)/libmprt.a $(TESTS)
 
@@ -123,6 +123,15 @@ fuzz:
 	@mkdir -p build/fuzz/corpus_machine build/fuzz/found_machine
 	build/fuzz/fuzz_machine -max_total_time=$(FUZZ_TIME) -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
 	    -artifact_prefix=build/fuzz/found_machine/ build/fuzz/corpus_machine tests/fuzz/corpus_machine
+
+# Atheris over the Python input surfaces (machine configurations, design spaces, sweep
+# specs: tests/fuzz/fuzz_inputs.py) for FUZZ_TIME seconds; its corpus replays in make test
+# (tests/test_fuzz_inputs.py).  Atheris is installed into the venv here, not by make test.
+fuzz-python: $(VENV)/.installed
+	$(PY) -m pip install -q atheris
+	@mkdir -p build/fuzz/corpus_inputs build/fuzz/found_inputs
+	$(PY) tests/fuzz/fuzz_inputs.py -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=20 \
+	    -print_final_stats=1 -artifact_prefix=build/fuzz/found_inputs/ build/fuzz/corpus_inputs tests/fuzz/corpus_inputs
 
 # The C tests under ThreadSanitizer (threaded renders, concurrent tile traces).
 tsan:

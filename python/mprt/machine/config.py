@@ -215,6 +215,7 @@ LIMITS = {
     "bandwidth": 1 << 20,       # bytes per cycle
 }
 MAX_CACHE_LINES = 1 << 22       # size / line: the cache's tags are kept in flat arrays
+MAX_MACHINE_LINES = 1 << 25     # cache lines of all PEs together (8 bytes of tag each)
 
 
 def _int(value, where, name, lo=1, allow_none=False):
@@ -294,6 +295,11 @@ def _validate(cfg: SystemConfig) -> None:
             if not isinstance(gm.contention, bool):
                 raise ConfigError(f"{w}{tag}gm.contention: must be true or false, not {gm.contention!r}")
     _int(cfg.pes, w, "pes")
+    lines = sum(m.cache.size // m.cache.line for m in (cfg.ic_memory, cfg.sc_memory)
+                if m is not None and m.cache is not None)
+    if lines * cfg.pes > MAX_MACHINE_LINES:
+        raise ConfigError(f"{w}pes: {cfg.pes} PEs x {lines} cache lines each = {lines * cfg.pes} lines in all; at "
+                          f"most {MAX_MACHINE_LINES} (the caches are per PE: fewer PEs or smaller caches)")
     if cfg.dis not in DIS_POLICIES:
         raise ConfigError(f"{w}dis: unknown policy {cfg.dis!r} (known: {', '.join(DIS_POLICIES)})")
     _int(cfg.window, w, "window")
