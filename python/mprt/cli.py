@@ -72,7 +72,7 @@ def _scene_and_grid(a):
     """The scene, how it was chosen, its grid and the resolved render description; prints the
     scene and grid lines."""
     t0 = time.perf_counter()
-    scene, how = options.load_scene(a.scene)
+    scene, how = options.load_scene(a.scene, skip_unknown=a.skip_unknown)
     t1 = time.perf_counter()
     grid = scene.grid(a.grid)
     t2 = time.perf_counter()

@@ -37,7 +37,7 @@ import sys
 from fractions import Fraction
 
 from ._lowlevel import EXT_VERSION, RULES, binding
-from .errors import InvalidArgument
+from .errors import InvalidArgument, SceneParseError
 from .scene import SPD_DEFAULT_SIZES, SPD_SCENES, Scene
 
 # The ranges the library accepts (render.c, grid.c, spd.c; tests/test_cli_options.py
@@ -209,6 +209,15 @@ SCENE_HELP = ("an SPD scene name with an optional size (balls, balls:2; always t
 
 def add_scene_argument(p: argparse.ArgumentParser, name: str = "scene") -> None:
     p.add_argument(name, metavar="SCENE", help=SCENE_HELP)
+    add_skip_unknown(p)
+
+
+def add_skip_unknown(p: argparse.ArgumentParser) -> None:
+    """--skip-unknown: for every subcommand that reads an NFF scene."""
+    p.add_argument("--skip-unknown", action="store_true",
+                   help="read an NFF file without the entities mprt does not know (extension lines such as "
+                        "'fp ...', 'Q 0', 'Z 481', with the number lines after each), warning with each entity "
+                        "and its count (default: off: such a line is an error naming the entity)")
 
 
 def add_render_options(p: argparse.ArgumentParser, trace: bool = False) -> argparse._ArgumentGroup:
@@ -257,10 +266,13 @@ def render_kwargs(a) -> dict:
 
 
 # -- scenes -------------------------------------------------------------------------------------
-def load_scene(spec: str, precision: str = "double", note=None):
+def load_scene(spec: str, precision: str = "double", note=None, skip_unknown: bool = False):
     """(Scene, how): the scene a SCENE argument names under the rule in this module's text, and
     a phrase saying which was used.  When an SPD name is also a file or directory here, a note
-    says it is not read (``note``: a function of the message; default: print to stderr)."""
+    says it is not read (``note``: a function of the message; default: print to stderr).  An NFF
+    file's reader notes (Ks + T over 1, unknown entities skipped under ``skip_unknown``) are
+    printed as warnings; an unknown entity without ``skip_unknown`` is an error that names it
+    and says how to read the file without it."""
     base, colon, size = spec.partition(":")
     if base in SPD_SCENES:
         n = spd_size(base, size if colon else None)
@@ -274,7 +286,16 @@ def load_scene(spec: str, precision: str = "double", note=None):
     if not os.path.exists(spec):
         raise UsageError(f"scene {spec!r} is neither a file nor an SPD scene ({', '.join(SPD_SCENES)}, "
                          "with an optional :SIZE)")
-    return Scene.from_nff(spec, precision), f"NFF file {spec}"
+    try:
+        scene = Scene.from_nff(spec, precision, skip_unknown=skip_unknown)
+    except SceneParseError as e:
+        if "unknown entity" in str(e) and not skip_unknown:
+            raise SceneParseError(f"{e} (--skip-unknown reads the file without the entities mprt does not "
+                                  "know, warning with each)") from None
+        raise
+    for line in scene.notes:
+        print(f"mprt: warning: {line}", file=sys.stderr)
+    return scene, f"NFF file {spec}"
 
 
 def _note(message: str) -> None:

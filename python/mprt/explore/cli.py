@@ -88,6 +88,7 @@ def check_output(path) -> None:
 
 def _common(p, res_default: str):
     p.add_argument("scene", help="NFF path, or SPD name with optional size (balls, balls:2)")
+    opt.add_skip_unknown(p)
     p.add_argument("--res", type=opt.resolution_arg, default=opt.resolution_arg(res_default), metavar="WxH", help=f"WxH (default {res_default})")
     p.add_argument("--json", metavar="OUT.json", help="write the report as JSON")
     p.add_argument("--threads", type=opt.threads_arg, default=opt.default_threads(),
@@ -195,7 +196,7 @@ def run_explore(a) -> int:
 
     opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"))
     space = load_space(a.space) if a.space else default_space()
-    scene = opt.load_scene(a.scene)[0]
+    scene = opt.load_scene(a.scene, skip_unknown=a.skip_unknown)[0]
     w, h = a.res
     kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget,
               level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, algorithm=a.algorithm,
@@ -253,7 +254,7 @@ def run_prepass(a) -> int:
     from .prepass import prepass
 
     opt.check_outputs(("--json", a.json, "json"))
-    scene = opt.load_scene(a.scene)[0]
+    scene = opt.load_scene(a.scene, skip_unknown=a.skip_unknown)[0]
     w, h = a.res
     if a.check < 0:
         raise opt.UsageError(f"--check {a.check}: give 0 or more candidates")

@@ -25,6 +25,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
         description="Replay a trace on the machine model (SimPy).  A SCENE (SPD name or NFF file) is traced "
                     "first with the tracing options.")
     s.add_argument("source", metavar="TRACE.npz|SCENE", help="a trace file, or a scene to trace first")
+    opt.add_skip_unknown(s)
     g = s.add_argument_group("tracing (when SOURCE is a scene)")
     g.add_argument("--grid", type=opt.grid_arg, default=None, metavar="N|NX,NY,NZ",
                    help=f"voxels per axis, each 1..{opt.GRID_MAX} (default: Scene.default_grid)")
@@ -61,7 +62,7 @@ def _load_source(a):
         trace = load_trace(src)
         how = f"trace   {src}"
     else:
-        scene, _ = opt.load_scene(src)
+        scene, _ = opt.load_scene(src, skip_unknown=a.skip_unknown)
         grid = scene.grid(a.grid)
         w, h = a.res or (0, 0)
         t0 = time.perf_counter()
