@@ -196,6 +196,7 @@ def run_explore(a) -> int:
 
     opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"))
     space = load_space(a.space) if a.space else default_space()
+    check_budget(space, a.budget, a.objective)
     scene = opt.load_scene(a.scene, skip_unknown=a.skip_unknown)[0]
     w, h = a.res
     kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget,
@@ -209,6 +210,7 @@ def run_explore(a) -> int:
         show = _progress_printer()
         rep = explore(scene, progress=show, log=show.line, **kw)
         show.end()
+    mark_feasible(rep)
     print_report(rep)
     if a.json:
         with open(a.json, "w") as f:
@@ -217,7 +219,32 @@ def run_explore(a) -> int:
     if a.plot:
         plot(rep, a.plot)
         print(f"wrote   {a.plot}")
+    if not rep["feasible"]:
+        print(f"mprt explore: error: the search found no design within the budget of {rep['budget']:g} kGE "
+              f"(its best costs {rep['best']['cost']:.0f} kGE); raise --budget or --max-evals", file=sys.stderr)
+        return 1
     return 0
+
+
+def check_budget(space, budget, objective) -> None:
+    """Before any work: a budget below the cheapest design of the space is refused (UsageError,
+    exit 2), naming that design's cost."""
+    from .hwcost import UnitCosts, cheapest_design
+
+    if budget is None or objective == "pareto":
+        return
+    cost, design = cheapest_design(space, UnitCosts.from_table(space.cost))
+    if cost > budget:
+        raise opt.UsageError(f"--budget {budget:g} kGE: no design in the space meets it; the cheapest costs "
+                             f"{cost:.1f} kGE ({design.describe()})")
+
+
+def mark_feasible(rep: dict) -> None:
+    """The report says whether its best meets the budget: ``feasible`` at the top and in ``best``
+    (always true without a budget)."""
+    budget = rep.get("budget")
+    ok = budget is None or rep["objective"] == "pareto" or rep["best"]["cost"] <= budget * (1 + 1e-12)
+    rep["feasible"] = rep["best"]["feasible"] = bool(ok)
 
 
 def explore_spec(scene_spec, kw):
@@ -235,7 +262,7 @@ def print_report(rep: dict) -> None:
     lv = rep["level"]
     print(f"level   search at {lv['search']}, verified at {lv['verify']}"
           + (f" (the ladder's choice within {100 * rep['tolerance']:g}%)" if lv["asked"] == "auto" else ""))
-    print(f"best    {b['described']}")
+    print(f"best    {b['described']}" + ("" if rep.get("feasible", True) else "  (OVER THE BUDGET)"))
     print(f"        subdivision {'x'.join(map(str, b['subdivision']))}; {b['cycles']:,.0f} cycles; "
           f"cost {b['cost']:.0f} kGE; {b['speedup_over_S']:.2f}x model S; bottleneck {b['bottleneck']}")
     print("        utilisation " + ", ".join(f"{k} {v:.0%}" for k, v in b["utilisation"].items()))

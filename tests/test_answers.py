@@ -1,0 +1,94 @@
+"""An answer is what it says (issue 20, item 1): a budget no design in the space meets is refused
+before any work, naming the cheapest design's cost; a report says whether its best meets the
+budget (``feasible``) and a best over it is an error."""
+import argparse
+import itertools
+import json
+from pathlib import Path
+
+import pytest
+
+from mprt import cli
+from mprt.explore import cli as explore_cli
+from mprt.explore.hwcost import UnitCosts, cheapest_design, hardware_cost
+from mprt.explore.space import default_space, load_space, parse_space
+
+SMALL = Path(__file__).parent / "data" / "explore" / "small_space.toml"
+
+
+def main(capsys, *args):
+    try:
+        code = cli.main([str(a) for a in args])
+    except SystemExit as e:
+        code = e.code
+    out = capsys.readouterr()
+    return code, out.out, out.err
+
+
+def brute_force_cheapest(space):
+    costs = UnitCosts.from_table(space.cost)
+    return min(hardware_cost(space.point(idx).design, costs)
+               for idx in itertools.product(*(range(v.size) for v in space.variables)))
+
+
+@pytest.mark.parametrize("text", [
+    SMALL.read_text(),
+    # choices out of order, a costly mapping only, a [cost] table that makes FIFOs dear
+    SMALL.read_text().replace('mapping = { choices = ["OS|IC|SC", "OS+SC|IC", "OS|IC+SC", "OS+IC+SC"] }',
+                              'mapping = { choices = ["OS|IC+SC", "OS|IC|SC"] }')
+                     .replace("fifo = 16", "fifo = { choices = [64, 16, 32] }")
+    + "[cost]\nfifo_word = 5.0\n",
+])
+def test_the_cheapest_design_is_the_least_cost_of_every_design(text):
+    """cheapest_design (no trace) equals the least cost over every point of the space."""
+    space = parse_space(text, "t.toml")
+    cost, design = cheapest_design(space, UnitCosts.from_table(space.cost))
+    assert cost == pytest.approx(brute_force_cheapest(space))
+    assert hardware_cost(design, UnitCosts.from_table(space.cost)) == cost
+
+
+def test_a_budget_below_the_cheapest_design_is_refused_before_any_work(monkeypatch, capsys):
+    """--budget 1 on the built-in space: exit 2, naming the cheapest design's cost; no scene is
+    traced and no search runs."""
+    import mprt.explore.explorer as explorer
+
+    def no_work(*a, **k):
+        raise AssertionError("explore ran")
+    monkeypatch.setattr(explorer, "explore", no_work)
+    monkeypatch.setattr("mprt.options.load_scene", no_work)
+    cheapest = cheapest_design(default_space())[0]
+    code, out, err = main(capsys, "explore", "tetra:1", "--res", "16x16", "--budget", "1")
+    assert code == 2 and out == ""
+    assert f"--budget 1 kGE: no design in the space meets it; the cheapest costs {cheapest:.1f} kGE" in err
+    # a budget the cheapest design meets passes the check
+    explore_cli.check_budget(default_space(), cheapest, "time")
+    # the pareto objective has no budget to check
+    explore_cli.check_budget(default_space(), 1, "pareto")
+
+
+def _report(cost, budget, objective="time"):
+    util = {"OS+IC+SC": 1.0}
+    ref = {"cycles": 10.0, "cost": 50.0, "utilisation": util}
+    return {"scene": "t", "width": 8, "height": 8, "objective": objective, "budget": budget, "evaluations": 1,
+            "seconds": 0.1, "tolerance": 0.01, "level": {"asked": 1, "search": 1, "verify": 1},
+            "references": {"3mppe": ref, "M": ref, "S": ref},
+            "best": {"described": "d", "subdivision": [1, 1, 1], "cycles": 5.0, "cost": cost,
+                     "speedup_over_S": 2.0, "bottleneck": "OS", "utilisation": util}}
+
+
+@pytest.mark.parametrize("cost, budget, feasible, code", [(104.0, 60.0, False, 1), (52.0, 60.0, True, 0),
+                                                           (104.0, None, True, 0)])
+def test_the_report_says_whether_its_best_meets_the_budget(monkeypatch, tmp_path, capsys, cost, budget,
+                                                           feasible, code):
+    """The JSON's ``feasible`` (top level and in ``best``) is whether the best meets the budget;
+    a best over it is printed as such and the command exits 1."""
+    import mprt.explore.explorer as explorer
+    monkeypatch.setattr(explorer, "explore", lambda *a, **k: _report(cost, budget))
+    out = tmp_path / "e.json"
+    argv = ["explore", "tetra:1", "--res", "8x8", "--json", out] + (["--budget", budget] if budget else [])
+    c, text, err = main(capsys, *argv)
+    assert c == code
+    r = json.loads(out.read_text())
+    assert r["feasible"] is feasible and r["best"]["feasible"] is feasible
+    assert ("OVER THE BUDGET" in text) is (not feasible)
+    assert ("found no design within the budget of 60 kGE (its best costs 104 kGE)" in err) is (not feasible)
