@@ -92,3 +92,40 @@ def test_the_report_says_whether_its_best_meets_the_budget(monkeypatch, tmp_path
     assert r["feasible"] is feasible and r["best"]["feasible"] is feasible
     assert ("OVER THE BUDGET" in text) is (not feasible)
     assert ("found no design within the budget of 60 kGE (its best costs 104 kGE)" in err) is (not feasible)
+
+
+# -- every trace version the README promises loads ------------------------------------------------
+V1 = Path(__file__).parent / "data" / "trace_v1" / "tetra-g4-sha256.npz"
+
+
+def test_a_version_1_trace_with_sha256_checksums_loads():
+    """A golden trace of the first trace format (commit 56c9cd8: version 1, SHA-256 checksums,
+    visit fields 'voxel' and 'voxels'), committed as it was written: it loads, passes the
+    invariant check and gives the statistics that commit wrote beside it."""
+    import mprt
+    t = mprt.load_trace(V1)
+    t.check()
+    want = json.loads(V1.with_suffix(".stats.json").read_text())
+    assert t.stats() == want
+
+
+def test_a_version_1_trace_with_a_wrong_sha256_is_refused(tmp_path):
+    """The SHA-256 is checked, not skipped: one byte changed in the rays is refused."""
+    import zipfile
+    import mprt
+    from mprt.errors import TraceError
+    bad = tmp_path / "bad.npz"
+    with zipfile.ZipFile(V1) as z, zipfile.ZipFile(bad, "w") as out:
+        for info in z.infolist():
+            data = z.read(info)
+            if info.filename == "rays.npy":
+                data = data[:-1] + bytes([data[-1] ^ 1])
+            out.writestr(info, data)
+    with pytest.raises(TraceError, match=r"array 'rays' does not match its checksum \(tampered or damaged\)"):
+        mprt.load_trace(bad)
+
+
+def test_the_stats_command_reads_a_version_1_trace(capsys):
+    code, out, err = main(capsys, "stats", V1)
+    assert code == 0, err
+    assert "tetra:1" in out and "1541" in out
