@@ -129,3 +129,38 @@ def test_the_stats_command_reads_a_version_1_trace(capsys):
     code, out, err = main(capsys, "stats", V1)
     assert code == 0, err
     assert "tetra:1" in out and "1541" in out
+
+
+# -- the sampled estimate: runs by default, samples of tiles refused ------------------------------
+@pytest.mark.parametrize("spec", ["random:64:1", "stratified:16:1", "regular:4"])
+def test_a_sample_of_tiles_is_refused_before_any_work(spec, monkeypatch, capsys):
+    """simulate --sample random|stratified|regular: exit 2 before any tracing, saying why and
+    what to use instead."""
+    monkeypatch.setattr("mprt.options.load_scene", lambda *a, **k: pytest.fail("a scene was loaded"))
+    code, out, err = main(capsys, "simulate", "balls:1", "--res", "16x16", "--model", "M", "--sample", spec)
+    assert code == 2
+    assert f"{spec}: a sample of tiles gives no trustworthy 95% interval" in err
+    assert "covered the full replay in 15 to 20 of 20 seeds" in err and "use runs:K:SEED" in err
+
+
+@pytest.mark.parametrize("given, want", [("runs:8:3", "runs:8:3"), ("8", "runs:8:1"), ("8:3", "runs:8:3"),
+                                         ("8:3:100", "runs:8:3:100"), (None, "runs:16:1")])
+def test_runs_are_the_default_sampling(given, want):
+    """--sample K[:SEED] means runs; --sample alone is runs:16:1."""
+    from mprt.fidelity import cli as fcli
+    p = argparse.ArgumentParser()
+    sub = p.add_subparsers()
+    fcli.add_parser(sub)
+    a = p.parse_args(["simulate", "x.npz", "--sample"] + ([given] if given else []))
+    assert str(a.sample) == want
+
+
+def test_simulate_with_runs_reports_an_interval_around_its_estimate(tmp_path, capsys):
+    """--sample 4 on a small frame: runs are replayed and the JSON's interval holds the estimate."""
+    out = tmp_path / "s.json"
+    code, text, err = main(capsys, "simulate", "balls:1", "--grid", "6", "--res", "48x48", "--model", "M",
+                           "--level", "1", "--sample", "4:2", "--json", out)
+    assert code == 0, err
+    r = json.loads(out.read_text())
+    assert r["sample"] == "runs:4:2" and r["cycles_interval"][0] <= r["cycles"] <= r["cycles_interval"][1]
+    assert 0 < r["sampled_visits"] < 0.5
