@@ -18,7 +18,7 @@ SRC := $(wildcard c/src/*.c)
 HDR := c/include/mprt.h $(wildcard c/src/*.h)
 TESTS := $(patsubst tests/c/%.c,$(B)/%,$(wildcard tests/c/test_*.c))
 
-.PHONY: all test ctest pytest demo bench asan tsan single clean install fuzz fuzz-replay
+.PHONY: all test ctest pytest demo bench asan tsan single clean install fuzz fuzz-replay baselines baselines-update
 
 all: $(B)/libmprt.a $(TESTS)
 
@@ -58,7 +58,22 @@ $(VENV)/.installed: $(PY) $(SRC) $(HDR) python/mprt/_build.py pyproject.toml set
 pytest: $(VENV)/.installed
 	$(PY) -m pytest -q tests
 
-test: ctest pytest fuzz-replay
+test: ctest pytest fuzz-replay baselines
+
+# The replays pinned as a hardware team would pin its designs (README, "Pinning a design in CI"):
+# two golden traces, each against its baseline; exit 3 names the stage that moved.  After a change
+# meant to move them: make baselines-update.
+BASELINES = tetra-g4:M balls-g9:3mppe
+baselines: $(VENV)/.installed
+	@set -e; for b in $(BASELINES); do t=$${b%%:*}; m=$${b##*:}; \
+	    $(PY) -m mprt simulate tests/data/golden/$$t.npz --model $$m \
+	        --baseline tests/data/golden/baselines/$$t.$$m.json --tolerance 0 > /dev/null; \
+	    echo "baseline $$t on $$m: unchanged"; done
+
+baselines-update: $(VENV)/.installed
+	@set -e; for b in $(BASELINES); do t=$${b%%:*}; m=$${b##*:}; \
+	    $(PY) -m mprt simulate tests/data/golden/$$t.npz --model $$m \
+	        --json tests/data/golden/baselines/$$t.$$m.json > /dev/null; done
 
 demo: $(VENV)/.installed
 	$(PY) -m mprt explore balls --res 48x48 --budget 1000 --plot explore.png --json explore.json

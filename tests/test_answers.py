@@ -164,3 +164,60 @@ def test_simulate_with_runs_reports_an_interval_around_its_estimate(tmp_path, ca
     r = json.loads(out.read_text())
     assert r["sample"] == "runs:4:2" and r["cycles_interval"][0] <= r["cycles"] <= r["cycles_interval"][1]
     assert 0 < r["sampled_visits"] < 0.5
+
+
+# -- replay checks for other people's CI (item 6) -------------------------------------------------
+GOLDEN = Path(__file__).parent / "data" / "golden"
+PINNED = [("tetra-g4", "M"), ("balls-g9", "3mppe")]
+
+
+@pytest.mark.parametrize("trace, model", PINNED)
+def test_the_golden_replays_match_their_baselines(trace, model, capsys):
+    """The project's own pins (make baselines runs the same in CI): exit 0 at tolerance 0."""
+    code, out, err = main(capsys, "simulate", GOLDEN / f"{trace}.npz", "--model", model,
+                          "--baseline", GOLDEN / "baselines" / f"{trace}.{model}.json", "--tolerance", "0")
+    assert code == 0, err
+    assert "+0.00%, within the tolerance of 0%" in out
+
+
+def _moved_baseline(tmp_path, trace, model, stage, figure, factor):
+    b = json.loads((GOLDEN / "baselines" / f"{trace}.{model}.json").read_text())
+    b["cycles"] = int(b["cycles"] * factor)
+    b["stages"][stage][figure] = int(b["stages"][stage][figure] * factor)
+    path = tmp_path / "moved.json"
+    path.write_text(json.dumps(b))
+    return path, b
+
+
+@pytest.mark.parametrize("trace, model", PINNED)
+def test_cycles_beyond_the_tolerance_exit_3_naming_the_stage(tmp_path, capsys, trace, model):
+    """A baseline whose cycles and IC processing were 5% lower: exit 3 at 1%, naming IC's
+    processing first; within 10% it passes."""
+    path, b = _moved_baseline(tmp_path, trace, model, "IC", "processing", 1 / 1.05)
+    args = ["simulate", GOLDEN / f"{trace}.npz", "--model", model, "--baseline", path]
+    code, out, err = main(capsys, *args, "--tolerance", "1%")
+    assert code == 3
+    lines = [ln.strip() for ln in err.splitlines()]
+    first = next(i for i, ln in enumerate(lines) if ln.startswith("moved"))
+    assert "beyond the tolerance of 1%" in lines[first]
+    assert lines[first + 1].startswith("IC processing +5.0")
+    code, out, err = main(capsys, *args, "--tolerance", "10%")
+    assert code == 0 and "within the tolerance of 10%" in out
+
+
+@pytest.mark.parametrize("content, message", [(None, "cannot read it"), ("{", "not JSON"),
+                                              ('{"stages": {}}', "no positive 'cycles'")])
+def test_a_bad_baseline_exits_2_before_any_work(tmp_path, capsys, monkeypatch, content, message):
+    monkeypatch.setattr("mprt.machine.cli._load_source", lambda a: pytest.fail("traced"))
+    path = tmp_path / "b.json"
+    if content is not None:
+        path.write_text(content)
+    code, out, err = main(capsys, "simulate", "balls:1", "--res", "8x8", "--baseline", path)
+    assert code == 2 and f"--baseline {path}: {message}" in err
+
+
+def test_tolerance_with_a_baseline_does_not_choose_the_level(capsys):
+    """--tolerance with --baseline is the allowed move: the replay stays at the model's own level."""
+    code, out, err = main(capsys, "simulate", GOLDEN / "tetra-g4.npz", "--model", "M", "--baseline",
+                          GOLDEN / "baselines" / "tetra-g4.M.json", "--tolerance", "1%")
+    assert code == 0 and "levels  measured" not in out

@@ -95,7 +95,12 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
                         f"--sample alone: {DEFAULT_SAMPLE}; samples of tiles (random, stratified, regular) are "
                         "refused, their interval does not hold (default: no sample, the whole frame replayed)")
     f.add_argument("--tolerance", type=_tolerance, default=None,
-                   help="error allowed by --level auto, e.g. 0.01 or 1%% (default 1%%)")
+                   help="error allowed, e.g. 0.01 or 1%%: by --level auto, the level's against the top level "
+                        "(default 1%%); with --baseline, the cycles' move from the baseline (default 0: a replay "
+                        "is deterministic)")
+    f.add_argument("--baseline", metavar="FILE.json", default=None,
+                   help="the JSON of an earlier 'mprt simulate --json': exit 3 when the cycles move beyond "
+                        "--tolerance from its cycles, naming the stages that moved (default: no check)")
     s.set_defaults(func=run)
     return s
 
@@ -153,7 +158,7 @@ def _estimate_runs(st, e, an, cfg1, frame, ev):
 def _replay(trace, cfg, a):
     tolerance = 0.01 if a.tolerance is None else a.tolerance
     st = getattr(a, "sampled_trace", None)
-    if a.level == "auto" or (a.level is None and a.tolerance is not None):
+    if a.level == "auto" or (a.level is None and a.tolerance is not None and not getattr(a, "baseline", None)):
         level, table = _auto_level(trace, cfg, tolerance, st is not None)
         print(f"levels  measured on {100 * table.sampled:.1f}% of the samples:\n" + table.text())
         print(f"level   {level}: the cheapest within {100 * tolerance:g}%")
@@ -182,17 +187,36 @@ def _replay(trace, cfg, a):
         line += (f"; the sample took {sc.sample_cycles:,} cycles, the frame an estimated {sc.cycles:,} "
                  f"(95%: {sc.interval[0]:,} to {sc.interval[1]:,})")
     print(line)
+    a.replayed = (res, extra)
     return res, extra
 
 
 def run(a) -> int:
+    from . import baseline
+    from ..options import UsageError
+
     try:
         if a.engine != "auto" and a.level == "auto":
             raise ConfigError("--level auto chooses the engine with the level; leave --engine out")
+        base = baseline.load(a.baseline) if a.baseline else None
     except ConfigError as e:
         print(f"mprt simulate: invalid configuration: {e}", file=sys.stderr)
         return 2
-    return machine_cli.run(a, load=_load, replay=_replay)
+    except UsageError as e:
+        print(f"mprt simulate: error: {e}", file=sys.stderr)
+        return 2
+    a.replayed = None
+    rc = machine_cli.run(a, load=_load, replay=_replay)
+    if rc != 0 or base is None or a.replayed is None:
+        return rc
+    res, extra = a.replayed
+    now = dict(res.to_dict(), **extra)
+    now["settings"] = getattr(a, "run_settings", None) or {}
+    tol = 0.0 if a.tolerance is None else a.tolerance
+    moved, lines = baseline.compare(now, base, tol, a.baseline)
+    for ln in lines:
+        print(ln, file=sys.stderr if moved else sys.stdout)
+    return baseline.EXIT_MOVED if moved else 0
 
 
 def main(argv=None) -> int:

@@ -134,13 +134,14 @@ def run(a, load=None, replay=None) -> int:
     print(res.report())
     print(f"time    {res.wall_seconds:.2f} s replay ({res.visits / max(res.wall_seconds, 1e-9):,.0f} visits/s), "
           f"{wall:.2f} s in all")
+    a.run_settings = {**settings, "model": cfg.name, "config_file": cfg.source, "pes": cfg.pes,
+                      "mprt_version": EXT_VERSION, "cost_model": "default"}
     if a.json:
         out = res.to_dict()
         out.update(extra)
         out["wall_seconds"] = wall
         out["replay_seconds"] = res.wall_seconds
-        out["settings"] = {**settings, "model": cfg.name, "config_file": cfg.source, "pes": cfg.pes,
-                           "mprt_version": EXT_VERSION, "cost_model": "default"}
+        out["settings"] = a.run_settings
         with open(a.json, "w") as f:
             json.dump(out, f, indent=2)
         print(f"wrote   {a.json}")
