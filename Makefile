@@ -49,13 +49,19 @@ $(PY):
 	@$(PYTHON) -m venv $(VENV) || { echo "could not create $(VENV): on Debian, apt-get install python3-venv" >&2; exit 1; }
 	$(PY) -m pip install -q --upgrade pip
 
-# The Python package (editable) in the venv, rebuilt when a C or build file changes.
-install: $(VENV)/.installed
+# The Python package (editable) in the venv, rebuilt when a C or build file changes; ./mprt runs
+# the venv's mprt from anywhere (no activation needed).
+install: $(VENV)/.installed mprt
 $(VENV)/.installed: $(PY) $(SRC) $(HDR) python/mprt/_build.py pyproject.toml setup.py
 	$(PY) -m pip install -q -e '.[test]'
 	@touch $@
 
-pytest: $(VENV)/.installed
+mprt: $(VENV)/.installed
+	@printf '#!/bin/sh\n# made by make install: the mprt command of this checkout'"'"'s virtual environment\nexec $(if $(filter /%,$(VENV)),"$(VENV)","$$(dirname "$$0")/$(VENV)")/bin/mprt "$$@"\n' > $@
+	@chmod +x $@
+	@echo "./mprt runs mprt from $(VENV) (or: . $(VENV)/bin/activate, then mprt)"
+
+pytest: $(VENV)/.installed mprt
 	$(PY) -m pytest -q tests
 
 test: ctest pytest fuzz-replay baselines
@@ -75,7 +81,7 @@ baselines-update: $(VENV)/.installed
 	    $(PY) -m mprt simulate tests/data/golden/$$t.npz --model $$m \
 	        --json tests/data/golden/baselines/$$t.$$m.json > /dev/null; done
 
-demo: $(VENV)/.installed
+demo: $(VENV)/.installed mprt
 	$(PY) -m mprt explore balls --res 48x48 --budget 1000 --plot explore.png --json explore.json
 
 # make bench: this checkout against BEFORE (a git revision, default main), built
