@@ -83,21 +83,21 @@ def _tolerance(text: str) -> float:
 def add_parser(subparsers) -> argparse.ArgumentParser:
     s = machine_cli.add_parser(subparsers)
     f = s.add_argument_group("fidelity")
-    f.add_argument("--level", choices=("0", "1", "2", "3", "auto"), default=None,
-                   help="0 analytical, 1 ideal network and memory, 2 the ring, 3 the memories; auto: the cheapest "
-                        "within --tolerance (default: the configuration's own level)")
+    from .. import options as opt
+    opt.add_level(f, default=None, default_text="the configuration's own level",
+                  extra="; auto: the cheapest within --tolerance")
     f.add_argument("--engine", choices=ENGINES, default="auto",
-                   help="auto (default): the compiled replay where exact, else SimPy")
+                   help="auto: the compiled replay where exact, else SimPy (default: auto)")
     f.add_argument("--sample", type=_sampling, nargs="?", const=Sampling.parse(DEFAULT_SAMPLE), default=None,
                    metavar="runs:K:SEED[:R]|K[:SEED]",
                    help="replay runs of consecutive trees holding a K-th of the frame's visits (R trees each, "
                         f"default {S_RUN}) and scale up by the whole frame's level 0, with a 95%% interval; "
                         f"--sample alone: {DEFAULT_SAMPLE}; samples of tiles (random, stratified, regular) are "
                         "refused, their interval does not hold (default: no sample, the whole frame replayed)")
-    f.add_argument("--tolerance", type=_tolerance, default=None,
-                   help="error allowed, e.g. 0.01 or 1%%: by --level auto, the level's against the top level "
-                        "(default 1%%); with --baseline, the cycles' move from the baseline (default 0: a replay "
-                        "is deterministic)")
+    f.add_argument("--tolerance", type=_tolerance, default=None, metavar="P",
+                   help="error allowed, e.g. 0.01 or 1%%: by --level auto, the level's against the top level; "
+                        "with --baseline, the cycles' move from the baseline (default: 1%% for --level auto, 0 "
+                        "with --baseline: a replay is deterministic)")
     f.add_argument("--baseline", metavar="FILE.json", default=None,
                    help="the JSON of an earlier 'mprt simulate --json': exit 3 when the cycles move beyond "
                         "--tolerance from its cycles, naming the stages that moved (default: no check)")
