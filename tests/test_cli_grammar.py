@@ -161,3 +161,34 @@ def test_every_problem_found_before_work_exits_2(argv, words, capsys, tmp_path, 
         code = e.code
     assert code == 2
     assert words in capsys.readouterr().err
+
+
+# -- no silent long work (issue 20, item 2, in part) ------------------------------------------------
+def test_sweep_progress_shows_done_of_total_and_the_time_left():
+    import io
+    from mprt.explore.cli import sweep_progress
+    now = [0.0]
+    out = io.StringIO()
+    tick = sweep_progress(out, clock=lambda: now[0])
+    tick(0, 4)
+    for done in (1, 2, 4):
+        now[0] = 10.0 * done
+        tick(done, 4)
+    tick.end()
+    lines = out.getvalue().splitlines()
+    assert lines[0].startswith("  0/4 tasks done")
+    assert lines[1] == "  1/4 tasks done, 10 s, about 30 s left"
+    assert lines[2] == "  2/4 tasks done, 20 s, about 20 s left"
+    assert lines[-1] == "  4/4 tasks done, 40 s"
+    quiet = io.StringIO()
+    tick = sweep_progress(quiet, clock=lambda: 0.0)
+    tick(0, 0)
+    assert quiet.getvalue() == "  every task is in the cache\n"
+
+
+def test_simulate_says_what_it_will_do_first(capsys):
+    from pathlib import Path
+    golden = Path(__file__).parent / "data" / "golden" / "tetra-g4.npz"
+    assert cli.main(["simulate", str(golden), "--model", "M", "--level", "1"]) == 0
+    first = capsys.readouterr().out.splitlines()[0]
+    assert first == f"simulate {golden}: read the trace, then replay it on M at level 1"

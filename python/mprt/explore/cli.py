@@ -178,6 +178,40 @@ def add_parsers(sub) -> None:
     w.set_defaults(func=run_sweep)
 
 
+def sweep_progress(stream=None, clock=time.perf_counter):
+    """The sweep's progress: "done/total tasks" with the time left (from the mean time of the
+    tasks done so far), on one line rewritten on a terminal, else a line at each tenth."""
+    stream = stream or sys.stderr
+    tty = stream.isatty()
+    state = {"start": None, "shown": -1, "open": False}
+
+    def tick(done: int, total: int):
+        if state["start"] is None:
+            state["start"] = clock()
+            if total == 0:
+                print("  every task is in the cache", file=stream, flush=True)
+                return
+        if total == 0:
+            return
+        spent = clock() - state["start"]
+        left = f", about {spent / done * (total - done):.0f} s left" if 0 < done < total else ""
+        text = f"  {done}/{total} tasks done, {spent:.0f} s{left}"
+        if tty:
+            print("\r" + text + " " * 8, end="", file=stream, flush=True)
+            state["open"] = True
+        elif done == total or done * 10 // total != state["shown"]:
+            state["shown"] = done * 10 // total
+            print(text, file=stream, flush=True)
+
+    def end():
+        if state["open"]:
+            print(file=stream, flush=True)
+            state["open"] = False
+
+    tick.end = end
+    return tick
+
+
 def _nonnegative_int(text: str) -> int:
     try:
         v = int(text)
@@ -233,6 +267,12 @@ def run_explore(a) -> int:
               level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, algorithm=a.algorithm,
               polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads, fraction=a.fraction,
               sample=a.sample, verify=a.verify)
+    print(f"explore {scene.name} at {w}x{h}: "
+          + ("measure the fidelity ladder on a low-resolution trace, " if a.level == "auto" else "")
+          + f"search up to {a.max_evals} designs ({a.algorithm}, then {a.polish}), polish the best subdivisions "
+            f"at {w}x{h}, verify the best {a.verify}"
+          + (f", on the Dask scheduler {a.scheduler}" if a.scheduler else "")
+          + "; each phase reports its progress and time", flush=True)
     if a.scheduler:
         from .distributed import run_remote
         rep = run_remote(a.scheduler, explore_spec, a.scene, kw)
@@ -341,15 +381,13 @@ def run_sweep(a) -> int:
     except SpaceError as e:
         raise opt.UsageError(str(e)) from None
     check_output(os.path.join(a.out, "x"))  if os.path.isdir(a.out) else check_output(a.out)
-    n = [0]
-
-    def tick():
-        n[0] += 1
-        print(f"\r  {n[0]} tasks done", end="", file=sys.stderr, flush=True)
-
+    print(f"sweep   {len(spec['scenes'])} scene(s) x {len(spec['subdivisions'])} subdivision(s) x "
+          f"{len(spec['designs'])} design(s) at {spec['width']}x{spec['height']}, level {spec['level']}, on "
+          f"{'the Dask scheduler ' + a.scheduler if a.scheduler else 'a local Dask cluster'}; progress with an "
+          "estimate of the time left below", flush=True)
+    tick = sweep_progress()
     r = sweep(spec, a.out, scheduler=a.scheduler, workers=a.workers, progress=tick)
-    if n[0]:
-        print(file=sys.stderr)
+    tick.end()
     print(f"sweep   {r['rows']} rows from {r['tasks']} tasks ({r['cached']} from the cache) in {r['seconds']:.1f} s")
     print(f"wrote   {r['csv']}\nwrote   {r['png']}")
     return 0

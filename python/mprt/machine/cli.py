@@ -110,6 +110,13 @@ def run(a, load=None, replay=None) -> int:
             raise ConfigError(f"{cfg.source + ': ' if cfg.source else ''}pes: {cfg.pes} PEs but only "
                               f"{a.res[0] * a.res[1]} pixels")
         t0 = time.perf_counter()
+        level = getattr(a, "level", None)
+        print(f"simulate {a.source}: {'read the trace' if a.source.endswith('.npz') else 'trace the scene'}, then "
+              f"replay it on {cfg.name}"
+              + (f" at level {level}" if level not in (None, "auto") else " (level auto: measured first)"
+                 if level == "auto" else "")
+              + (f", {a.sample} of it" if getattr(a, "sample", None) else "")
+              + (f", against the baseline {a.baseline}" if getattr(a, "baseline", None) else ""), flush=True)
         trace, settings, how = (load or _load_source)(a)
         print(how)
         if replay is None:
