@@ -18,7 +18,8 @@ SRC := $(wildcard c/src/*.c)
 HDR := c/include/mprt.h $(wildcard c/src/*.h)
 TESTS := $(patsubst tests/c/%.c,$(B)/%,$(wildcard tests/c/test_*.c))
 
-.PHONY: all test ctest pytest demo bench asan tsan single clean install fuzz fuzz-replay fuzz-python
+.PHONY: all test ctest pytest demo bench asan tsan single clean install fuzz fuzz-replay fuzz-python baselines \
+	baselines-update
 
 all: $(B)/libmprt.a $(TESTS)
 
@@ -49,18 +50,39 @@ $(PY):
 	@$(PYTHON) -m venv $(VENV) || { echo "could not create $(VENV): on Debian, apt-get install python3-venv" >&2; exit 1; }
 	$(PY) -m pip install -q --upgrade pip
 
-# The Python package (editable) in the venv, rebuilt when a C or build file changes.
-install: $(VENV)/.installed
+# The Python package (editable) in the venv, rebuilt when a C or build file changes; ./mprt runs
+# the venv's mprt from anywhere (no activation needed).
+install: $(VENV)/.installed mprt
 $(VENV)/.installed: $(PY) $(SRC) $(HDR) python/mprt/_build.py pyproject.toml setup.py
 	$(PY) -m pip install -q -e '.[test]'
 	@touch $@
 
-pytest: $(VENV)/.installed
+mprt: $(VENV)/.installed
+	@printf '#!/bin/sh\n# made by make install: the mprt command of this checkout'"'"'s virtual environment\nexec $(if $(filter /%,$(VENV)),"$(VENV)","$$(dirname "$$0")/$(VENV)")/bin/mprt "$$@"\n' > $@
+	@chmod +x $@
+	@echo "./mprt runs mprt from $(VENV) (or: . $(VENV)/bin/activate, then mprt)"
+
+pytest: $(VENV)/.installed mprt
 	$(PY) -m pytest -q tests
 
-test: ctest pytest fuzz-replay
+test: ctest pytest fuzz-replay baselines
 
-demo: $(VENV)/.installed
+# The replays pinned as a hardware team would pin its designs (README, "Pinning a design in CI"):
+# two golden traces, each against its baseline; exit 3 names the stage that moved.  After a change
+# meant to move them: make baselines-update.
+BASELINES = tetra-g4:M balls-g9:3mppe
+baselines: $(VENV)/.installed
+	@set -e; for b in $(BASELINES); do t=$${b%%:*}; m=$${b##*:}; \
+	    $(PY) -m mprt simulate tests/data/golden/$$t.npz --model $$m \
+	        --baseline tests/data/golden/baselines/$$t.$$m.json --tolerance 0 > /dev/null; \
+	    echo "baseline $$t on $$m: unchanged"; done
+
+baselines-update: $(VENV)/.installed
+	@set -e; for b in $(BASELINES); do t=$${b%%:*}; m=$${b##*:}; \
+	    $(PY) -m mprt simulate tests/data/golden/$$t.npz --model $$m \
+	        --json tests/data/golden/baselines/$$t.$$m.json > /dev/null; done
+
+demo: $(VENV)/.installed mprt
 	$(PY) -m mprt explore balls --res 48x48 --budget 1000 --plot explore.png --json explore.json
 
 # make bench: this checkout against BEFORE (a git revision, default main), built

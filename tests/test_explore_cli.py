@@ -28,7 +28,7 @@ def test_explore_json_report(tmp_path, capsys):
     r = json.loads(out.read_text())
     best = r["best"]
     assert len(best["subdivision"]) == 3 and all(isinstance(n, int) for n in best["subdivision"])
-    assert best["cost"] <= 400
+    assert best["cost"] <= 400 and r["feasible"] is True and best["feasible"] is True
     assert r["seconds"] > 0 and r["evaluations"] == len(r["history"])
     # --level auto: the ladder's cheapest level within the tolerance verifies, the search runs at most at 1
     lv = r["level"]

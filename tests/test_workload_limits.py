@@ -19,15 +19,30 @@ ENDLESS = ("v\nfrom 0 0 -3\nat 0 0 0\nup 0 1 0\nangle 10\nhither 0\nresolution 8
            "l 0 0 10\nf 1 1 1 0.1 0.1 50 0.9 5.5\ns 0 0 0 1\ns 0 0 3 1\n")
 
 
-@pytest.mark.parametrize("text, line, words", [
-    (HANG_27_BYTES, 1, "Kd 1, Ks 5 and T 9 must each be in [0, 1]"),
-    (HANG_58_BYTES, 2, "Ks 0.5 + T 0.9 = 1.4 is over 1"),
-], ids=["27 bytes", "58 bytes"])
-def test_the_fuzz_hangs_are_refused_at_their_line(text, line, words):
-    """Each input that hung the tracer is refused while reading, naming the line and the weights."""
+def test_the_fuzz_hang_with_weights_over_1_is_refused_at_its_line():
+    """The input that hung the tracer with Ks 5 and T 9 is refused while reading, naming the line
+    and the weights."""
     with pytest.raises(mprt.SceneParseError) as e:
-        mprt.Scene.from_text(text, "hang.nff")
-    assert f"hang.nff:{line}: material: {words}" in str(e.value)
+        mprt.Scene.from_text(HANG_27_BYTES, "hang.nff")
+    assert "hang.nff:1: material: Kd 1, Ks 5 and T 9 must each be in [0, 1]" in str(e.value)
+
+
+@pytest.mark.parametrize("rules", ["paper", "spd"])
+def test_the_fuzz_hang_with_ks_plus_t_over_1_is_read_and_ends(rules):
+    """The other input (Ks + T = 1.4, ior 5.5) is read since issue 20, with a note; no child
+    outweighs its parent (TIR carries at most 1), so its render ends (at the cutoff, the depth
+    limit or the ray budget), the same for 1 and 2 threads."""
+    scene = mprt.Scene.from_text(HANG_58_BYTES, "hang.nff")
+    assert len(scene.notes) == 1 and scene.notes[0].startswith("hang.nff:2: material: Ks 0.5 + T 0.9 = 1.4 is over 1")
+    grid = scene.grid(4)
+    results = []
+    for threads in (1, 2):
+        try:
+            img, c = grid.render(8, 8, rules=rules, threads=threads)
+            results.append((img.tobytes(), c))
+        except WorkLimitError as e:
+            results.append(str(e))
+    assert results[0] == results[1]
 
 
 @pytest.mark.parametrize("rules", ["paper", "spd"])

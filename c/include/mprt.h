@@ -100,6 +100,18 @@ int mprt_scene_load_nff(mprt_scene *scene, const char *path);
 /* Append NFF text; name is used in error messages (e.g. the file name).
  * On error the scene is left as it was before the call. */
 int mprt_scene_parse_nff(mprt_scene *scene, const char *text, size_t len, const char *name);
+/* Flags of the _ex readers.  MPRT_NFF_SKIP_UNKNOWN: an entity the reader does
+ * not know (an extension line such as "fp ...", "Q 0", "Z 481") is skipped
+ * with the lines after it that start with a number (its data), and a note
+ * names each such entity with its count; without it, such a line is an error
+ * naming the entity. */
+#define MPRT_NFF_SKIP_UNKNOWN 1
+int mprt_scene_load_nff_ex(mprt_scene *scene, const char *path, unsigned flags);
+int mprt_scene_parse_nff_ex(mprt_scene *scene, const char *text, size_t len, const char *name, unsigned flags);
+/* Notes of the NFF reads so far ("" if none), one line each ending in '\n':
+ * a file's materials with Ks + T over 1 (read as written: the ray budget of a
+ * sample bounds their ray trees) and the unknown entities skipped. */
+const char *mprt_scene_notes(const mprt_scene *scene);
 /* Write the scene as NFF text into buf (cap bytes, NUL included). OUT: needed
  * (bytes incl. NUL); MPRT_ERR_CAPACITY when cap < needed. */
 int mprt_scene_write_nff(const mprt_scene *scene, char *buf, size_t cap, size_t *needed);

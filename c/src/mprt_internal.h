@@ -124,6 +124,7 @@ struct mprt_scene {
     int width, height;
     double background[3];
     char warning[MPRT__ERRMSG]; /* first dropped entity */
+    char notes[2 * MPRT__ERRMSG]; /* the NFF reader's notes (mprt_scene_notes) */
 
     /* Neither saved nor restored */
     char errmsg[MPRT__ERRMSG];
@@ -159,6 +160,13 @@ void mprt__vformat(char *buf, size_t cap, const char *fmt, va_list ap);
 
 /* Record that an entity was dropped (counted; the first message is kept). */
 void mprt__scene_warn(mprt_scene *scene, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 2, 3)))
+#endif
+    ;
+
+/* Append a line to the scene's notes (cut short, ending in "...", when full). */
+void mprt__scene_note(mprt_scene *scene, const char *fmt, ...)
 #if defined(__GNUC__)
     __attribute__((format(printf, 2, 3)))
 #endif

@@ -29,6 +29,18 @@
  * with fewer than 3 vertices has zero area.  So the text the writer makes
  * reads back to the same polygon.
  *
+ * Materials.  Kd, Ks and T must each lie in [0, 1]; Ks + T may exceed 1
+ * (the glass of many NFF files, "f .9 .9 .9 .1 .9 50 .9 1.33"): such
+ * materials are read as written, with one note per file
+ * (mprt_scene_notes) naming the first and the count, since the ray budget of
+ * a sample bounds the work of their wider ray trees.
+ *
+ * Unknown entities.  A line whose first token is no entity above fails with
+ * "NAME:LINE: unknown entity 'fp'".  With MPRT_NFF_SKIP_UNKNOWN it is
+ * skipped, with the lines after it that start with a number (the entity's
+ * data), and one note names each skipped entity with its count and first
+ * line.
+ *
  * The writer is in nff_write.c. */
 #include "nff.h"
 
@@ -127,7 +139,70 @@ static int nff_fill(nff_reader *r)
     int st = mprt__nff_numbers(r, 1, 8, m, "after 'f' (r g b Kd Ks Shine T ior)");
     if (st != MPRT_OK) return st;
     st = mprt_scene_set_material(r->scene, m, m[3], m[4], m[5], m[6], m[7]);
-    return st == MPRT_OK ? st : mprt__nff_api_fail(r, st, r->line);
+    if (st != MPRT_OK) return mprt__nff_api_fail(r, st, r->line);
+    if (m[4] + m[6] > 1 + 1e-12 && r->over_one++ == 0) { /* (a margin for decimal text: 0.3 + 0.7) */
+        r->over_line = r->line;
+        r->over_ks = m[4];
+        r->over_t = m[6];
+    }
+    return MPRT_OK;
+}
+
+/* An entity the reader does not know, under MPRT_NFF_SKIP_UNKNOWN: counted
+ * by name; its number lines are skipped by the caller. */
+static void nff_skip_unknown(nff_reader *r)
+{
+    char shown[160];
+    int i;
+    mprt__nff_show(r->tok[0], shown, sizeof shown);
+    r->in_unknown = 1;
+    for (i = 0; i < r->nunknown; i++) {
+        if (strcmp(r->unknown[i].name, shown) == 0) {
+            r->unknown[i].count++;
+            return;
+        }
+    }
+    if (r->nunknown == NFF_UNKNOWN || strlen(shown) >= sizeof r->unknown[0].name) {
+        r->unknown_more++;
+        return;
+    }
+    strcpy(r->unknown[r->nunknown].name, shown);
+    r->unknown[r->nunknown].count = 1;
+    r->unknown[r->nunknown].first = r->line;
+    r->nunknown++;
+}
+
+/* The token starts like a number (a data line of a skipped entity). */
+static int nff_numberlike(nff_token t)
+{
+    return t.n > 0 && (strchr("0123456789+-.", t.s[0]) != NULL);
+}
+
+/* The notes of a read that succeeded: Ks + T over 1, entities skipped. */
+static void nff_notes(nff_reader *r)
+{
+    char list[600];
+    size_t used = 0;
+    int i;
+    if (r->over_one)
+        mprt__scene_note(r->scene,
+                         "%s:%ld: material: Ks %g + T %g = %g is over 1 (%ld such material%s in the file): read as "
+                         "written; a hit's reflection and refraction rays may then carry more light in all than "
+                         "their parent, and the ray budget of a sample (max_rays) bounds the work",
+                         r->name, r->over_line, r->over_ks, r->over_t, r->over_ks + r->over_t, r->over_one,
+                         r->over_one == 1 ? "" : "s");
+    if (!r->nunknown && !r->unknown_more) return;
+    list[0] = '\0';
+    for (i = 0; i < r->nunknown && used < sizeof list; i++) {
+        int n = snprintf(list + used, sizeof list - used, "%s'%s' %ld time%s (first at line %ld)", i ? ", " : "",
+                         r->unknown[i].name, r->unknown[i].count, r->unknown[i].count == 1 ? "" : "s",
+                         r->unknown[i].first);
+        if (n < 0) break;
+        used += (size_t)n;
+    }
+    if (r->unknown_more && used < sizeof list)
+        snprintf(list + used, sizeof list - used, " and %ld more of other entities", r->unknown_more);
+    mprt__scene_note(r->scene, "%s: unknown entities skipped: %s", r->name, list);
 }
 
 /* Open cone frustum, or a cylinder when the radii are equal, between a base
@@ -287,6 +362,11 @@ char mprt__decimal_point(void)
 
 int mprt_scene_parse_nff(mprt_scene *scene, const char *text, size_t len, const char *name)
 {
+    return mprt_scene_parse_nff_ex(scene, text, len, name, 0);
+}
+
+int mprt_scene_parse_nff_ex(mprt_scene *scene, const char *text, size_t len, const char *name, unsigned flags)
+{
     nff_reader r;
     mprt__scene_saved saved;
     char shown[160];
@@ -299,10 +379,16 @@ int mprt_scene_parse_nff(mprt_scene *scene, const char *text, size_t len, const 
     r.p = text ? text : "";
     r.end = r.p + len;
     r.point = mprt__decimal_point();
+    r.flags = flags;
+    if (flags & ~(unsigned)MPRT_NFF_SKIP_UNKNOWN)
+        return mprt__scene_fail(scene, MPRT_ERR_INVALID_ARG, "parse_nff: unknown flags 0x%x", flags & ~(unsigned)MPRT_NFF_SKIP_UNKNOWN);
     mprt__scene_mark(scene, &saved);
     while (st == MPRT_OK && mprt__nff_next_entity_line(&r)) {
         nff_token k = r.tok[0];
-        if (nff_is(k, "s")) st = nff_sphere(&r);
+        int was_unknown = r.in_unknown;
+        r.in_unknown = 0;
+        if (was_unknown && nff_numberlike(k)) r.in_unknown = 1; /* data of the skipped entity */
+        else if (nff_is(k, "s")) st = nff_sphere(&r);
         else if (nff_is(k, "p")) st = nff_polygon(&r, 0);
         else if (nff_is(k, "c")) st = nff_cone(&r);
         else if (nff_is(k, "f")) st = nff_fill(&r);
@@ -310,15 +396,19 @@ int mprt_scene_parse_nff(mprt_scene *scene, const char *text, size_t len, const 
         else if (nff_is(k, "l")) st = nff_light(&r);
         else if (nff_is(k, "b")) st = nff_background(&r);
         else if (nff_is(k, "v")) st = nff_view(&r);
+        else if ((flags & MPRT_NFF_SKIP_UNKNOWN) && !nff_numberlike(k)) nff_skip_unknown(&r);
         else st = nff_fail(&r, r.line, "unknown entity '%s'", mprt__nff_show(k, shown, sizeof shown));
     }
+    if (st == MPRT_OK) nff_notes(&r);
     if (st != MPRT_OK) mprt__scene_rollback(scene, &saved);
     free(r.verts);
     free(r.norms);
     return st;
 }
 
-int mprt_scene_load_nff(mprt_scene *s, const char *path)
+int mprt_scene_load_nff(mprt_scene *s, const char *path) { return mprt_scene_load_nff_ex(s, path, 0); }
+
+int mprt_scene_load_nff_ex(mprt_scene *s, const char *path, unsigned flags)
 {
     FILE *f;
     struct stat info;
@@ -361,7 +451,7 @@ int mprt_scene_load_nff(mprt_scene *s, const char *path)
     }
     fclose(f);
     buf[len] = '\0';
-    st = mprt_scene_parse_nff(s, buf, len, path);
+    st = mprt_scene_parse_nff_ex(s, buf, len, path, flags);
     free(buf);
     return st;
 }

@@ -9,6 +9,7 @@
 
 #define NFF_MAXTOK 12  /* tokens kept per line; further ones are only counted */
 #define NFF_NUMBUF 128 /* longest token accepted as a number */
+#define NFF_UNKNOWN 8  /* unknown entities named in the note of a skipping read */
 
 typedef struct {
     const char *s;
@@ -25,6 +26,17 @@ typedef struct {
     char point;              /* the C library's decimal point in this locale */
     double *verts, *norms;   /* polygon scratch, 3 doubles per vertex each */
     size_t capverts;         /* vertices the scratch arrays hold */
+    unsigned flags;          /* MPRT_NFF_* */
+    long over_one;           /* materials with Ks + T over 1 */
+    long over_line;          /* the first one's line */
+    double over_ks, over_t;  /* and its weights */
+    int in_unknown;          /* the last entity was skipped: its number lines are skipped too */
+    int nunknown;            /* distinct unknown entities skipped (those kept in unknown[]) */
+    long unknown_more;       /* skipped entities beyond unknown[]'s names */
+    struct {
+        char name[40];       /* as mprt__nff_show quotes it */
+        long count, first;   /* how many; the line of the first */
+    } unknown[NFF_UNKNOWN];
 } nff_reader;
 
 /* The token is the string literal word. */

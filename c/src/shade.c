@@ -142,7 +142,8 @@ void mprt__sc_shade(const mprt__render_setup *setup, const mprt__tree_ray *ray, 
     /* Secondary rays.  Refraction follows Snell's law; at total internal
      * reflection (TIR) there is no refraction ray and the transmitted share
      * goes to the reflection ray instead, so one reflection ray carries
-     * Ks + T (never two rays along the same direction).  Paper rules make a
+     * Ks + T, at most 1 (never two rays along the same direction; a child
+     * never outweighs its parent, even where Ks + T is over 1).  Paper rules make a
      * reflection ray when Ks > 0 or at TIR.  SPD rules (its Readme, rules 8
      * and 9) make one on every reflective or transmitting surface: on a
      * transmitting surface with Ks = 0 it carries no weight (contribution
@@ -154,7 +155,7 @@ void mprt__sc_shade(const mprt__render_setup *setup, const mprt__tree_ray *ray, 
         if (!tir) refract = vnorm(vadd(vscale(ray->dir, (real)eta), vscale(n, (real)(eta * cosi - sqrt(k)))));
     }
     if (m->ks > 0 || tir || (spd && m->t > 0)) {
-        double w = ray->contribution * (m->ks + (tir ? m->t : 0));
+        double w = ray->contribution * fmin(m->ks + (tir ? m->t : 0), 1.0);
         if (keep_child(desc, w, ray->depth + 1))
             make_child(&ch, MPRT_RAY_REFLECT, reflect_dir(ray->dir, n), INF_REAL, w, ray->depth + 1, -1);
         else

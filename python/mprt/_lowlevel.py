@@ -188,12 +188,19 @@ class Binding:
     def scene_warning(self, h) -> str:
         return self._text(self.lib.mprt_scene_warning(h))
 
-    def scene_load_nff(self, h, path) -> None:
-        self._scene(h, self.lib.mprt_scene_load_nff(h, os.fsencode(path)))
+    def scene_notes(self, h) -> list:
+        return self._text(self.lib.mprt_scene_notes(h)).splitlines()
 
-    def scene_parse_nff(self, h, text: str, name: str) -> None:
+    def _nff_flags(self, skip_unknown: bool) -> int:
+        return self.lib.MPRT_NFF_SKIP_UNKNOWN if skip_unknown else 0
+
+    def scene_load_nff(self, h, path, skip_unknown: bool = False) -> None:
+        self._scene(h, self.lib.mprt_scene_load_nff_ex(h, os.fsencode(path), self._nff_flags(skip_unknown)))
+
+    def scene_parse_nff(self, h, text: str, name: str, skip_unknown: bool = False) -> None:
         data = text.encode()
-        self._scene(h, self.lib.mprt_scene_parse_nff(h, data, len(data), name.encode()))
+        self._scene(h, self.lib.mprt_scene_parse_nff_ex(h, data, len(data), name.encode(),
+                                                        self._nff_flags(skip_unknown)))
 
     def scene_write_nff(self, h) -> str:
         ffi, lib = self.ffi, self.lib

@@ -32,8 +32,7 @@ from .trace import load_trace
 from .tracing import select_tiles, trace
 from .atomic import open_replacing
 
-EPILOG = ("exit status: 0 done; 1 an error during the work (a malformed scene file, a damaged trace, ...); "
-          "2 a bad option, scene or output path, found before any work")
+EPILOG = options.EXIT_STATUS
 
 
 def _size(n: float) -> str:
@@ -73,7 +72,7 @@ def _scene_and_grid(a):
     """The scene, how it was chosen, its grid and the resolved render description; prints the
     scene and grid lines."""
     t0 = time.perf_counter()
-    scene, how = options.load_scene(a.scene)
+    scene, how = options.load_scene(a.scene, skip_unknown=a.skip_unknown)
     t1 = time.perf_counter()
     grid = scene.grid(a.grid)
     t2 = time.perf_counter()
@@ -126,7 +125,7 @@ def _render(grid, kw: dict, desc: dict, show: bool, force: bool):
 
 def cmd_render(a) -> int:
     options.check_render_options(a)
-    options.check_outputs(("-o", a.output, "png"), ("--stats", a.stats, "json"))
+    options.check_outputs(("-o", a.output, "png"), ("--json", a.json, "json"))
     t0 = time.perf_counter()
     scene, how, grid, desc, times = _scene_and_grid(a)
     t2 = time.perf_counter()
@@ -141,9 +140,9 @@ def cmd_render(a) -> int:
     if a.output:
         write_png(a.output, image)
         print(f"wrote   {a.output}")
-    if a.stats:
+    if a.json:
         info, gs = scene.info(), grid.stats()
-        options.write_json(a.stats, {
+        options.write_json(a.json, {
             **counters,
             "scene_stats": {"primitives": info["prims"], "by_kind": info["count"], "lights": info["lights"],
                             "dropped": info["dropped"]},
@@ -152,7 +151,7 @@ def cmd_render(a) -> int:
             "seconds": times,
             "wall_seconds": time.perf_counter() - t0,
         })
-        print(f"wrote   {a.stats}")
+        print(f"wrote   {a.json}")
     return 0
 
 
@@ -264,15 +263,23 @@ def trace_settings(meta: dict, path: str, argv) -> dict:
 
 
 def cmd_stats(a) -> int:
+    if a.trace is None and a.json and a.json.endswith(".npz"):     # the old spelling: stats --json TRACE.npz
+        a.trace, a.json = a.json, "-"
+    if a.trace is None:
+        raise UsageError("the following argument is required: TRACE.npz")
     options.check_input("TRACE", a.trace)
+    if a.json != "-":
+        options.check_outputs(("--json", a.json, "json"))
     t0 = time.perf_counter()
     tr = load_trace(a.trace, mmap=True)     # memory-mapped and read in chunks: bounded memory
     st = tr.check() if a.check else tr.stats()
     if a.json:
-        options.write_json(sys.stdout, {**st, "invariants_checked": bool(a.check),
-                                        "settings": trace_settings(tr.meta, a.trace, a.argv),
-                                        "wall_seconds": time.perf_counter() - t0})
-        return 0
+        options.write_json(sys.stdout if a.json == "-" else a.json,
+                           {**st, "invariants_checked": bool(a.check),
+                            "settings": trace_settings(tr.meta, a.trace, a.argv),
+                            "wall_seconds": time.perf_counter() - t0})
+        if a.json == "-":
+            return 0
     m = tr.meta
     print(f"{m['scene']}  grid {'x'.join(map(str, m['grid']))}  {m['width']}x{m['height']}  rules {m['rules']}"
           f"  threshold {m['threshold']:g}  tiles {len(m['tiles'])}/{m['tiles_total']}")
@@ -291,6 +298,8 @@ def cmd_stats(a) -> int:
               + " ".join(f"{i}:{c / total:.3f}" for i, c in enumerate(hist[:12]) if c))
     if a.check:
         print("  invariants: ok")
+    if a.json:
+        print(f"wrote   {a.json}")
     return 0
 
 
@@ -308,7 +317,7 @@ def build_parser() -> argparse.ArgumentParser:
                         + ", ".join(f"{k} 1..{v}" for k, v in options.SPD_MAX_SIZES.items())
                         + " (default: the SPD default, " + ", ".join(f"{k} {v}" for k, v in
                                                                      options.SPD_DEFAULT_SIZES.items()) + ")")
-    s.add_argument("-o", "--output", help="NFF file to write (default: stdout)")
+    s.add_argument("-o", "--output", metavar="OUT.nff", help="NFF file to write (default: stdout)")
     s.set_defaults(func=cmd_scene)
 
     r = sub.add_parser("render", help="render a scene to PNG and print its statistics", epilog=EPILOG,
@@ -316,9 +325,10 @@ def build_parser() -> argparse.ArgumentParser:
     options.add_scene_argument(r)
     options.add_render_options(r)
     r.add_argument("--progress", action="store_true",
-                   help="show a progress bar (time estimated) even when stderr is not a terminal or the render is short")
-    r.add_argument("-o", "--output", metavar="OUT.png", help=options.OUTPUT_HELP["png"])
-    r.add_argument("--stats", metavar="OUT.json", help=options.OUTPUT_HELP["json"])
+                   help="show a progress bar (time estimated) even when stderr is not a terminal or the render "
+                        "takes under a second (default: on a terminal)")
+    r.add_argument("-o", "--output", metavar="OUT.png", help=options.OUTPUT_HELP["png"] + " (default: none)")
+    options.add_json(r, "--stats")
     r.set_defaults(func=cmd_render)
 
     t = sub.add_parser("trace", help="record every stage visit of every ray (a per-ray cost trace)", epilog=EPILOG,
@@ -328,23 +338,27 @@ def build_parser() -> argparse.ArgumentParser:
     options.add_scene_argument(t)
     options.add_render_options(t, trace=True)
     sel = t.add_mutually_exclusive_group()
-    sel.add_argument("--tiles", type=options.tiles_arg, default=None,
-                     help="only these tiles, e.g. 0,5,9 (numbered row by row from 0)")
-    sel.add_argument("--sample", type=options.sample_arg, default=None,
-                     help="regular:K (every K-th tile) or random:N:SEED (N distinct tiles, at most the image's)")
-    t.add_argument("--progress", action="store_true", help="show a progress bar even when stderr is not a terminal")
+    sel.add_argument("--tiles", type=options.tiles_arg, default=None, metavar="T,T,...",
+                     help="only these tiles, e.g. 0,5,9 (numbered row by row from 0) (default: every tile)")
+    sel.add_argument("--sample", type=options.sample_arg, default=None, metavar="SPEC",
+                     help="only a sample of the tiles: regular:K (every K-th tile) or random:N:SEED (N distinct "
+                          "tiles, at most the image's) (default: every tile)")
+    t.add_argument("--progress", action="store_true",
+                   help="show a progress bar even when stderr is not a terminal (default: on a terminal)")
     t.add_argument("--compress", action="store_true",
                    help="deflate the trace (several times smaller, slower to write; loads into memory whole "
-                        "instead of memory-mapped)")
-    t.add_argument("-o", "--output", metavar="OUT.npz", required=True, help=options.OUTPUT_HELP["npz"])
+                        "instead of memory-mapped) (default: off)")
+    t.add_argument("-o", "--output", metavar="OUT.npz", required=True,
+                   help=options.OUTPUT_HELP["npz"] + " (required)")
     t.set_defaults(func=cmd_trace)
 
     st = sub.add_parser("stats", help="the paper's statistics of a trace", epilog=EPILOG,
                         description="Print the paper's statistics of a trace (bounded memory, any size).")
-    st.add_argument("trace", metavar="TRACE.npz")
-    st.add_argument("--check", action="store_true", help="validate the trace's invariants first")
-    st.add_argument("--json", action="store_true",
-                    help="print the statistics as JSON, with the trace's settings and the wall time")
+    st.add_argument("trace", metavar="TRACE.npz", nargs="?", help="a trace written by mprt trace")
+    st.add_argument("--check", action="store_true", help="validate the trace's invariants first (default: off)")
+    st.add_argument("--json", metavar="OUT.json", nargs="?", const="-", default=None,
+                    help=options.OUTPUT_HELP["json"] + "; --json alone (or -) prints it to stdout instead of the "
+                         "table, as before (default: none)")
     st.set_defaults(func=cmd_stats)
     add_simulate(sub)
     add_explore(sub)

@@ -37,7 +37,7 @@ import sys
 from fractions import Fraction
 
 from ._lowlevel import EXT_VERSION, RULES, binding
-from .errors import InvalidArgument
+from .errors import InvalidArgument, SceneParseError
 from .scene import SPD_DEFAULT_SIZES, SPD_SCENES, Scene
 from .atomic import open_replacing
 
@@ -210,35 +210,93 @@ SCENE_HELP = ("an SPD scene name with an optional size (balls, balls:2; always t
 
 def add_scene_argument(p: argparse.ArgumentParser, name: str = "scene") -> None:
     p.add_argument(name, metavar="SCENE", help=SCENE_HELP)
+    add_skip_unknown(p)
+
+
+def add_skip_unknown(p: argparse.ArgumentParser) -> None:
+    """--skip-unknown: for every subcommand that reads an NFF scene."""
+    p.add_argument("--skip-unknown", action="store_true",
+                   help="read an NFF file without the entities mprt does not know (extension lines such as "
+                        "'fp ...', 'Q 0', 'Z 481', with the number lines after each), warning with each entity "
+                        "and its count (default: off, such a line is an error naming the entity)")
+
+
+# -- the shared options: one definition each, so every subcommand spells, checks and documents
+# them alike (tests/test_cli_grammar.py walks every parser and checks it) ------------------------
+EXIT_STATUS = ("exit status: 0 done; 1 an error during the work (a malformed scene file, a damaged trace, ...); "
+               "2 a bad option, scene, input or output path, found before any work")
+
+
+def add_grid(p) -> None:
+    p.add_argument("--grid", type=grid_arg, default=None, metavar="N|NX,NY,NZ",
+                   help=f"voxels per axis, each 1..{GRID_MAX} (default: Scene.default_grid, about "
+                        "8*N^(1/3) along the box's longest axis for N primitives)")
+
+
+def add_res(p) -> None:
+    p.add_argument("--res", type=resolution_arg, default=None, metavar="WxH",
+                   help=f"image size, each 1..{RES_MAX} (default: the scene's view resolution)")
+
+
+def add_rules(p, sentinel: bool = False) -> None:
+    """``sentinel``: the parsed default is None (so a command can tell it was given), the help
+    the same."""
+    p.add_argument("--rules", choices=tuple(RULES), default=None if sentinel else "paper",
+                   help="shading rules: paper (pixel centres, contribution cutoff), spd (SPD's procedure: "
+                        "pixel corners, depth 5, no cutoff) or paper1992 (paper with the workload conventions "
+                        "that reproduce the 1992 paper's counts: docs/workload.md) (default: paper)")
+
+
+def add_threshold(p) -> None:
+    p.add_argument("--threshold", type=threshold_arg, default=None, metavar="X",
+                   help=f"contribution cutoff in [0, 1), paper and paper1992 rules only "
+                        f"(default: {fraction_text(default_threshold())})")
+
+
+def add_threads(p, sentinel: bool = False) -> None:
+    p.add_argument("--threads", type=threads_arg, default=None if sentinel else default_threads(), metavar="N",
+                   help=f"threads, 1..{THREADS_MAX}; results are the same bits for any number "
+                        f"(default: {default_threads()}, the machine's cores)")
+
+
+def add_tile(p, trace: bool = False) -> None:
+    p.add_argument("--tile", type=tile_arg, default=None, metavar="N",
+                   help=f"tile edge in samples, 1..{TILE_MAX}: the unit of work{' and of --tiles/--sample' if trace else ''}"
+                        f" (default: {default_tile()})")
+
+
+def add_json(p, *aliases: str) -> None:
+    """--json OUT.json (``aliases``: old spellings, kept)."""
+    p.add_argument("--json", *aliases, dest="json", metavar="OUT.json", default=None,
+                   help=OUTPUT_HELP["json"] + (f" ({', '.join(aliases)}: the old spelling)" if aliases else "")
+                   + " (default: none)")
+
+
+LEVEL_HELP = ("fidelity level: 0 analytical, 1 ideal network and memory (the compiled replay), 2 the ring, "
+              "3 the memories")
+
+
+def add_level(p, default, default_text: str, extra: str = "") -> None:
+    p.add_argument("--level", choices=("0", "1", "2", "3", "auto"), default=default,
+                   help=f"{LEVEL_HELP}{extra} (default: {default_text})")
 
 
 def add_render_options(p: argparse.ArgumentParser, trace: bool = False) -> argparse._ArgumentGroup:
     """--grid, --res, --rules, --threshold, --threads, --tile, --mailbox, each with its range
     and default in --help.  Returns the argument group (to add more)."""
     g = p.add_argument_group("rendering")
-    g.add_argument("--grid", type=grid_arg, default=None, metavar="N|NX,NY,NZ",
-                   help=f"voxels per axis, each 1..{GRID_MAX} (default: Scene.default_grid, about "
-                        "8*N^(1/3) along the box's longest axis for N primitives)")
-    g.add_argument("--res", type=resolution_arg, default=None, metavar="WxH",
-                   help=f"image size, each 1..{RES_MAX} (default: the scene's view resolution)")
-    g.add_argument("--rules", choices=tuple(RULES), default="paper",
-                   help="shading rules: paper (pixel centres, contribution cutoff), spd (SPD's procedure: "
-                        "pixel corners, depth 5, no cutoff) or paper1992 (paper with the workload conventions "
-                        "that reproduce the 1992 paper's counts: docs/workload.md) (default: paper)")
-    g.add_argument("--threshold", type=threshold_arg, default=None,
-                   help=f"contribution cutoff in [0, 1), paper and paper1992 rules only (default: {fraction_text(default_threshold())})")
-    g.add_argument("--threads", type=threads_arg, default=default_threads(),
-                   help=f"threads, 1..{THREADS_MAX} (default: {default_threads()}, the machine's cores); "
-                        "results are the same bits for any number")
-    g.add_argument("--tile", type=tile_arg, default=None,
-                   help=f"tile edge in samples, 1..{TILE_MAX}: the unit of work{' and of --tiles/--sample' if trace else ''}"
-                        f" (default: {default_tile()})")
+    add_grid(g)
+    add_res(g)
+    add_rules(g)
+    add_threshold(g)
+    add_threads(g)
+    add_tile(g, trace)
     g.add_argument("--max-rays", type=int_range_arg("max-rays", 1, MAX_RAYS_MAX), default=None, metavar="N",
                    help=f"ray budget of one sample (its eye ray and all its descendants), 1..{MAX_RAYS_MAX}: a "
                         "sample needing more stops the render with an error naming it, so no scene runs away "
                         f"(default: {default_max_rays()})")
     g.add_argument("--mailbox", action="store_true",
-                   help="IC skips primitives the ray already tested (fewer tests, same image; default: off, as the "
+                   help="IC skips primitives the ray already tested (fewer tests, same image) (default: off, as the "
                         "paper's IC)")
     return g
 
@@ -258,10 +316,13 @@ def render_kwargs(a) -> dict:
 
 
 # -- scenes -------------------------------------------------------------------------------------
-def load_scene(spec: str, precision: str = "double", note=None):
+def load_scene(spec: str, precision: str = "double", note=None, skip_unknown: bool = False):
     """(Scene, how): the scene a SCENE argument names under the rule in this module's text, and
     a phrase saying which was used.  When an SPD name is also a file or directory here, a note
-    says it is not read (``note``: a function of the message; default: print to stderr)."""
+    says it is not read (``note``: a function of the message; default: print to stderr).  An NFF
+    file's reader notes (Ks + T over 1, unknown entities skipped under ``skip_unknown``) are
+    printed as warnings; an unknown entity without ``skip_unknown`` is an error that names it
+    and says how to read the file without it."""
     base, colon, size = spec.partition(":")
     if base in SPD_SCENES:
         n = spd_size(base, size if colon else None)
@@ -275,7 +336,16 @@ def load_scene(spec: str, precision: str = "double", note=None):
     if not os.path.exists(spec):
         raise UsageError(f"scene {spec!r} is neither a file nor an SPD scene ({', '.join(SPD_SCENES)}, "
                          "with an optional :SIZE)")
-    return Scene.from_nff(spec, precision), f"NFF file {spec}"
+    try:
+        scene = Scene.from_nff(spec, precision, skip_unknown=skip_unknown)
+    except SceneParseError as e:
+        if "unknown entity" in str(e) and not skip_unknown:
+            raise SceneParseError(f"{e} (--skip-unknown reads the file without the entities mprt does not "
+                                  "know, warning with each)") from None
+        raise
+    for line in scene.notes:
+        print(f"mprt: warning: {line}", file=sys.stderr)
+    return scene, f"NFF file {spec}"
 
 
 def _note(message: str) -> None:

@@ -37,20 +37,30 @@ class Scene:
 
     # -- construction ---------------------------------------------------------------
     @classmethod
-    def from_nff(cls, path, precision: str = "double") -> "Scene":
-        """Load an NFF file."""
+    def from_nff(cls, path, precision: str = "double", skip_unknown: bool = False) -> "Scene":
+        """Load an NFF file.  An unknown entity (an extension line such as ``fp``, ``Q 0``) is an
+        error naming it; ``skip_unknown`` reads the file without such entities (and the number
+        lines after each), listing each with its count in ``notes``."""
         s = cls(precision)
-        s._ll.scene_load_nff(s._h, path)
+        s._ll.scene_load_nff(s._h, path, skip_unknown)
         s.name = os.path.basename(os.fspath(path))
         return s
 
     @classmethod
-    def from_text(cls, text: str, name: str = "<string>", precision: str = "double") -> "Scene":
-        """Parse NFF text; ``name`` appears in error messages."""
+    def from_text(cls, text: str, name: str = "<string>", precision: str = "double",
+                  skip_unknown: bool = False) -> "Scene":
+        """Parse NFF text; ``name`` appears in error messages (``skip_unknown``: as in from_nff)."""
         s = cls(precision)
-        s._ll.scene_parse_nff(s._h, text, name)
+        s._ll.scene_parse_nff(s._h, text, name, skip_unknown)
         s.name = name
         return s
+
+    @property
+    def notes(self) -> list:
+        """The NFF reader's notes, one string each: a file's materials with Ks + T over 1 (read
+        as written; the ray budget of a sample bounds their ray trees) and the unknown entities
+        skipped with their counts."""
+        return self._ll.scene_notes(self._h)
 
     @classmethod
     def spd(cls, name: str, size: int | None = None, precision: str = "double") -> "Scene":

@@ -1,6 +1,7 @@
 """The trace file format: an .npz (zip) of ``meta.json`` and one ``.npy`` per array.
 
-``meta`` carries the format name and version and a CRC-32 of every member, so
+``meta`` carries the format name and version and a CRC-32 of every member (the
+version 1 files of the first trace format carry a SHA-256 instead), so
 an unknown version, a truncated file or edited data are each a clear
 ``TraceError``.  The records (``rays``, ``visits``) are stored as they are in
 memory, uncompressed unless asked, so that they are memory-mapped on request
@@ -17,6 +18,7 @@ and writes (meta, arrays) pairs whose arrays are those of ``ARRAYS``;
 from __future__ import annotations
 
 import ctypes
+import hashlib
 import io
 import json
 import mmap
@@ -252,6 +254,25 @@ def _read_meta(path, z, names) -> dict:
     return meta
 
 
+def sha256(a: np.ndarray, chunk: int = 1 << 24) -> str:
+    """SHA-256 (hex) of an array's bytes, in chunks (memory-mapped arrays page in and out)."""
+    h = hashlib.sha256()
+    b = a.reshape(-1).view(np.uint8) if a.flags.c_contiguous else np.ascontiguousarray(a).reshape(-1).view(np.uint8)
+    for i in range(0, len(b), chunk):
+        h.update(memoryview(np.ascontiguousarray(b[i:i + chunk])))
+    return h.hexdigest()
+
+
+def _checksum_matches(meta: dict, name: str, a: np.ndarray) -> bool:
+    """The member's checksum in ``meta``: CRC-32 (``crc32``, versions 2 and 3 and later version 1
+    files) or SHA-256 (``sha256``, the version 1 files of the first trace format)."""
+    if "crc32" in meta:
+        return meta["crc32"].get(name) == crc(a)
+    if "sha256" in meta and meta.get("version") == 1:
+        return meta["sha256"].get(name) == sha256(a)
+    return False
+
+
 def _rename_v1(visits: np.ndarray) -> np.ndarray:
     """Version 1 visits (same bytes) seen with today's field names."""
     if visits.dtype.names is None:
@@ -292,7 +313,7 @@ def read(path, mmap: bool | None = None, verify: bool = True):
                     arrays[k] = np.lib.format.read_array(io.BytesIO(data), allow_pickle=False)
             except (ValueError, EOFError, zipfile.BadZipFile, OSError, TraceError) as e:
                 raise TraceError(f"{path}: array {k!r} is truncated or corrupt ({e})") from None
-            if verify and meta.get("crc32", {}).get(k) != crc(arrays[k]):
+            if verify and not _checksum_matches(meta, k, arrays[k]):
                 raise TraceError(f"{path}: array {k!r} does not match its checksum (tampered or damaged)")
     if meta["version"] == FORMAT_VERSION:
         try:

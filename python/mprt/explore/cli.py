@@ -87,12 +87,11 @@ def check_output(path) -> None:
         raise OSError(f"{path}: directory {d} is not writable")
 
 
-def _common(p, res_default: str):
-    p.add_argument("scene", help="NFF path, or SPD name with optional size (balls, balls:2)")
-    p.add_argument("--res", type=opt.resolution_arg, default=opt.resolution_arg(res_default), metavar="WxH", help=f"WxH (default {res_default})")
-    p.add_argument("--json", metavar="OUT.json", help="write the report as JSON")
-    p.add_argument("--threads", type=opt.threads_arg, default=opt.default_threads(),
-                   help=f"tracing threads, 1..{opt.THREADS_MAX} (default: {opt.default_threads()}, the machine's cores)")
+def _common(p):
+    opt.add_scene_argument(p)
+    opt.add_res(p)
+    opt.add_json(p)
+    opt.add_threads(p)
 
 
 def add_parsers(sub) -> None:
@@ -100,70 +99,135 @@ def add_parsers(sub) -> None:
 
     e = sub.add_parser("explore", help="search the design space for the fastest machine (and subdivision)",
                        description="Search a design space (--space, or the built-in one) with NLopt for the "
-                                   "machine that renders SCENE fastest under a hardware budget.")
-    _common(e, "48x48")
+                                   "machine that renders SCENE fastest under a hardware budget.",
+                       epilog=opt.EXIT_STATUS)
+    _common(e)
     e.add_argument("--space", metavar="FILE.toml", help="design space (default: the built-in space)")
     e.add_argument("--objective", choices=OBJECTIVES, default="time",
-                   help="time: cycles (under --budget); time*cost; pareto: the front by a sweep of budgets")
-    e.add_argument("--budget", type=_positive(float), default=None, help="hardware budget in kGE")
-    e.add_argument("--level", choices=("0", "1", "2", "3", "auto"), default="auto",
-                   help="fidelity level: auto (default) measures the ladder on this scene and takes the cheapest "
-                        "within --tolerance; the search runs at no more than level 1, the best designs are "
-                        "verified at the level chosen")
-    e.add_argument("--tolerance", type=_percent, default=0.01,
-                   help="error the level may have against the most faithful one, with --level auto (default 1%%)")
-    e.add_argument("--sample", type=_sample, default="auto",
+                   help="time: cycles (under --budget); time*cost; pareto: the front by a sweep of budgets "
+                        "(default: time)")
+    e.add_argument("--budget", type=_positive(float), default=None, metavar="KGE",
+                   help="hardware budget in kGE; one below the space's cheapest design is refused before any "
+                        "work (default: none)")
+    opt.add_level(e, default="auto", default_text="auto",
+                  extra="; auto measures the ladder on this scene and takes the cheapest within --tolerance; the "
+                        "search runs at no more than level 1, the best designs are verified at the level chosen")
+    e.add_argument("--tolerance", type=_percent, default=0.01, metavar="P",
+                   help="error the level may have against the most faithful one, with --level auto (default: 1%%)")
+    e.add_argument("--sample", type=_sample, default="auto", metavar="SPEC",
                    help="trace only these tiles of the full-resolution frame for the final polish and scale up "
-                        "(stratified:K:SEED, random:N:SEED, regular:K, or none; default: stratified:16:1 above "
-                        "256x256)")
-    e.add_argument("--verify", type=_positive(int), default=4,
-                   help="designs re-evaluated at the verification level when it is above the search's (default 4)")
-    e.add_argument("--algorithm", choices=[a for a in GLOBAL_ALGORITHMS if a != "none"], default="direct-l")
-    e.add_argument("--polish", choices=POLISHES, default="lattice")
-    e.add_argument("--max-evals", type=_positive(int), default=1000,
-                   help="most distinct designs in the global phase (default 1000)")
-    e.add_argument("--seed", type=int, default=1)
-    e.add_argument("--fraction", type=_positive(int), default=None,
-                   help="search on traces at 1/FRACTION of --res, then polish the best at --res "
+                        "(stratified:K:SEED, random:N:SEED, regular:K, or none) (default: auto, stratified:16:1 "
+                        "above 256x256)")
+    e.add_argument("--verify", type=_positive(int), default=4, metavar="K",
+                   help="designs re-evaluated at the verification level when it is above the search's (default: 4)")
+    e.add_argument("--algorithm", choices=[a for a in GLOBAL_ALGORITHMS if a != "none"], default="direct-l",
+                   help="NLopt's global search (default: direct-l)")
+    e.add_argument("--polish", choices=POLISHES, default="lattice",
+                   help="the local search from the global phase's best: lattice steps or an NLopt local method "
+                        "(default: lattice)")
+    e.add_argument("--max-evals", type=_positive(int), default=1000, metavar="N",
+                   help="most distinct designs in the global phase (default: 1000)")
+    e.add_argument("--seed", type=int, default=1, help="seed of the randomised searches and of the ladder's "
+                                                       "designs (default: 1)")
+    e.add_argument("--fraction", type=_positive(int), default=None, metavar="F",
+                   help="search on traces at 1/F of --res, then polish the best at --res "
                         "(default: about 64 pixels across; 1: search at --res)")
-    e.add_argument("--scheduler", metavar="ADDRESS", help="run the search on this Dask scheduler")
-    e.add_argument("--plot", metavar="OUT.png", help="history, cost against cycles, utilisation")
+    e.add_argument("--scheduler", metavar="ADDRESS",
+                   help="run the search on this Dask scheduler (default: in this process)")
+    e.add_argument("--plot", metavar="OUT.png", help="history, cost against cycles, utilisation (default: none)")
     e.add_argument("--report", metavar="OUT.html",
                    help="write one self-contained HTML page: the answer, the references, the ladder (speed "
-                        "against error), the search's history, the plots and the command that reproduces it")
+                        "against error), the search's history, the plots and the command that reproduces it "
+                        "(default: none)")
     e.set_defaults(func=run_explore)
 
     p = sub.add_parser("prepass", help="choose the voxel subdivision from low-resolution traces",
                        description="Trace SCENE at a fraction of --res over candidate subdivisions (searched over "
                                    "--range, or the --candidates given), predict each one's full-resolution "
-                                   "cycles on the paper's 3MPPE, and print the best.")
-    _common(p, "512x512")
-    p.add_argument("--candidates", type=_candidates, default=None,
+                                   "cycles on the paper's 3MPPE, and print the best.",
+                       epilog=opt.EXIT_STATUS)
+    _common(p)
+    p.add_argument("--candidates", type=_candidates, default=None, metavar="N,...|NXxNYxNZ,...",
                    help="subdivisions to try, e.g. 20,50,100 or 20,50,100/8x8x2 (default: searched)")
-    p.add_argument("--range", type=_range, default=None, dest="n_range",
+    p.add_argument("--range", type=_range, default=None, dest="n_range", metavar="LO:HI",
                    help="voxels along the longest axis to search, LO:HI (default: 1 to 32 times the cube root "
                         "of the primitive count)")
     p.add_argument("--shape", choices=("proportional", "cube"), default="proportional",
-                   help="one n as n along the longest axis, others in proportion (default), or n per axis")
-    p.add_argument("--fraction", type=_positive(int), default=16, help="trace at 1/FRACTION of --res (default 16)")
-    p.add_argument("--check", type=int, default=0, metavar="K",
+                   help="one n as n along the longest axis, others in proportion, or n per axis "
+                        "(default: proportional)")
+    p.add_argument("--fraction", type=_positive(int), default=16, metavar="F",
+                   help="trace at 1/F of --res (default: 16)")
+    p.add_argument("--verify", "--check", type=_nonnegative_int, default=0, metavar="K", dest="check",
                    help="trace the K best predictions at --res on about 16 of its 16x16 tiles (stratified; a "
-                        "sixty-fourth of 512x512) and choose among them by that (default 0: the "
-                        "low-resolution prediction alone)")
+                        "sixty-fourth of 512x512) and choose among them by that (default: 0, the "
+                        "low-resolution prediction alone; --check K is the old spelling)")
     p.add_argument("--refine", choices=("golden", "parabola", "none"), default="golden",
-                   help="narrow the ladder's bracket by golden-section steps (default), by one parabola "
-                        "step (half the candidates, less exact where time is jagged in n), or not at all")
+                   help="narrow the ladder's bracket by golden-section steps, by one parabola step (half the "
+                        "candidates, less exact where time is jagged in n), or not at all (default: golden)")
     p.set_defaults(func=run_prepass)
 
-    w = sub.add_parser("sweep", help="scenes x subdivisions x designs on Dask, to a CSV and plots")
-    w.add_argument("spec", metavar="SPEC.toml")
-    w.add_argument("--out", required=True, metavar="DIR", help="directory for sweep.csv, sweep.png and the cache")
+    from .sweep import __doc__ as sweep_doc
+    w = sub.add_parser("sweep", help="scenes x subdivisions x designs on Dask, to a CSV and plots",
+                       description="Replay every design of SPEC.toml on every scene at every subdivision, on Dask "
+                                   "(a local cluster, or --scheduler), to DIR/sweep.csv and DIR/sweep.png; tasks "
+                                   "already in DIR's cache are not run again.",
+                       epilog=sweep_doc.split("\n\n", 1)[1].split("\nwrites")[0].strip("\n").replace(
+                           "The spec file::", "the spec file (TOML):") + "\n\n" + opt.EXIT_STATUS,
+                       formatter_class=argparse.RawDescriptionHelpFormatter)
+    w.add_argument("spec", metavar="SPEC.toml", help="the sweep: scenes, res, subdivisions, designs (below)")
+    w.add_argument("--out", required=True, metavar="DIR",
+                   help="directory for sweep.csv, sweep.png and the cache, made if missing (required)")
     w.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (default: a LocalCluster)")
     w.add_argument("--report", metavar="OUT.html",
-                   help="also write one self-contained HTML page: the rows, the plot and the command")
-    w.add_argument("--workers", type=int, default=None,
+                   help="also write one self-contained HTML page: the rows, the plot and the command "
+                        "(default: none)")
+    w.add_argument("--workers", type=_nonnegative_int, default=None, metavar="N",
                    help="LocalCluster worker processes (default: one per core; 0: run in this process)")
     w.set_defaults(func=run_sweep)
+
+
+def sweep_progress(stream=None, clock=time.perf_counter):
+    """The sweep's progress: "done/total tasks" with the time left (from the mean time of the
+    tasks done so far), on one line rewritten on a terminal, else a line at each tenth."""
+    stream = stream or sys.stderr
+    tty = stream.isatty()
+    state = {"start": None, "shown": -1, "open": False}
+
+    def tick(done: int, total: int):
+        if state["start"] is None:
+            state["start"] = clock()
+            if total == 0:
+                print("  every task is in the cache", file=stream, flush=True)
+                return
+        if total == 0:
+            return
+        spent = clock() - state["start"]
+        left = f", about {spent / done * (total - done):.0f} s left" if 0 < done < total else ""
+        text = f"  {done}/{total} tasks done, {spent:.0f} s{left}"
+        if tty:
+            print("\r" + text + " " * 8, end="", file=stream, flush=True)
+            state["open"] = True
+        elif done == total or done * 10 // total != state["shown"]:
+            state["shown"] = done * 10 // total
+            print(text, file=stream, flush=True)
+
+    def end():
+        if state["open"]:
+            print(file=stream, flush=True)
+            state["open"] = False
+
+    tick.end = end
+    return tick
+
+
+def _nonnegative_int(text: str) -> int:
+    try:
+        v = int(text)
+    except ValueError:
+        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
+    if v < 0:
+        raise argparse.ArgumentTypeError(f"{text!r} must be 0 or more")
+    return v
 
 
 def _progress_printer(every: int = 25):
@@ -197,16 +261,26 @@ def _progress_printer(every: int = 25):
 
 def run_explore(a) -> int:
     from .explorer import explore, plot
-    from .space import default_space, load_space
+    from .space import SpaceError, default_space, load_space
 
     opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"), ("--report", a.report, "html"))
-    space = load_space(a.space) if a.space else default_space()
-    scene = opt.load_scene(a.scene)[0]
-    w, h = a.res
+    try:
+        space = load_space(a.space) if a.space else default_space()
+    except SpaceError as e:
+        raise opt.UsageError(str(e)) from None
+    check_budget(space, a.budget, a.objective)
+    scene = opt.load_scene(a.scene, skip_unknown=a.skip_unknown)[0]
+    w, h = a.res or scene.info()["resolution"]
     kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget,
               level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, algorithm=a.algorithm,
               polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads, fraction=a.fraction,
               sample=a.sample, verify=a.verify)
+    print(f"explore {scene.name} at {w}x{h}: "
+          + ("measure the fidelity ladder on a low-resolution trace, " if a.level == "auto" else "")
+          + f"search up to {a.max_evals} designs ({a.algorithm}, then {a.polish}), polish the best subdivisions "
+            f"at {w}x{h}, verify the best {a.verify}"
+          + (f", on the Dask scheduler {a.scheduler}" if a.scheduler else "")
+          + "; each phase reports its progress and time", flush=True)
     if a.scheduler:
         from .distributed import run_remote
         rep = run_remote(a.scheduler, explore_spec, a.scene, kw)
@@ -214,6 +288,7 @@ def run_explore(a) -> int:
         show = _progress_printer()
         rep = explore(scene, progress=show, log=show.line, **kw)
         show.end()
+    mark_feasible(rep)
     print_report(rep)
     if a.json:
         with open_replacing(a.json) as f:
@@ -226,7 +301,32 @@ def run_explore(a) -> int:
         from .. import report
         report.write(a.report, report.explore_html(rep, getattr(a, "argv", None), a.plot))
         print(f"wrote   {a.report}")
+    if not rep["feasible"]:
+        print(f"mprt explore: error: the search found no design within the budget of {rep['budget']:g} kGE "
+              f"(its best costs {rep['best']['cost']:.0f} kGE); raise --budget or --max-evals", file=sys.stderr)
+        return 1
     return 0
+
+
+def check_budget(space, budget, objective) -> None:
+    """Before any work: a budget below the cheapest design of the space is refused (UsageError,
+    exit 2), naming that design's cost."""
+    from .hwcost import UnitCosts, cheapest_design
+
+    if budget is None or objective == "pareto":
+        return
+    cost, design = cheapest_design(space, UnitCosts.from_table(space.cost))
+    if cost > budget:
+        raise opt.UsageError(f"--budget {budget:g} kGE: no design in the space meets it; the cheapest costs "
+                             f"{cost:.1f} kGE ({design.describe()})")
+
+
+def mark_feasible(rep: dict) -> None:
+    """The report says whether its best meets the budget: ``feasible`` at the top and in ``best``
+    (always true without a budget)."""
+    budget = rep.get("budget")
+    ok = budget is None or rep["objective"] == "pareto" or rep["best"]["cost"] <= budget * (1 + 1e-12)
+    rep["feasible"] = rep["best"]["feasible"] = bool(ok)
 
 
 def explore_spec(scene_spec, kw):
@@ -244,7 +344,7 @@ def print_report(rep: dict) -> None:
     lv = rep["level"]
     print(f"level   search at {lv['search']}, verified at {lv['verify']}"
           + (f" (the ladder's choice within {100 * rep['tolerance']:g}%)" if lv["asked"] == "auto" else ""))
-    print(f"best    {b['described']}")
+    print(f"best    {b['described']}" + ("" if rep.get("feasible", True) else "  (OVER THE BUDGET)"))
     print(f"        subdivision {'x'.join(map(str, b['subdivision']))}; {b['cycles']:,.0f} cycles; "
           f"cost {b['cost']:.0f} kGE; {b['speedup_over_S']:.2f}x model S; bottleneck {b['bottleneck']}")
     print("        utilisation " + ", ".join(f"{k} {v:.0%}" for k, v in b["utilisation"].items()))
@@ -263,10 +363,8 @@ def run_prepass(a) -> int:
     from .prepass import prepass
 
     opt.check_outputs(("--json", a.json, "json"))
-    scene = opt.load_scene(a.scene)[0]
-    w, h = a.res
-    if a.check < 0:
-        raise opt.UsageError(f"--check {a.check}: give 0 or more candidates")
+    scene = opt.load_scene(a.scene, skip_unknown=a.skip_unknown)[0]
+    w, h = a.res or scene.info()["resolution"]
     r = prepass(scene, w, h, candidates=a.candidates, n_range=a.n_range, fraction=a.fraction, shape=a.shape,
                 threads=a.threads, check=a.check, refine=a.refine)
     lw, lh = r["low_resolution"]
@@ -287,21 +385,23 @@ def run_prepass(a) -> int:
 
 
 def run_sweep(a) -> int:
+    from .space import SpaceError
     from .sweep import load_spec, run_sweep as sweep
 
-    spec = load_spec(a.spec)
+    try:
+        spec = load_spec(a.spec)
+    except SpaceError as e:
+        raise opt.UsageError(str(e)) from None
     if a.report:
         opt.check_outputs(("--report", a.report, "html"))
     check_output(os.path.join(a.out, "x"))  if os.path.isdir(a.out) else check_output(a.out)
-    n = [0]
-
-    def tick():
-        n[0] += 1
-        print(f"\r  {n[0]} tasks done", end="", file=sys.stderr, flush=True)
-
+    print(f"sweep   {len(spec['scenes'])} scene(s) x {len(spec['subdivisions'])} subdivision(s) x "
+          f"{len(spec['designs'])} design(s) at {spec['width']}x{spec['height']}, level {spec['level']}, on "
+          f"{'the Dask scheduler ' + a.scheduler if a.scheduler else 'a local Dask cluster'}; progress with an "
+          "estimate of the time left below", flush=True)
+    tick = sweep_progress()
     r = sweep(spec, a.out, scheduler=a.scheduler, workers=a.workers, progress=tick)
-    if n[0]:
-        print(file=sys.stderr)
+    tick.end()
     print(f"sweep   {r['rows']} rows from {r['tasks']} tasks ({r['cached']} from the cache) in {r['seconds']:.1f} s")
     print(f"wrote   {r['csv']}\nwrote   {r['png']}")
     if a.report:

@@ -86,7 +86,9 @@ def run_remote(scheduler: str, fn, *args):
 def map_cached(tasks, fn, cache: DiskCache | None, dask_client=None, on_done=None) -> list:
     """``fn(*args)`` for each (key, args) in ``tasks``, in order; results
     already in ``cache`` are not recomputed, new ones are stored as each
-    task finishes.  Returns the results and how many came from the cache."""
+    task finishes.  Returns the results and how many came from the cache.
+    ``on_done(done, total)`` is called once before the first task (done 0) and
+    after each: ``total`` is the tasks to run (those not in the cache)."""
     out = [None] * len(tasks)
     todo = []
     for i, (key, args) in enumerate(tasks):
@@ -96,13 +98,17 @@ def map_cached(tasks, fn, cache: DiskCache | None, dask_client=None, on_done=Non
         else:
             todo.append(i)
     cached = len(tasks) - len(todo)
+    done = 0
+    if on_done:
+        on_done(0, len(todo))
     if dask_client is None:
         for i in todo:
             out[i] = fn(*tasks[i][1])
             if cache:
                 cache.put(tasks[i][0], out[i])
+            done += 1
             if on_done:
-                on_done()
+                on_done(done, len(todo))
     elif todo:
         from distributed import as_completed
 
@@ -112,6 +118,7 @@ def map_cached(tasks, fn, cache: DiskCache | None, dask_client=None, on_done=Non
             out[i] = fut.result()
             if cache:
                 cache.put(tasks[i][0], out[i])
+            done += 1
             if on_done:
-                on_done()
+                on_done(done, len(todo))
     return out, cached

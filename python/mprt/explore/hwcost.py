@@ -84,4 +84,26 @@ def cost_breakdown(design: Design, costs: UnitCosts | None = None) -> dict:
     return {k: v * design.pes for k, v in out.items()}
 
 
-__all__ = ["UnitCosts", "hardware_cost", "cost_breakdown"]
+def cheapest_design(space, costs: UnitCosts | None = None) -> tuple:
+    """(cost, design): the cheapest design of a space, found without a trace.  Every unit cost
+    is non-negative and every count (units, copies, FIFO words, KiB, PEs) multiplies one, so
+    within a stage mapping the cost cannot fall as a numeric variable grows: the cheapest
+    design of a mapping has each numeric variable at its smallest value (whatever the order of
+    a ``choices`` list), and the cheapest of the space is the cheapest over the mappings."""
+    pos = {v.name: i for i, v in enumerate(space.variables)}
+    base = []
+    for v in space.variables:
+        numeric = all(isinstance(x, (int, float)) and not isinstance(x, bool) for x in v.values)
+        base.append(min(range(v.size), key=lambda i: v.values[i]) if numeric else 0)
+    best = None
+    for m in range(space.variables[pos["mapping"]].size):
+        idx = list(base)
+        idx[pos["mapping"]] = m
+        design = space.point(space.canonical(idx)).design
+        c = hardware_cost(design, costs)
+        if best is None or c < best[0]:
+            best = (c, design)
+    return best
+
+
+__all__ = ["UnitCosts", "hardware_cost", "cost_breakdown", "cheapest_design"]

@@ -24,32 +24,32 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s = subparsers.add_parser(
         "simulate", help="replay a trace on a machine model (S, M, 3mppe or a TOML configuration)",
         description="Replay a trace on the machine model (SimPy).  A SCENE (SPD name or NFF file) is traced "
-                    "first with the tracing options.")
+                    "first with the tracing options.",
+        epilog=opt.EXIT_STATUS + "; 3 with --baseline: the cycles moved beyond --tolerance")
     s.add_argument("source", metavar="TRACE.npz|SCENE", help="a trace file, or a scene to trace first")
+    opt.add_skip_unknown(s)
     g = s.add_argument_group("tracing (when SOURCE is a scene)")
-    g.add_argument("--grid", type=opt.grid_arg, default=None, metavar="N|NX,NY,NZ",
-                   help=f"voxels per axis, each 1..{opt.GRID_MAX} (default: Scene.default_grid)")
-    g.add_argument("--res", type=opt.resolution_arg, default=None, metavar="WxH",
-                   help=f"image size, each 1..{opt.RES_MAX} (default: the scene's view resolution)")
-    g.add_argument("--rules", choices=("paper", "spd"), default=None, help="shading rules (default: paper)")
-    g.add_argument("--threshold", type=opt.threshold_arg, default=None,
-                   help=f"contribution cutoff in [0, 1), paper rules only "
-                        f"(default: {opt.fraction_text(opt.default_threshold())})")
-    g.add_argument("--threads", type=opt.threads_arg, default=None,
-                   help=f"tracing threads, 1..{opt.THREADS_MAX} (default: {opt.default_threads()}, the machine's cores)")
-    g.add_argument("--tile", type=opt.tile_arg, default=None,
-                   help=f"tile edge in samples, 1..{opt.TILE_MAX} (default: {opt.default_tile()})")
+    opt.add_grid(g)
+    opt.add_res(g)
+    opt.add_rules(g, sentinel=True)
+    opt.add_threshold(g)
+    opt.add_threads(g, sentinel=True)
+    opt.add_tile(g)
     m = s.add_argument_group("machine")
-    m.add_argument("--model", choices=tuple(BUILTIN), default=None, help="built-in configuration (default: M)")
-    m.add_argument("--config", metavar="FILE.toml", default=None, help="machine configuration file")
-    m.add_argument("--pes", type=opt.int_range_arg("PEs", 1, 1 << 20), default=None,
-                   help="number of PEs, 1..2^20 and at most the pixels (overrides the configuration)")
+    m.add_argument("--model", choices=tuple(BUILTIN), default=None,
+                   help="built-in configuration (default: M, or the --config file's)")
+    m.add_argument("--config", metavar="FILE.toml", default=None,
+                   help="machine configuration file (default: none, the --model)")
+    m.add_argument("--pes", type=opt.int_range_arg("PEs", 1, 1 << 20), default=None, metavar="N",
+                   help="number of PEs, 1..2^20 and at most the pixels (overrides the configuration) "
+                        "(default: the configuration's)")
     o = s.add_argument_group("output")
-    o.add_argument("--json", metavar="OUT.json", default=None, help="write the figures and settings as JSON")
+    opt.add_json(o)
     o.add_argument("--plot", metavar="OUT.png", default=None,
-                   help="write per-stage load bars, utilisation and FIFO occupancy over time (PNG)")
+                   help="write per-stage load bars, utilisation and FIFO occupancy over time (PNG) (default: none)")
     o.add_argument("--report", metavar="OUT.html", default=None,
-                   help="write one self-contained HTML page: the answer, the stages, the plots and the command")
+                   help="write one self-contained HTML page: the answer, the stages, the plots and the command "
+                        "(default: none)")
     s.set_defaults(func=run)
     return s
 
@@ -64,7 +64,7 @@ def _load_source(a):
         trace = load_trace(src)
         how = f"trace   {src}"
     else:
-        scene, _ = opt.load_scene(src)
+        scene, _ = opt.load_scene(src, skip_unknown=a.skip_unknown)
         grid = scene.grid(a.grid)
         w, h = a.res or (0, 0)
         t0 = time.perf_counter()
@@ -107,13 +107,20 @@ def run(a, load=None, replay=None) -> int:
         opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"), ("--report", a.report, "html"))
         if a.source.endswith(".npz"):
             opt.check_input("TRACE", a.source)
-        if a.threshold is not None and (a.rules or "paper") != "paper":
-            opt.check_render_options(argparse.Namespace(threshold=a.threshold, rules=a.rules))
+        if a.threshold is not None:
+            opt.check_render_options(argparse.Namespace(threshold=a.threshold, rules=a.rules or "paper"))
         cfg = resolve(a.model, a.config, a.pes)
         if a.res and not a.source.endswith(".npz") and cfg.pes > a.res[0] * a.res[1]:
             raise ConfigError(f"{cfg.source + ': ' if cfg.source else ''}pes: {cfg.pes} PEs but only "
                               f"{a.res[0] * a.res[1]} pixels")
         t0 = time.perf_counter()
+        level = getattr(a, "level", None)
+        print(f"simulate {a.source}: {'read the trace' if a.source.endswith('.npz') else 'trace the scene'}, then "
+              f"replay it on {cfg.name}"
+              + (f" at level {level}" if level not in (None, "auto") else " (level auto: measured first)"
+                 if level == "auto" else "")
+              + (f", {a.sample} of it" if getattr(a, "sample", None) else "")
+              + (f", against the baseline {a.baseline}" if getattr(a, "baseline", None) else ""), flush=True)
         trace, settings, how = (load or _load_source)(a)
         print(how)
         if replay is None:
@@ -136,12 +143,13 @@ def run(a, load=None, replay=None) -> int:
     print(res.report())
     print(f"time    {res.wall_seconds:.2f} s replay ({res.visits / max(res.wall_seconds, 1e-9):,.0f} visits/s), "
           f"{wall:.2f} s in all")
+    a.run_settings = {**settings, "model": cfg.name, "config_file": cfg.source, "pes": cfg.pes,
+                      "mprt_version": EXT_VERSION, "cost_model": "default"}
     out = res.to_dict()
     out.update(extra)
     out["wall_seconds"] = wall
     out["replay_seconds"] = res.wall_seconds
-    out["settings"] = {**settings, "model": cfg.name, "config_file": cfg.source, "pes": cfg.pes,
-                       "mprt_version": EXT_VERSION, "cost_model": "default"}
+    out["settings"] = a.run_settings
     if a.json:
         with open_replacing(a.json) as f:
             json.dump(out, f, indent=2)
