@@ -120,6 +120,20 @@ def test_the_common_options_are_where_the_issue_asks():
     assert {"simulate", "explore"} <= users["--level"]
 
 
+def test_every_sample_has_one_metavar_and_grammar():
+    """--sample SPEC everywhere, each in the one grammar; a method a command cannot use is refused
+    by name."""
+    users = shared_options()["--sample"]
+    assert {n for n, _ in users} == {"trace", "simulate", "explore"}
+    assert {a.metavar for _, a in users} == {"SPEC"}
+    for name, a in users:
+        for spec in ("random:4:1", "stratified:4:1", "regular:4", "runs:4:1"):
+            try:
+                a.type(spec)
+            except argparse.ArgumentTypeError as e:
+                assert spec in str(e) or spec.split(":")[0] in str(e), (name, spec, str(e))
+
+
 @pytest.mark.parametrize("name, old, new", ALIASES)
 def test_old_spellings_are_aliases(name, old, new):
     p = SUBS[name]

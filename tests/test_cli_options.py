@@ -61,8 +61,9 @@ def test_defaults_in_help_are_the_librarys():
     (options.threshold_arg, "1", "threshold 1 is not in [0, 1)"),
     (options.threshold_arg, "nan", "threshold nan is not in [0, 1)"),
     (options.threshold_arg, "-0.1", "threshold -0.1 is not in [0, 1)"),
-    (options.sample_arg, "random:0:1", "sample must be regular:K"),
-    (options.sample_arg, "every:2", "sample must be regular:K"),
+    (options.sample_arg, "random:0:1", "sample must be 'random:N:SEED', 'stratified:K:SEED', 'regular:K'"),
+    (options.sample_arg, "every:2", "sample must be 'random:N:SEED', 'stratified:K:SEED', 'regular:K'"),
+    (options.sample_arg, "runs:16:1", "runs:16:1: runs sample the replay of a whole frame's trace"),
     (options.tiles_arg, "1,x", "tiles must be a comma-separated list"),
     (options.tiles_arg, "-1", "tiles must be a comma-separated list"),
 ])

@@ -341,8 +341,9 @@ def build_parser() -> argparse.ArgumentParser:
     sel.add_argument("--tiles", type=options.tiles_arg, default=None, metavar="T,T,...",
                      help="only these tiles, e.g. 0,5,9 (numbered row by row from 0) (default: every tile)")
     sel.add_argument("--sample", type=options.sample_arg, default=None, metavar="SPEC",
-                     help="only a sample of the tiles: regular:K (every K-th tile) or random:N:SEED (N distinct "
-                          "tiles, at most the image's) (default: every tile)")
+                     help="only a sample of the tiles, in the grammar of every --sample: random:N:SEED (N tiles, "
+                          "at most the image's), stratified:K:SEED (one at random in each block of about K tiles) "
+                          "or regular:K (the tile nearest each block's centre) (default: every tile)")
     t.add_argument("--progress", action="store_true",
                    help="show a progress bar even when stderr is not a terminal (default: on a terminal)")
     t.add_argument("--compress", action="store_true",

@@ -166,14 +166,19 @@ def tiles_arg(text: str):
 
 
 def sample_arg(text: str) -> str:
-    """--sample: regular:K or random:N:SEED with K, N >= 1 (N is checked against the image's tiles later)."""
-    p = text.split(":")
-    ok = (len(p) == 2 and p[0] == "regular" and p[1].isdigit() and int(p[1]) >= 1) or \
-         (len(p) == 3 and p[0] == "random" and p[1].isdigit() and int(p[1]) >= 1 and p[2].lstrip("-").isdigit())
-    if not ok:
-        raise argparse.ArgumentTypeError(f"sample must be regular:K (every K-th tile, K >= 1) or random:N:SEED "
-                                         f"(N tiles, N >= 1), not {text!r}")
-    return text
+    """--sample of mprt trace: a sample of the tiles in the grammar of every --sample
+    (``tracing.SAMPLE_GRAMMAR``: random:N:SEED, stratified:K:SEED, regular:K; N is checked
+    against the image's tiles later); runs, a replay's sample, are refused here."""
+    from .tracing import Sampling
+
+    try:
+        s = Sampling.parse(text)
+    except InvalidArgument as e:
+        raise argparse.ArgumentTypeError(str(e)) from None
+    if s.method == "runs":
+        raise argparse.ArgumentTypeError(f"{text}: runs sample the replay of a whole frame's trace (mprt simulate "
+                                         "--sample), not the tiles to trace; use random, stratified or regular")
+    return str(s)
 
 
 def spd_size(name: str, size) -> int | None:

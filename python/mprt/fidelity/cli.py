@@ -89,8 +89,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     f.add_argument("--engine", choices=ENGINES, default="auto",
                    help="auto: the compiled replay where exact, else SimPy (default: auto)")
     f.add_argument("--sample", type=_sampling, nargs="?", const=Sampling.parse(DEFAULT_SAMPLE), default=None,
-                   metavar="runs:K:SEED[:R]|K[:SEED]",
-                   help="replay runs of consecutive trees holding a K-th of the frame's visits (R trees each, "
+                   metavar="SPEC",
+                   help="runs:K:SEED[:R] (or K[:SEED]): replay runs of consecutive trees holding a K-th of the "
+                        "frame's visits (R trees each, "
                         f"default {S_RUN}) and scale up by the whole frame's level 0, with a 95%% interval; "
                         f"--sample alone: {DEFAULT_SAMPLE}; samples of tiles (random, stratified, regular) are "
                         "refused, their interval does not hold (default: no sample, the whole frame replayed)")

@@ -45,79 +45,12 @@ import numpy as np
 
 from ..errors import InvalidArgument
 from ..trace import PRIMARY, Trace
+# The sample specifications and the choice of tiles are the tracer's (mprt trace --sample takes
+# the same ones): re-exported here, where they began.
+from ..tracing import RUN_TREES, Sampling, block_shape, blocks, choose  # noqa: F401
 
-RUN_TREES = 1024        # runs: trees per run (several windows of model M's 256 rays)
 RUN_SCALE_WINDOWS = 3   # runs: level 0's chunks when scaling (windows; smooths like the FIFOs do)
 _EXTRA = ("voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material", "samples")
-
-
-@dataclass(frozen=True)
-class Sampling:
-    """A parsed sample specification."""
-
-    method: str          # "random", "stratified", "regular" or "runs"
-    k: int               # random: tiles drawn; runs: one in k trees; otherwise: tiles per block
-    seed: int | None
-    run: int = RUN_TREES  # runs: trees per run
-
-    @classmethod
-    def parse(cls, text: str) -> "Sampling":
-        parts = str(text).split(":")
-        try:
-            if parts[0] in ("random", "stratified") and len(parts) == 3 and int(parts[1]) >= 1:
-                return cls(parts[0], int(parts[1]), int(parts[2]))
-            if parts[0] == "regular" and len(parts) == 2 and int(parts[1]) >= 1:
-                return cls("regular", int(parts[1]), None)
-            if (parts[0] == "runs" and len(parts) in (3, 4) and int(parts[1]) >= 1
-                    and (len(parts) == 3 or int(parts[3]) >= 1)):
-                return cls("runs", int(parts[1]), int(parts[2]), int(parts[3]) if len(parts) == 4 else RUN_TREES)
-        except ValueError:
-            pass
-        raise InvalidArgument(f"sample must be 'random:N:SEED', 'stratified:K:SEED', 'regular:K' or "
-                              f"'runs:K:SEED[:R]' (N, K, R whole numbers >= 1), not {text!r}")
-
-    def __str__(self) -> str:
-        tail = f":{self.run}" if self.method == "runs" and self.run != RUN_TREES else ""
-        return f"{self.method}:{self.k}" + (f":{self.seed}" if self.seed is not None else "") + tail
-
-
-def block_shape(tiles_x: int, tiles_y: int, k: int) -> tuple:
-    """(bx, by): blocks of bx x by tiles, bx * by about k, as square as the tiling allows."""
-    by = max(1, min(tiles_y, int(round(math.sqrt(k)))))
-    bx = max(1, min(tiles_x, int(round(k / by))))
-    return bx, by
-
-
-def blocks(tiles_x: int, tiles_y: int, k: int) -> list:
-    """The blocks of about k tiles, in serpentine order (neighbours adjacent), each a list
-    of tile numbers."""
-    bx, by = block_shape(tiles_x, tiles_y, k)
-    out = []
-    for j, y0 in enumerate(range(0, tiles_y, by)):
-        xs = list(range(0, tiles_x, bx))
-        for x0 in (xs if j % 2 == 0 else xs[::-1]):
-            out.append([y * tiles_x + x for y in range(y0, min(y0 + by, tiles_y))
-                        for x in range(x0, min(x0 + bx, tiles_x))])
-    return out
-
-
-def choose(sampling: Sampling, tiles_x: int, tiles_y: int) -> tuple:
-    """(tiles chosen, sorted; weights: the tiles each stands for; strata: block index per
-    chosen tile, or None under random sampling)."""
-    n = tiles_x * tiles_y
-    if sampling.method == "random":
-        m = min(sampling.k, n)
-        rng = np.random.default_rng(sampling.seed)
-        sel = np.sort(rng.choice(n, size=m, replace=False)).astype(np.int64)
-        return sel, np.full(m, n / m), None
-    bl = blocks(tiles_x, tiles_y, sampling.k)
-    rng = np.random.default_rng(sampling.seed) if sampling.method == "stratified" else None
-    pick = []
-    for b in bl:
-        pick.append(b[int(rng.integers(len(b)))] if rng is not None else b[(len(b) - 1) // 2])
-    pick = np.asarray(pick, np.int64)
-    order = np.argsort(pick, kind="stable")
-    return pick[order], np.asarray([len(bl[i]) for i in order], float), order
 
 
 def tree_tiles(trace, tile: int) -> np.ndarray:
