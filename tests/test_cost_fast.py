@@ -148,3 +148,32 @@ def test_records_in_another_layout_take_the_reference_path():
     assert not fast.usable(odd) and fast.usable(tr)
     procs = {s: ProcessorConfig.paper(s) for s in ("OS", "IC", "SC")}
     _same(CostModel.default().visit_costs(odd, procs), CostModel.default().visit_costs(tr, procs), "layout")
+
+
+def test_threads_share_a_large_trace_with_the_same_results(monkeypatch):
+    tr = mprt.load_trace(GOLDEN[0])
+    reps = (1 << 21) // len(tr.visits) + 1          # over 2^21 visits: two shares of at least 2^20
+    v = np.concatenate([tr.visits] * reps)
+    v["ray"] += np.repeat(np.arange(reps) * len(tr.rays), len(tr.visits))
+    r = np.concatenate([tr.rays] * reps)
+    shift = np.repeat(np.arange(reps) * len(tr.rays), len(tr.rays))
+    r["id"] += shift
+    r["parent"] = np.where(r["parent"] >= 0, r["parent"] + shift, -1)
+    big = dataclasses.replace(tr, rays=r, visits=v)
+    cm, procs = CostModel.default(), {s: ProcessorConfig.paper(s) for s in ("OS", "IC", "SC")}
+    rec, table, n = fast.Records(big), cm.cost_table(procs), len(v)
+    outs = {}
+    for t in (1, 2, 3, 16):
+        o = {k: np.empty(n, np.int64) for k in ("process", "receive", "send")}
+        o["flits"] = np.empty(n, np.int32)
+        rec.run(table, 0, n, threads=t, **o)
+        outs[t] = o
+    for t in (2, 3, 16):
+        assert all(np.array_equal(outs[1][k], outs[t][k]) for k in outs[1])
+    whole = cm.reference_visit_costs(tr, procs)
+    assert np.array_equal(outs[16]["process"][-len(tr.visits):], whole.process)
+    # the first visit at fault is named, whichever thread meets it
+    v["stage"][n - 5] = 7
+    v["stage"][n // 2 + 3] = 9
+    with pytest.raises(TraceError, match=f"visit {n // 2 + 3}: stage 9"):
+        fast.Records(big).run(table, 0, n, threads=4, process=np.empty(n, np.int64))

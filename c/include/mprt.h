@@ -473,11 +473,14 @@ int mprt_cost_children(const mprt_trace_ray *rays, size_t nrays, int64_t *childr
  * Arithmetic wraps modulo 2^64 (flits, runs and packets modulo 2^32).  A
  * visit that does not fit (its stage, its ray or the ray's kind, its
  * primitive) is MPRT_ERR_INVALID_ARG with errmsg (errlen bytes) naming it.
+ * Without runs and packets, up to threads threads (1..16) share the visits
+ * (at least 2^20 each); the results do not depend on their number.
  * OUT: process, receive, send (cycles), flits (flits out), runs, packets. */
 int mprt_cost_visits(const mprt_cost_table *table, const mprt_trace_ray *rays, const int64_t *children,
                      size_t nrays, const int32_t *prim_kind, size_t nprims, const mprt_trace_visit *visits,
                      size_t nvisits, int64_t prev_ray, int prev_outcome, int64_t *process, int64_t *receive,
-                     int64_t *send, int32_t *flits, int32_t *runs, int32_t *packets, char *errmsg, size_t errlen);
+                     int64_t *send, int32_t *flits, int32_t *runs, int32_t *packets, int threads, char *errmsg,
+                     size_t errlen);
 
 /* ---- Replay ----------------------------------------------------------------
  * A compiled replay of a trace on a machine of the fidelity ladder's level 1:

@@ -2,12 +2,14 @@
  * cost model's per-visit arithmetic (python/mprt/cost/model.py, whose
  * numpy form is the reference the tests compare this with), with the
  * kernels' cycles, packet sizes and communication costs given as a table. */
+#include <pthread.h>
 #include <stdarg.h>
 #include <stdio.h>
 
 #include "mprt.h"
 
-enum { KINDS = 4 };
+enum { KINDS = 4, COST_THREADS = 16 };
+#define COST_SHARE_MIN ((size_t)1 << 20)  /* visits: fewer per thread are not worth one */
 
 static int cost_fail(char *errmsg, size_t errlen, const char *fmt, ...)
 {
@@ -176,9 +178,9 @@ static void fold(const mprt_cost_table *t, folded *f)
 
 /* The fast pass: costs and flits only, stage by stage in straight lines. */
 static int cost_fast(const mprt_cost_table *t, const mprt_trace_ray *rays, const int64_t *children, size_t nrays,
-                     const int32_t *prim_kind, size_t nprims, const mprt_trace_visit *visits, size_t nvisits,
-                     int64_t prev_ray, int prev_outcome, int64_t *process, int64_t *receive, int64_t *send,
-                     int32_t *flits, char *errmsg, size_t errlen)
+                     const int32_t *prim_kind, size_t nprims, const mprt_trace_visit *visits, size_t base,
+                     size_t nvisits, int64_t prev_ray, int prev_outcome, int64_t *process, int64_t *receive,
+                     int64_t *send, int32_t *flits, char *errmsg, size_t errlen)
 {
     folded f;
     size_t j;
@@ -186,16 +188,16 @@ static int cost_fast(const mprt_cost_table *t, const mprt_trace_ray *rays, const
     int pout = prev_outcome;
     fold(t, &f);
     for (j = 0; j < nvisits; j++) {
-        const mprt_trace_visit *a = &visits[j];
+        const mprt_trace_visit *a = &visits[base + j];
         int64_t ray = a->ray, pk = -1;
         int st = a->stage, out = a->outcome, kind, first, src, dst = -1;
         uint64_t p, x, y = 0, fo = 0;
         if (ray < 0 || (uint64_t)ray >= nrays)
-            return cost_fail(errmsg, errlen, "visit %zu: ray %lld is not a ray of the trace", j, (long long)ray);
-        if (st > MPRT_STAGE_SC) return cost_fail(errmsg, errlen, "visit %zu: stage %d is not OS, IC or SC", j, st);
+            return cost_fail(errmsg, errlen, "visit %zu: ray %lld is not a ray of the trace", base + j, (long long)ray);
+        if (st > MPRT_STAGE_SC) return cost_fail(errmsg, errlen, "visit %zu: stage %d is not OS, IC or SC", base + j, st);
         if (a->prim >= 0) {
             if ((size_t)a->prim >= nprims)
-                return cost_fail(errmsg, errlen, "visit %zu: primitive %d is not a primitive of the trace", j,
+                return cost_fail(errmsg, errlen, "visit %zu: primitive %d is not a primitive of the trace", base + j,
                                  (int)a->prim);
             pk = prim_kind[a->prim];
         }
@@ -240,27 +242,90 @@ static int cost_fast(const mprt_cost_table *t, const mprt_trace_ray *rays, const
             y = f.send1[st][dst][kind];
             fo = f.flits1[st][dst][kind];
         }
-        if (process) process[j] = (int64_t)p;
-        if (receive) receive[j] = (int64_t)x;
-        if (send) send[j] = (int64_t)y;
-        if (flits) flits[j] = (int32_t)(uint32_t)fo;
+        if (process) process[base + j] = (int64_t)p;
+        if (receive) receive[base + j] = (int64_t)x;
+        if (send) send[base + j] = (int64_t)y;
+        if (flits) flits[base + j] = (int32_t)(uint32_t)fo;
         prev = ray;
         pout = out;
     }
     return MPRT_OK;
 }
 
+/* A thread's share of the fast pass: visits [lo, hi). */
+typedef struct {
+    const mprt_cost_table *t;
+    const mprt_trace_ray *rays;
+    const int64_t *children, *prev_ray;
+    const int32_t *prim_kind;
+    const mprt_trace_visit *visits;
+    const int *prev_outcome;
+    size_t nrays, nprims, lo, hi;
+    int64_t *process, *receive, *send;
+    int32_t *flits;
+    int rc;
+    char msg[256];
+    pthread_t thread;
+} share;
+
+static void *cost_share(void *arg)
+{
+    share *w = arg;
+    int64_t pr = w->lo ? w->visits[w->lo - 1].ray : *w->prev_ray;
+    int po = w->lo ? w->visits[w->lo - 1].outcome : *w->prev_outcome;
+    w->rc = cost_fast(w->t, w->rays, w->children, w->nrays, w->prim_kind, w->nprims, w->visits, w->lo, w->hi - w->lo,
+                      pr, po, w->process, w->receive, w->send, w->flits, w->msg, sizeof w->msg);
+    return NULL;
+}
+
 int mprt_cost_visits(const mprt_cost_table *t, const mprt_trace_ray *rays, const int64_t *children, size_t nrays,
                      const int32_t *prim_kind, size_t nprims, const mprt_trace_visit *visits, size_t nvisits,
                      int64_t prev_ray, int prev_outcome, int64_t *process, int64_t *receive, int64_t *send,
-                     int32_t *flits, int32_t *runs, int32_t *packets, char *errmsg, size_t errlen)
+                     int32_t *flits, int32_t *runs, int32_t *packets, int threads, char *errmsg, size_t errlen)
 {
+    share w[COST_THREADS];
+    int n, i, started;
     if (errmsg && errlen) errmsg[0] = '\0';
     if (!t || (nrays && (!rays || !children)) || (nvisits && !visits) || (nprims && !prim_kind))
         return cost_fail(errmsg, errlen, "mprt_cost_visits: a table or array is missing");
     if (runs || packets)
         return cost_counted(t, rays, children, nrays, prim_kind, nprims, visits, nvisits, prev_ray, prev_outcome,
                             process, receive, send, flits, runs, packets, errmsg, errlen);
-    return cost_fast(t, rays, children, nrays, prim_kind, nprims, visits, nvisits, prev_ray, prev_outcome, process,
-                     receive, send, flits, errmsg, errlen);
+    /* threads share the visits in order; each starts from the visit before its share */
+    n = threads < 1 ? 1 : threads > COST_THREADS ? COST_THREADS : threads;
+    if ((size_t)n > nvisits / COST_SHARE_MIN) n = (int)(nvisits / COST_SHARE_MIN);
+    if (n <= 1)
+        return cost_fast(t, rays, children, nrays, prim_kind, nprims, visits, 0, nvisits, prev_ray, prev_outcome,
+                         process, receive, send, flits, errmsg, errlen);
+    for (i = 0; i < n; i++) {
+        share *x = &w[i];
+        x->t = t;
+        x->rays = rays;
+        x->children = children;
+        x->prev_ray = &prev_ray;
+        x->prev_outcome = &prev_outcome;
+        x->prim_kind = prim_kind;
+        x->visits = visits;
+        x->nrays = nrays;
+        x->nprims = nprims;
+        x->lo = nvisits / (size_t)n * (size_t)i;
+        x->hi = i + 1 == n ? nvisits : nvisits / (size_t)n * (size_t)(i + 1);
+        x->process = process;
+        x->receive = receive;
+        x->send = send;
+        x->flits = flits;
+        x->rc = MPRT_OK;
+        x->msg[0] = '\0';
+    }
+    for (started = 1; started < n; started++)
+        if (pthread_create(&w[started].thread, NULL, cost_share, &w[started]) != 0) break;
+    for (i = started; i < n; i++) cost_share(&w[i]);       /* shares no thread could take */
+    cost_share(&w[0]);
+    for (i = 1; i < started; i++) pthread_join(w[i].thread, NULL);
+    for (i = 0; i < n; i++)     /* the first visit at fault, as one thread would find it */
+        if (w[i].rc != MPRT_OK) {
+            if (errmsg && errlen) snprintf(errmsg, errlen, "%s", w[i].msg);
+            return w[i].rc;
+        }
+    return MPRT_OK;
 }

@@ -495,11 +495,11 @@ class Binding:
 
     def cost_visits(self, table: dict, rays: np.ndarray, children: np.ndarray, prim_kind: np.ndarray,
                     visits: np.ndarray, prev_ray: int = -1, prev_outcome: int = 0, *, process=None, receive=None,
-                    send=None, flits=None, runs=None, packets=None) -> None:
+                    send=None, flits=None, runs=None, packets=None, threads: int = 1) -> None:
         """mprt_cost_visits: ``table`` holds mprt_cost_table's fields by name; the records are
         RAY_DTYPE, VISIT_DTYPE, ``children`` as cost_children gives it, ``prim_kind`` int32;
         the outputs given (int64 process, receive, send; int32 flits, runs (visits x 10) and
-        packets (visits x 3)) are filled."""
+        packets (visits x 3)) are filled, by up to ``threads`` threads (the same results)."""
         ffi = self.ffi
         t = ffi.new("mprt_cost_table *", table)
         rays, visits = np.ascontiguousarray(rays), np.ascontiguousarray(visits)
@@ -522,7 +522,7 @@ class Binding:
         self._cost_check(self.lib.mprt_cost_visits(t, self._in("mprt_trace_ray", rays), self._in("int64_t", children),
                                                    len(rays), self._in("int32_t", pk), len(pk),
                                                    self._in("mprt_trace_visit", visits), n, int(prev_ray),
-                                                   int(prev_outcome), *outs, msg, len(msg)), msg)
+                                                   int(prev_outcome), *outs, int(threads), msg, len(msg)), msg)
 
     # -- images ------------------------------------------------------------------------
     def samples_to_image(self, rules: int, samples: np.ndarray) -> np.ndarray:

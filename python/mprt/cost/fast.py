@@ -14,6 +14,8 @@ random processors).
 """
 from __future__ import annotations
 
+import os
+
 import numpy as np
 
 from .._lowlevel import RAY_DTYPE, VISIT_DTYPE, binding
@@ -55,7 +57,9 @@ class Records:
     def run(self, table: dict, a: int, b: int, **out) -> None:
         """Price visits [a, b) with ``table`` (``CostModel.cost_table``) into the arrays
         ``out`` names (process, receive, send, flits, runs, packets: see
-        ``Binding.cost_visits``), each of b - a entries."""
+        ``Binding.cost_visits``), each of b - a entries; ``threads`` (default: the
+        machine's cores) share large ranges, with the same results."""
+        out.setdefault("threads", os.cpu_count() or 1)
         v = self.visits
         prev = (int(v[a - 1]["ray"]), int(v[a - 1]["outcome"])) if a > 0 else (-1, 0)
         try:
