@@ -483,11 +483,14 @@ class Binding:
         if rc != Status.OK:
             raise error_class(rc)(self.ffi.string(msg).decode(errors="replace") or self.status_str(rc))
 
-    def cost_children(self, rays: np.ndarray) -> np.ndarray:
-        """Children of every ray by kind (int64[len(rays), 4]); InvalidArgument naming a ray of an
-        unknown kind or with a parent that is not a ray."""
+    def cost_children(self, rays: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """Children of every ray by kind (int64[len(rays), 4], into ``out`` if given);
+        InvalidArgument naming a ray of an unknown kind or with a parent that is not a ray."""
         rays = np.ascontiguousarray(rays)
-        out = np.empty((len(rays), 4), dtype=np.int64)
+        if out is None:
+            out = np.empty((len(rays), 4), dtype=np.int64)
+        elif out.shape != (len(rays), 4) or out.dtype != np.int64 or not out.flags.c_contiguous:
+            raise InvalidArgument(f"cost_children: out must be int64[{len(rays)}, 4]")
         msg = self._cost_errmsg()
         self._cost_check(self.lib.mprt_cost_children(self._in("mprt_trace_ray", rays), len(rays),
                                                      self._out("int64_t", out), msg, len(msg)), msg)
