@@ -144,3 +144,19 @@ def test_golden_trace_has_its_recorded_statistics(fname):
     """Each golden trace keeps its invariants and the statistics recorded beside it (a pinned regression)."""
     with open(os.path.join(GOLDEN, fname.replace(".npz", ".stats.json"))) as f:
         assert golden(fname).check() == json.load(f)
+
+
+def test_crc_in_parts_by_threads_is_zlibs_crc(monkeypatch):
+    import zlib
+
+    from mprt import tracefile as tf
+
+    rng = np.random.default_rng(5)
+    for n in (1, 9, 4096, 100_003):
+        a = rng.integers(0, 256, n, dtype=np.uint8)
+        b = rng.integers(0, 256, n // 3 + 1, dtype=np.uint8)
+        assert tf.crc32_combine(zlib.crc32(a), zlib.crc32(b), b.size) == zlib.crc32(np.concatenate([a, b]))
+    monkeypatch.setattr(tf, "CRC_PART", 1 << 12)     # parts of 4 KiB: several threads on a small array
+    x = rng.integers(0, 256, 300_007, dtype=np.uint8)
+    for threads in (1, 2, 3, 4, 7):
+        assert tf.crc(x, chunk=5000, threads=threads) == zlib.crc32(x)

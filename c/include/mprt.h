@@ -443,6 +443,57 @@ int mprt_grid_trace_tile(mprt_grid *grid, const mprt_render_desc *desc, int tile
 /* Write rgb (width*height*3 floats in [0,1], clamped) as an 8-bit PNG. */
 int mprt_image_write_png(const char *path, int width, int height, const float *rgb);
 
+/* ---- Visit costs -----------------------------------------------------------
+ * What every visit of a trace costs on given processors, in one pass (the
+ * cost model's arithmetic, python/mprt/cost/model.py; the tables come from
+ * it).  A visit's process cycles are its stage's per-visit overhead plus its
+ * kernel runs times each kernel's cycles (columns per stage below); its
+ * receive cycles one packet's plus its flits in, its send cycles its packets
+ * out and their flits.  Counted per visit, by stage (MPRT_COST_KERNELS
+ * columns, unused ones 0):
+ *   OS: ray set-up (its ray's first visit), voxel steps, 1, and on a late
+ *       hit the hit finalisation of the primitive's kind (4 columns)
+ *   IC: 1, tests by primitive kind (4), polygon vertices, and on a hit the
+ *       hit finalisation of the primitive's kind (4)
+ *   SC: on a shaded hit 1, lights, made + suppressed, children made by kind
+ *       (shadow, reflect, refract); on a lit shadow ray 1 (column 6)
+ * A visit's packet in comes from SC for a ray's first visit, else from the
+ * stage before it (OS after IC, IC after OS, SC after IC or, following a
+ * late hit, OS); it sends one packet to the next stage, or (SC, shaded) one
+ * per ray made, of flits[src][dst][kind] flits (children: their own kinds). */
+#define MPRT_COST_KERNELS 10
+typedef struct {
+    int64_t kernel[3][MPRT_COST_KERNELS]; /* cycles of one run, by stage and column */
+    int64_t overhead[3];                  /* cycles added to every visit of a stage */
+    int64_t send_packet[3], send_flit[3], receive_packet[3], receive_flit[3];
+    int64_t flits[3][3][4];               /* flits of a packet src -> dst of a ray kind (0: none) */
+    int64_t lights;                       /* lights of the scene (SC's work per shaded hit) */
+} mprt_cost_table;
+
+/* Children of every ray by kind: children[4 * r + k] rays of kind k have
+ * ray r as parent (nrays x 4 entries).  A ray of an unknown kind or whose
+ * parent is not among rays[0 .. nrays-1] is MPRT_ERR_INVALID_ARG with errmsg
+ * (errlen bytes) naming it.  OUT: children. */
+int mprt_cost_children(const mprt_trace_ray *rays, size_t nrays, int64_t *children, char *errmsg, size_t errlen);
+
+/* Cost visits[0 .. nvisits-1] of a trace whose rays are rays[0 .. nrays-1]
+ * (ids are indices; children as mprt_cost_children gives them) and whose
+ * primitives have kinds prim_kind[0 .. nprims-1].  prev_ray and
+ * prev_outcome: the visit before visits[0] in the trace (-1 and 0: none).
+ * Every output may be NULL; each has one entry per visit (runs:
+ * MPRT_COST_KERNELS, packets: 3 (flits in, packets out, flits out)).
+ * Arithmetic wraps modulo 2^64 (flits, runs and packets modulo 2^32).  A
+ * visit that does not fit (its stage, its ray or the ray's kind, its
+ * primitive) is MPRT_ERR_INVALID_ARG with errmsg (errlen bytes) naming it.
+ * Without runs and packets, up to threads threads (1..16) share the visits
+ * (at least 2^20 each); the results do not depend on their number.
+ * OUT: process, receive, send (cycles), flits (flits out), runs, packets. */
+int mprt_cost_visits(const mprt_cost_table *table, const mprt_trace_ray *rays, const int64_t *children,
+                     size_t nrays, const int32_t *prim_kind, size_t nprims, const mprt_trace_visit *visits,
+                     size_t nvisits, int64_t prev_ray, int prev_outcome, int64_t *process, int64_t *receive,
+                     int64_t *send, int32_t *flits, int32_t *runs, int32_t *packets, int threads, char *errmsg,
+                     size_t errlen);
+
 /* ---- Replay ----------------------------------------------------------------
  * A compiled replay of a trace on a machine of the fidelity ladder's level 1:
  * PEs of 1 to 3 stages (each a processor, or several replicas of one,

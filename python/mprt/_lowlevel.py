@@ -518,6 +518,58 @@ class Binding:
                   "waiters")
         return out[: n[0]].tolist()
 
+    # -- visit costs -------------------------------------------------------------------
+    def _cost_errmsg(self):
+        return self.ffi.new("char[]", 512)
+
+    def _cost_check(self, rc: int, msg) -> None:
+        if rc != Status.OK:
+            raise error_class(rc)(self.ffi.string(msg).decode(errors="replace") or self.status_str(rc))
+
+    def cost_children(self, rays: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
+        """Children of every ray by kind (int64[len(rays), 4], into ``out`` if given);
+        InvalidArgument naming a ray of an unknown kind or with a parent that is not a ray."""
+        rays = np.ascontiguousarray(rays)
+        if out is None:
+            out = np.empty((len(rays), 4), dtype=np.int64)
+        elif out.shape != (len(rays), 4) or out.dtype != np.int64 or not out.flags.c_contiguous:
+            raise InvalidArgument(f"cost_children: out must be int64[{len(rays)}, 4]")
+        msg = self._cost_errmsg()
+        self._cost_check(self.lib.mprt_cost_children(self._in("mprt_trace_ray", rays), len(rays),
+                                                     self._out("int64_t", out), msg, len(msg)), msg)
+        return out
+
+    def cost_visits(self, table: dict, rays: np.ndarray, children: np.ndarray, prim_kind: np.ndarray,
+                    visits: np.ndarray, prev_ray: int = -1, prev_outcome: int = 0, *, process=None, receive=None,
+                    send=None, flits=None, runs=None, packets=None, threads: int = 1) -> None:
+        """mprt_cost_visits: ``table`` holds mprt_cost_table's fields by name; the records are
+        RAY_DTYPE, VISIT_DTYPE, ``children`` as cost_children gives it, ``prim_kind`` int32;
+        the outputs given (int64 process, receive, send; int32 flits, runs (visits x 10) and
+        packets (visits x 3)) are filled, by up to ``threads`` threads (the same results)."""
+        ffi = self.ffi
+        t = ffi.new("mprt_cost_table *", table)
+        rays, visits = np.ascontiguousarray(rays), np.ascontiguousarray(visits)
+        n = len(visits)
+        outs = []
+        for name, a, ctype, width in (("process", process, "int64_t", 1), ("receive", receive, "int64_t", 1),
+                                      ("send", send, "int64_t", 1), ("flits", flits, "int32_t", 1),
+                                      ("runs", runs, "int32_t", 10), ("packets", packets, "int32_t", 3)):
+            if a is None:
+                outs.append(ffi.NULL)
+                continue
+            if a.dtype != np.dtype(ctype[:-2]) or not a.flags.c_contiguous or a.size != n * width:
+                raise InvalidArgument(f"cost_visits: {name} must be a contiguous {ctype[:-2]} array of "
+                                      f"{n * width} entries")
+            outs.append(self._out(ctype, a))
+        if children.shape != (len(rays), 4) or children.dtype != np.int64 or not children.flags.c_contiguous:
+            raise InvalidArgument(f"cost_visits: children must be int64[{len(rays)}, 4] as cost_children makes it")
+        pk = np.ascontiguousarray(prim_kind, dtype=np.int32)
+        msg = self._cost_errmsg()
+        self._cost_check(self.lib.mprt_cost_visits(t, self._in("mprt_trace_ray", rays), self._in("int64_t", children),
+                                                   len(rays), self._in("int32_t", pk), len(pk),
+                                                   self._in("mprt_trace_visit", visits), n, int(prev_ray),
+                                                   int(prev_outcome), *outs, int(threads), msg, len(msg)), msg)
+
     # -- images ------------------------------------------------------------------------
     def samples_to_image(self, rules: int, samples: np.ndarray) -> np.ndarray:
         """Pixels (float32 (H, W, 3)) from samples (float64 (samples_h, samples_w, 3)) as the

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from .model import _FLITS, OS, PRIMARY, SC, STAGE_KERNELS, CostModel, VisitCosts, _check_procs, visit_chunks
+from ..errors import TraceError
+from .fast import count_chunks, usable
+from .model import _FLITS, OS, PRIMARY, SC, CostModel, VisitCosts, _check_procs, counted_kernels
 from .packets import STAGES
 
 _COMM = ("send_packet", "send_flit", "receive_packet", "receive_flit")
@@ -29,30 +31,30 @@ class KernelCounts:
     def __init__(self, trace, chunk: int = 1 << 20):
         self.trace = trace
         self.visits = n = len(trace.visits)
+        if not usable(trace):
+            raise TraceError("KernelCounts: the trace's records are not in the C layout (RAY_DTYPE, VISIT_DTYPE)")
         parts = {s: ([], [], []) for s in STAGES}       # rows, runs, packets per chunk
         self.flits = np.zeros(n, np.int32)
-        for a, v, counts, packets in visit_chunks(trace, chunk):
+        for a, v, runs, packets, flits in count_chunks(trace, chunk):
             st = v["stage"]
             for s, name in enumerate(STAGES):
                 m = st == s
-                rows, runs, pk = parts[name]
+                rows, rs, pk = parts[name]
                 rows.append(a + np.flatnonzero(m))
-                runs.append(np.stack([counts[name][k] for k in self.kernels(name)], axis=1).astype(np.int32)
-                            if m.any() else np.zeros((0, len(self.kernels(name))), np.int32))
-                pk.append(np.stack([packets["in"][m], packets["out_packets"][m], packets["out"][m]],
-                                   axis=1).astype(np.int32))
-            self.flits[a:a + len(v)] = packets["out"]
+                rs.append(runs[m, :len(self.kernels(name))])
+                pk.append(packets[m])
+            self.flits[a:a + len(v)] = flits
         self.rows, self.runs, self.packets = {}, {}, {}
-        for name, (rows, runs, pk) in parts.items():
+        for name, (rows, rs, pk) in parts.items():
             self.rows[name] = np.concatenate(rows) if rows else np.zeros(0, np.int64)
-            self.runs[name] = (np.concatenate(runs) if runs else np.zeros((0, len(self.kernels(name))), np.int32))
+            self.runs[name] = (np.concatenate(rs) if rs else np.zeros((0, len(self.kernels(name))), np.int32))
             self.packets[name] = np.concatenate(pk) if pk else np.zeros((0, 3), np.int32)
         self.primaries = int(np.sum(np.asarray(trace.rays["kind"]) == PRIMARY))
 
     @staticmethod
     def kernels(stage: str) -> tuple:
         """The kernels counted per visit of a stage (SC's making of primary rays is per ray, not per visit)."""
-        return tuple(k for k in STAGE_KERNELS[stage] if k != "sc_primary")
+        return counted_kernels(stage)
 
     @property
     def nbytes(self) -> int:
