@@ -85,3 +85,15 @@ def test_render_and_png_buffers_are_checked(small, tmp_path):
     with pytest.raises(InvalidArgument, match="C-contiguous"):
         LL.image_write_png(tmp_path / "x.png", np.zeros((8, 16, 3), np.float32)[:, ::2])
     assert not (tmp_path / "x.png").exists()
+
+
+def test_cost_bindings_check_the_records(small):
+    _, trace = small
+    rays, visits = np.asarray(trace.rays), np.asarray(trace.visits)
+    with pytest.raises(InvalidArgument, match="dtype uint8"):
+        LL.cost_children(np.zeros(4096, np.uint8))
+    children = LL.cost_children(rays)
+    with pytest.raises(InvalidArgument, match="one-dimensional"):
+        LL.cost_visits({}, rays, children, np.zeros(1, np.int32), visits.reshape(1, -1))
+    with pytest.raises(InvalidArgument, match="dtype"):
+        LL.cost_visits({}, rays.view(np.uint8), children, np.zeros(1, np.int32), visits)

@@ -529,14 +529,14 @@ class Binding:
     def cost_children(self, rays: np.ndarray, out: np.ndarray | None = None) -> np.ndarray:
         """Children of every ray by kind (int64[len(rays), 4], into ``out`` if given);
         InvalidArgument naming a ray of an unknown kind or with a parent that is not a ray."""
-        rays = np.ascontiguousarray(rays)
+        rays = np.ascontiguousarray(self._records("rays", rays, RAY_DTYPE))
         if out is None:
             out = np.empty((len(rays), 4), dtype=np.int64)
         elif out.shape != (len(rays), 4) or out.dtype != np.int64 or not out.flags.c_contiguous:
             raise InvalidArgument(f"cost_children: out must be int64[{len(rays)}, 4]")
         msg = self._cost_errmsg()
-        self._cost_check(self.lib.mprt_cost_children(self._in("mprt_trace_ray", rays), len(rays),
-                                                     self._out("int64_t", out), msg, len(msg)), msg)
+        self._cost_check(self.lib.mprt_cost_children(self._in("mprt_trace_ray", rays, len(rays)), len(rays),
+                                                     self._out("int64_t", out, 4 * len(rays)), msg, len(msg)), msg)
         return out
 
     def cost_visits(self, table: dict, rays: np.ndarray, children: np.ndarray, prim_kind: np.ndarray,
@@ -548,7 +548,8 @@ class Binding:
         packets (visits x 3)) are filled, by up to ``threads`` threads (the same results)."""
         ffi = self.ffi
         t = ffi.new("mprt_cost_table *", table)
-        rays, visits = np.ascontiguousarray(rays), np.ascontiguousarray(visits)
+        rays = np.ascontiguousarray(self._records("rays", rays, RAY_DTYPE))
+        visits = np.ascontiguousarray(self._records("visits", visits, VISIT_DTYPE))
         n = len(visits)
         outs = []
         for name, a, ctype, width in (("process", process, "int64_t", 1), ("receive", receive, "int64_t", 1),
@@ -560,14 +561,15 @@ class Binding:
             if a.dtype != np.dtype(ctype[:-2]) or not a.flags.c_contiguous or a.size != n * width:
                 raise InvalidArgument(f"cost_visits: {name} must be a contiguous {ctype[:-2]} array of "
                                       f"{n * width} entries")
-            outs.append(self._out(ctype, a))
+            outs.append(self._out(ctype, a, n * width))
         if children.shape != (len(rays), 4) or children.dtype != np.int64 or not children.flags.c_contiguous:
             raise InvalidArgument(f"cost_visits: children must be int64[{len(rays)}, 4] as cost_children makes it")
         pk = np.ascontiguousarray(prim_kind, dtype=np.int32)
         msg = self._cost_errmsg()
-        self._cost_check(self.lib.mprt_cost_visits(t, self._in("mprt_trace_ray", rays), self._in("int64_t", children),
-                                                   len(rays), self._in("int32_t", pk), len(pk),
-                                                   self._in("mprt_trace_visit", visits), n, int(prev_ray),
+        self._cost_check(self.lib.mprt_cost_visits(t, self._in("mprt_trace_ray", rays, len(rays)),
+                                                   self._in("int64_t", children, 4 * len(rays)),
+                                                   len(rays), self._in("int32_t", pk, len(pk)), len(pk),
+                                                   self._in("mprt_trace_visit", visits, n), n, int(prev_ray),
                                                    int(prev_outcome), *outs, int(threads), msg, len(msg)), msg)
 
     # -- images ------------------------------------------------------------------------
