@@ -1,53 +1,6 @@
-/* record.c: trace records of a tile and the sum of counters.  Records past a
- * buffer's capacity are counted but not written, so the caller learns the
- * sizes the tile needs. */
+/* record.c: the sum of counters (the records are written by record.h's
+ * inline functions). */
 #include "record.h"
-
-/* Narrow v into a record field of limit; flags the recorder when it does not fit. */
-static int64_t fit(mprt__recorder *recorder, int64_t v, int64_t limit)
-{
-    if (v > limit) {
-        recorder->too_wide = 1;
-        return limit;
-    }
-    return v;
-}
-
-void mprt__record_visit(mprt__recorder *recorder, const mprt__visit *visit)
-{
-    size_t at = recorder->nvisits++;
-    mprt_trace_visit *out;
-    int k;
-    if (at >= recorder->cap_visits) return;
-    out = &recorder->visits[at];
-    out->ray = visit->ray;
-    out->voxel_id = visit->voxel_id;
-    out->steps = visit->steps;
-    for (k = 0; k < MPRT_NKINDS; k++) out->tests[k] = visit->tests[k];
-    out->vertices = visit->vertices;
-    out->prim = visit->prim;
-    out->stage = (uint8_t)visit->stage;
-    out->outcome = (uint8_t)visit->outcome;
-    out->made = (uint8_t)fit(recorder, visit->made, UINT8_MAX);
-    out->suppressed = (uint8_t)fit(recorder, visit->suppressed, UINT8_MAX);
-}
-
-int64_t mprt__record_ray(mprt__recorder *recorder, int64_t parent, int kind, int depth, int sample, int light,
-                         double contribution)
-{
-    int64_t id = (int64_t)recorder->nrays++;
-    if ((size_t)id < recorder->cap_rays) {
-        mprt_trace_ray *out = &recorder->rays[id];
-        out->id = id;
-        out->parent = parent;
-        out->pixel = sample;
-        out->light = (int16_t)fit(recorder, light, INT16_MAX);
-        out->kind = (uint8_t)kind;
-        out->depth = (uint8_t)(depth > UINT8_MAX ? UINT8_MAX : depth); /* max_depth <= 255 */
-        out->contribution = contribution;
-    }
-    return id;
-}
 
 void mprt__counters_add(mprt_counters *counters, const mprt_counters *more)
 {

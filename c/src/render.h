@@ -18,7 +18,7 @@ typedef struct {
     double light_rgb[3];    /* shadow rays: light it carries to the sample */
     int kind;               /* mprt_ray_kind */
     int depth;              /* ray tree level, the eye ray is 1 */
-    int64_t id;             /* tile-local ray number (tracing) */
+    int64_t id;             /* the ray's number in the trace records (tracing) */
 } mprt__tree_ray;
 
 /* The nearest hit found so far. */

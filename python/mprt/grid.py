@@ -124,6 +124,15 @@ class Grid:
         nothing was written: nrays and nvisits are the sizes needed."""
         return self._ll.grid_trace_tile(self._h, desc, tile, samples, rays, visits)
 
+    def trace_tiles(self, desc: dict, tiles: np.ndarray, samples: np.ndarray, first_ray: int, rays: np.ndarray,
+                    visits: np.ndarray):
+        """Trace the tiles (``np.intc`` tile numbers) in order, writing each record once, in place,
+        from the start of ``rays`` and ``visits`` with ray ids numbered on from ``first_ray``, and
+        each tile's sample colours into ``samples``, the whole sample image ((samples_h, samples_w,
+        3) float64).  Stops before a tile that would not fit.  Returns (tiles traced, nrays,
+        nvisits); (0, nrays, nvisits) when not even the first tile fits: the sizes it needs."""
+        return self._ll.grid_trace_tiles(self._h, desc, tiles, samples, first_ray, rays, visits)
+
     # -- rendering and intersection ----------------------------------------------------------
     def render(self, width: int = 0, height: int = 0, rules: str = "paper", threshold: float | None = None,
                threads: int = 1, max_depth: int = 0, ambient: float | None = None, tile: int | None = None,
