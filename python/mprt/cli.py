@@ -31,7 +31,7 @@ from .fidelity.cli import add_parser as add_simulate
 from .options import UsageError
 from .scene import SPD_SCENES
 from .trace import load_trace
-from .tracing import select_tiles, trace
+from .tracing import select_tiles, trace, trace_records
 
 EPILOG = ("exit status: 0 done; 1 an error during the work (a malformed scene file, a damaged trace, ...); "
           "2 a bad option, scene or output path, found before any work")
@@ -195,9 +195,9 @@ def _estimate(grid, kw: dict, sel, static: int):
     size of what does not depend on the tiles (voxel lists, primitive table, samples)."""
     k = max(ESTIMATE_TILES, len(sel) // 100)
     pick = sorted({int(sel[round(i * (len(sel) - 1) / (k - 1))]) for i in range(k)})
-    _, sample = trace(grid, **kw, tiles=pick)
-    raw = sample.rays.nbytes + sample.visits.nbytes
-    packed = _packed_size(sample.rays) + _packed_size(sample.visits)
+    rays, visits = trace_records(grid, pick, **kw)
+    raw = rays.nbytes + visits.nbytes
+    packed = _packed_size(rays) + _packed_size(visits)
     per_tile = raw / len(pick)
     return static + per_tile * len(sel), static + packed / len(pick) * len(sel), len(pick)
 

@@ -8,6 +8,7 @@ beyond the record buffers it hands to the library.
 """
 from __future__ import annotations
 
+import copy
 from typing import Sequence
 
 import numpy as np
@@ -77,11 +78,15 @@ class Grid:
         self.listing = listing
         self._ll = scene._ll
         self._h = self._ll.grid_create(scene._h, dims, max_bytes, LISTINGS[listing])
+        self._stats = None
         scene._add_grid(self)
 
     def stats(self) -> dict:
-        """Voxels per axis, non-empty voxels, list lengths, memory, the box covered."""
-        return self._ll.grid_get_stats(self._h)
+        """Voxels per axis, non-empty voxels, list lengths, memory, the box covered (computed
+        once: a grid does not change; a trace asks twice)."""
+        if self._stats is None:
+            self._stats = self._ll.grid_get_stats(self._h)
+        return copy.deepcopy(self._stats)
 
     def lists(self):
         """The voxel lists in CSR form: voxel v (x fastest, then y, then z) lists primitive ids

@@ -34,7 +34,7 @@ def select_tiles(ntiles: int, tiles=None, sample: str | None = None) -> np.ndarr
     if tiles is not None and sample is not None:
         raise InvalidArgument("give tiles or sample, not both")
     if tiles is not None:
-        sel = np.unique(np.asarray(list(tiles), dtype=np.int64))
+        sel = np.array(sorted({int(t) for t in tiles}), dtype=np.int64)
         if sel.size == 0 or sel[0] < 0 or sel[-1] >= ntiles:
             raise InvalidArgument(f"tiles must be in 0..{ntiles - 1}")
         return sel
@@ -65,7 +65,7 @@ _POOL_ENTRIES = 2
 # 58 visits); a trace needing more grows its arrays by doubling.
 RESERVE_RAYS, RESERVE_VISITS = 16, 128
 # The chunk a trace streamed to disk records into before each write (bounded memory).
-CHUNK_RAYS, CHUNK_VISITS = 1 << 18, 1 << 20
+CHUNK_RAYS, CHUNK_VISITS = 1 << 15, 1 << 17
 # Tiles per library call: progress is reported between calls.
 TILES_PER_CALL = 64
 
@@ -247,6 +247,32 @@ def _buffer_sets(n: int, samples: int) -> list:
     return _GROUP_BUFFERS[:n]
 
 
+def _setup(grid: Grid, width, height, rules, threshold, max_depth, mailbox, ambient, tile, threads, tiles, sample,
+           conventions, max_rays):
+    """(desc, tiling, selected tiles, sample image (NaN where not traced), samples traced)."""
+    desc = grid.resolve(render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox,
+                                    conventions, max_rays))
+    tiling = grid.tiling(desc)
+    sw, sh, tx, ty = tiling
+    sel = select_tiles(tx * ty, tiles, sample)
+    subset = len(sel) < tx * ty
+    samples = np.full((sh, sw, 3), np.nan) if subset else np.empty((sh, sw, 3))
+    nsamples = sum((i1 - i0) * (j1 - j0) for i0, j0, i1, j1 in (grid.tile_rect(desc, int(t)) for t in sel)) \
+        if subset else sw * sh
+    return desc, tiling, sel, samples, nsamples
+
+
+def trace_records(grid: Grid, tiles, width=0, height=0, rules="paper", threshold=None, max_depth=0, mailbox=False,
+                  ambient=None, tile=None, threads=1, conventions=None, max_rays=None):
+    """The records alone (rays, visits) of the given tiles, as ``trace`` would record them (for a
+    quick look at a trace's size: no image, grid tables or metadata)."""
+    desc, _, sel, samples, nsamples = _setup(grid, width, height, rules, threshold, max_depth, mailbox, ambient,
+                                             tile, threads, tiles, None, conventions, max_rays)
+    records = _Records(nsamples)
+    _run_tiles(grid, desc, sel.astype(np.intc), records, samples, None)
+    return records.result("rays"), records.result("visits")
+
+
 def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_depth=0, mailbox=False, ambient=None,
           tile=None, threads=1, tiles=None, sample=None, path=None, progress=False, conventions=None,
           max_rays=None):
@@ -257,26 +283,21 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
     'random:N:SEED' traces a subset (other samples are NaN).  With ``path`` the trace file is
     written while tracing, a bounded chunk of records at a time (memory stays bounded by the
     chunk and the image); ``progress`` shows a progress bar."""
-    desc = grid.resolve(render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox,
-                                    conventions, max_rays))
-    tiling = grid.tiling(desc)
-    sw, sh, tx, ty = tiling
-    sel = select_tiles(tx * ty, tiles, sample)
-    order = sel.astype(np.intc)
-    subset = len(sel) < tx * ty
-    samples = np.full((sh, sw, 3), np.nan) if subset else np.empty((sh, sw, 3))
-    nsamples = sum((i1 - i0) * (j1 - j0) for i0, j0, i1, j1 in (grid.tile_rect(desc, int(t)) for t in sel)) \
-        if subset else sw * sh
+    desc, tiling, sel, samples, nsamples = _setup(grid, width, height, rules, threshold, max_depth, mailbox, ambient,
+                                                  tile, threads, tiles, sample, conventions, max_rays)
     writer = bar = None
+    # the metadata and the grid's tables (the scene's content hash, a copy of the voxel lists) are
+    # made on a thread of their own while the tiles are traced
+    side = ThreadPoolExecutor(max_workers=1)
+    static = side.submit(lambda: (_meta(grid, desc, tiling, sel, tiles, sample), grid_arrays(grid)))
     try:
         if path:
             writer = tracefile.TraceWriter(path)
         records = _Records(nsamples, writer)
         if progress:
             bar = tqdm(total=len(sel), unit="tile", desc="trace", leave=False)
-        _run_tiles(grid, desc, order, records, samples, bar)
-        meta = _meta(grid, desc, tiling, sel, tiles, sample)
-        arrays = grid_arrays(grid)
+        _run_tiles(grid, desc, sel.astype(np.intc), records, samples, bar)
+        meta, arrays = static.result()
         arrays["samples"] = samples
         if path:
             records.flush()
@@ -288,6 +309,7 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
             arrays["visits"] = records.result("visits")
             result = Trace.from_arrays(meta, arrays)
     finally:
+        side.shutdown()
         if bar:
             bar.close()
         if writer:
