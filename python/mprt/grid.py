@@ -78,7 +78,7 @@ class Grid:
         self.listing = listing
         self._ll = scene._ll
         self._h = self._ll.grid_create(scene._h, dims, max_bytes, LISTINGS[listing])
-        self._stats = None
+        self._stats = self._lists = None
         scene._add_grid(self)
 
     def stats(self) -> dict:
@@ -90,9 +90,14 @@ class Grid:
 
     def lists(self):
         """The voxel lists in CSR form: voxel v (x fastest, then y, then z) lists primitive ids
-        ``ids[start[v]:start[v + 1]]``.  Returns (start uint32, ids int32)."""
-        st = self.stats()
-        return self._ll.grid_get_lists(self._h, st["voxels"], st["refs"])
+        ``ids[start[v]:start[v + 1]]``.  Returns (start uint32, ids int32), read-only: copied
+        from the library once (a grid does not change; every trace carries them)."""
+        if self._lists is None:
+            st = self.stats()
+            self._lists = self._ll.grid_get_lists(self._h, st["voxels"], st["refs"])
+            for a in self._lists:
+                a.setflags(write=False)
+        return self._lists
 
     # -- a render's description, samples and tiles -------------------------------------------
     def resolve(self, desc: dict) -> dict:
