@@ -69,16 +69,25 @@ static int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt
 
 /* ---- OS + IC ----------------------------------------------------------------- */
 
+/* The walk is compiled twice, for rendering (tracing 0: nothing recorded, no
+ * code for it in the hot loop) and for tracing (1: each visit's record
+ * written inline): one function body, inlined into each. */
+#if defined(__GNUC__)
+#define WALK_INLINE static inline __attribute__((always_inline))
+#else
+#define WALK_INLINE static inline
+#endif
+
 /* Emit the OS visit that ends a walk (or a stretch of it, handing to IC). */
-static inline void emit_os(mprt__sink *sink, int64_t ray_id, int ray_kind, int outcome, int32_t steps, int64_t voxel_id,
-                    int32_t prim)
+WALK_INLINE void emit_os(mprt__sink *sink, int64_t ray_id, int ray_kind, int outcome, int32_t steps, int64_t voxel_id,
+                         int32_t prim, const int tracing)
 {
     mprt__visit os;
     mprt__visit_init(&os, ray_id, ray_kind, MPRT_STAGE_OS, outcome);
     os.steps = steps;
     os.voxel_id = voxel_id;
     os.prim = prim;
-    mprt__emit_visit(sink, &os);
+    mprt__emit_visit_as(sink, &os, tracing);
 }
 
 int mprt__os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
@@ -87,8 +96,9 @@ int mprt__os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, 
     return mprt__os_ic_accept(g, ray, tmin, tmax, shadow, use_mailbox, 0, best, sink, ray_id, ray_kind);
 }
 
-int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
-                       int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind)
+WALK_INLINE int os_ic_walk(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
+                           int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind,
+                           const int tracing)
 {
     mprt__dda walk;
     mailbox mb, *pmb = NULL;
@@ -98,7 +108,7 @@ int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real
     best->t = tmax;
     best->prim = -1;
     if (!mprt__dda_start(g, ray, tmin, tmax, &walk)) {
-        emit_os(sink, ray_id, ray_kind, left, 0, -1, -1);
+        emit_os(sink, ray_id, ray_kind, left, 0, -1, -1, tracing);
         return 0;
     }
     if (use_mailbox) {
@@ -110,7 +120,7 @@ int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real
         /* OS hands the ray to IC */
         mprt__visit ic;
         int accepted;
-        emit_os(sink, ray_id, ray_kind, MPRT_OUT_TO_IC, steps, walk.voxel, -1);
+        emit_os(sink, ray_id, ray_kind, MPRT_OUT_TO_IC, steps, walk.voxel, -1, tracing);
         mprt__visit_init(&ic, ray_id, ray_kind, MPRT_STAGE_IC, MPRT_OUT_RETURN);
         ic.voxel_id = walk.voxel;
         accepted = ic_visit(g, walk.voxel, walk.t_exit, ray, dd, tmin, tmax, shadow, accept_listed, best, pmb, &ic, sink);
@@ -118,7 +128,7 @@ int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real
             ic.outcome = shadow ? MPRT_OUT_BLOCKED : MPRT_OUT_HIT;
             ic.prim = best->prim;
         }
-        mprt__emit_visit(sink, &ic);
+        mprt__emit_visit_as(sink, &ic, tracing);
         if (accepted) return 1;
         /* a return ray: back to OS, which walks on */
         steps = 0;
@@ -129,11 +139,30 @@ int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real
      * candidate is the nearest hit even when rounding put it past the
      * last stretch (a primitive lying on the grid box's face). */
     if (!shadow && best->prim >= 0) {
-        emit_os(sink, ray_id, ray_kind, MPRT_OUT_LATE_HIT, steps, -1, best->prim);
+        emit_os(sink, ray_id, ray_kind, MPRT_OUT_LATE_HIT, steps, -1, best->prim, tracing);
         return 1;
     }
-    emit_os(sink, ray_id, ray_kind, left, steps, -1, -1);
+    emit_os(sink, ray_id, ray_kind, left, steps, -1, -1, tracing);
     return 0;
+}
+
+static int os_ic_render(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
+                        int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind)
+{
+    return os_ic_walk(g, ray, tmin, tmax, shadow, use_mailbox, accept_listed, best, sink, ray_id, ray_kind, 0);
+}
+
+static int os_ic_trace(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
+                       int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind)
+{
+    return os_ic_walk(g, ray, tmin, tmax, shadow, use_mailbox, accept_listed, best, sink, ray_id, ray_kind, 1);
+}
+
+int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
+                       int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind)
+{
+    return (sink->recorder ? os_ic_trace : os_ic_render)(g, ray, tmin, tmax, shadow, use_mailbox, accept_listed, best,
+                                                          sink, ray_id, ray_kind);
 }
 
 /* ---- A sample's ray tree -------------------------------------------------- */

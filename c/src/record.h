@@ -90,8 +90,8 @@ static inline int64_t mprt__record_fit(mprt__recorder *recorder, int64_t v, int6
     return v;
 }
 
-/* Append a visit's record: written once, in place, in its final slot. */
-static inline void mprt__record_visit(mprt__recorder *recorder, const mprt__visit *visit)
+/* Append a visit's record, written once, in place. */
+static inline void mprt__record_visit_here(mprt__recorder *recorder, const mprt__visit *visit)
 {
     size_t at = recorder->nvisits++;
     mprt_trace_visit *out;
@@ -110,23 +110,41 @@ static inline void mprt__record_visit(mprt__recorder *recorder, const mprt__visi
     out->suppressed = (uint8_t)mprt__record_fit(recorder, visit->suppressed, UINT8_MAX);
 }
 
-/* Append a ray's record; returns its number (recorder->base + the tile-local number). */
-static inline int64_t mprt__record_ray(mprt__recorder *recorder, int64_t parent, int kind, int depth, int sample,
-                                       int light, double contribution)
+/* The same out of line (record.c), so that the emit functions stay small where
+ * nothing is recorded; and a ray's record, returning its number
+ * (recorder->base + the tile-local number). */
+void mprt__record_visit(mprt__recorder *recorder, const mprt__visit *visit);
+int64_t mprt__record_ray(mprt__recorder *recorder, int64_t parent, int kind, int depth, int sample, int light,
+                         double contribution);
+
+/* A stage visit counted, in code compiled apart for tracing (1: recorded in
+ * place, inline) and for rendering (0: nothing recorded); the hot loop
+ * (pipeline.c's walk) has one copy of each. */
+static inline void mprt__emit_visit_as(mprt__sink *sink, const mprt__visit *v, const int tracing)
 {
-    size_t at = recorder->nrays++;
-    int64_t id = recorder->base + (int64_t)at;
-    if (at < recorder->cap_rays) {
-        mprt_trace_ray *out = &recorder->rays[at];
-        out->id = id;
-        out->parent = parent;
-        out->pixel = sample;
-        out->light = (int16_t)mprt__record_fit(recorder, light, INT16_MAX);
-        out->kind = (uint8_t)kind;
-        out->depth = (uint8_t)(depth > UINT8_MAX ? UINT8_MAX : depth); /* max_depth <= 255 */
-        out->contribution = contribution;
+    mprt_counters *counters = &sink->counters;
+    int k;
+    switch (v->stage) {
+    case MPRT_STAGE_OS:
+        counters->os_visits++;
+        counters->voxels_traversed += v->steps;
+        break;
+    case MPRT_STAGE_IC:
+        counters->ic_visits++;
+        for (k = 0; k < MPRT_NKINDS; k++) counters->tests[k] += v->tests[k];
+        counters->polygon_vertices += v->vertices;
+        break;
+    default: /* MPRT_STAGE_SC */
+        counters->sc_visits++;
+        counters->suppressed_rays += v->suppressed;
+        counters->tir += v->tir;
+        break;
     }
-    return id;
+    if (v->outcome == MPRT_OUT_HIT || v->outcome == MPRT_OUT_BLOCKED || v->outcome == MPRT_OUT_LATE_HIT) {
+        counters->hits++;
+        if (v->ray_kind == MPRT_RAY_PRIMARY) counters->eye_hits++;
+    }
+    if (tracing) mprt__record_visit_here(sink->recorder, v);
 }
 
 /* A stage visit: counted, and recorded when tracing. */
@@ -156,7 +174,11 @@ static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
         counters->hits++;
         if (v->ray_kind == MPRT_RAY_PRIMARY) counters->eye_hits++;
     }
-    if (sink->recorder) mprt__record_visit(sink->recorder, v);
+    if (sink->recorder) {
+        /* A copy, so that the caller's visit can live in registers when not tracing */
+        mprt__visit copy = *v;
+        mprt__record_visit(sink->recorder, &copy);
+    }
 }
 
 /* A new ray: counted by kind, and recorded when tracing.  Returns its

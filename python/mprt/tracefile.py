@@ -4,9 +4,10 @@
 an unknown version, a truncated file or edited data are each a clear
 ``TraceError``.  The records (``rays``, ``visits``) are stored as they are in
 memory, uncompressed unless asked, so that they are memory-mapped on request
-(a trace of any size opens in bounded memory), and a trace can be written from
-record files streamed to disk without holding them in memory.  Everything else
-is small once stored compactly and is always deflated: version 3 keeps the
+(a trace of any size opens in bounded memory), and a trace can be written while
+it is traced (``TraceWriter``) without holding its records in memory.  The
+samples follow the records (deflate gains little on them); everything else is
+small once stored compactly and is always deflated: version 3 keeps the
 voxel lists of the non-empty voxels only (the ids of those voxels as gaps, the
 length of each list in the narrowest unsigned type, and the lists), where
 versions 1 and 2 kept a list start for every voxel of the grid (a 128^3 grid
