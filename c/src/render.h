@@ -51,6 +51,10 @@ int mprt__os_ic(const mprt_grid *grid, const mprt__ray *ray, real tmin, real tma
 int mprt__os_ic_accept(const mprt_grid *grid, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
                        int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind);
 
+/* mprt__os_ic_accept compiled for tracing (pipeline_trace.c): sink->recorder is set. */
+int mprt__os_ic_trace(const mprt_grid *grid, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
+                      int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind);
+
 /* Trace the whole ray tree of the sample whose eye ray is eye; its colour
  * goes to rgb.  stack holds mprt__tree_stack_size rays. */
 void mprt__trace_sample(const mprt__render_setup *setup, mprt__tree_ray eye, int sample, double rgb[3],
