@@ -66,7 +66,7 @@ def test_small_buffers_give_the_same_records(monkeypatch, tmp_path, threads):
     monkeypatch.setattr(tracing, "TILES_PER_CALL", 3)
     monkeypatch.setattr(tracing, "_POOL", [])
     monkeypatch.setattr(tracing, "_GROUP_BUFFERS", [])
-    monkeypatch.setattr(tracing, "_buffer_sets",
+    monkeypatch.setattr(tracing, "_take_buffer_sets",
                         lambda n, samples: [{"rays": np.empty(8, dtype=RAY_DTYPE),
                                              "visits": np.empty(16, dtype=VISIT_DTYPE)} for _ in range(n)])
     assert_reference(grid().trace(24, 20, tile=4, threads=threads)[1])
@@ -150,3 +150,17 @@ def test_a_streamed_header_has_one_length_for_every_count(dtype):
         assert np.lib.format.read_magic(f) == (2, 0)
         assert np.lib.format.read_array_header_2_0(f) == ((count,), False, dtype)
     assert len(lengths) == 1 and lengths.pop() % 64 == 0
+
+
+def test_traces_on_several_python_threads_at_once_keep_their_own_buffers(tmp_path):
+    """Traces made at once from several Python threads (on 1 and 2 library threads, in memory and
+    to disk) each get buffers of their own: every one equals the reference."""
+    from concurrent.futures import ThreadPoolExecutor
+
+    def one(k):
+        path = tmp_path / f"t{k}.npz" if k % 2 else None
+        return grid().trace(24, 20, tile=4, threads=1 + k % 3 // 2, path=path)[1]
+
+    with ThreadPoolExecutor(max_workers=4) as pool:
+        for tr in pool.map(one, range(8)):
+            assert_reference(tr)

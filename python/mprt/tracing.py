@@ -15,6 +15,7 @@ This module also gives ``Grid`` its ``trace`` method (a thin call of
 from __future__ import annotations
 
 import sys
+import threading
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 
@@ -70,9 +71,14 @@ CHUNK_RAYS, CHUNK_VISITS = 1 << 15, 1 << 17
 TILES_PER_CALL = 64
 
 
+_POOL_LOCK = threading.Lock()   # traces may run at once on several Python threads
+
+
 def release_buffers() -> None:
     """Give back the record arrays kept for the next trace (see ``_POOL``)."""
-    _POOL.clear()
+    with _POOL_LOCK:
+        _POOL.clear()
+        _GROUP_BUFFERS.clear()
 
 
 def _idle(entry: dict) -> bool:
@@ -109,12 +115,13 @@ class _Records:
 
     def __init__(self, samples: int, writer=None):
         self.writer = writer
-        if writer:
-            self.chunks = [dict(_reserve(CHUNK_RAYS, CHUNK_VISITS)) for _ in range(2)]
-            self.arrays = self.chunks[0]
-        else:
-            self.arrays = dict(_reserve(max(samples * RESERVE_RAYS, CHUNK_RAYS),
-                                        max(samples * RESERVE_VISITS, CHUNK_VISITS)))
+        with _POOL_LOCK:   # taken (referred to here) before another trace looks for idle arrays
+            if writer:
+                self.chunks = [dict(_reserve(CHUNK_RAYS, CHUNK_VISITS)) for _ in range(2)]
+                self.arrays = self.chunks[0]
+            else:
+                self.arrays = dict(_reserve(max(samples * RESERVE_RAYS, CHUNK_RAYS),
+                                            max(samples * RESERVE_VISITS, CHUNK_VISITS)))
         self.n = {"rays": 0, "visits": 0}        # in the arrays
         self.first_ray = 0                        # the number of the arrays' first ray
 
@@ -213,7 +220,16 @@ def _run_tiles(grid, desc, tiles: np.ndarray, records: _Records, samples: np.nda
     size = max(1, min(TILES_PER_CALL // 4, len(tiles) // (8 * threads)))
     groups = [tiles[i:i + size] for i in range(0, len(tiles), size)]
     ts = desc["tile"]
-    free = [b for b in _buffer_sets(window, size * ts * ts)]
+    sets = _take_buffer_sets(window, size * ts * ts)
+    try:
+        _run_groups(grid, desc, groups, records, samples, bar, threads, list(sets))
+    finally:   # the workers are done (the pool waits for them): the sets are free again
+        _give_back(sets)
+
+
+def _run_groups(grid, desc, groups, records, samples, bar, threads, free):
+    """The groups on threads, a window of len(free) in flight, handed to records in order."""
+    window = len(free)
     with ThreadPoolExecutor(max_workers=threads) as pool:
         pending = deque()
         todo = iter(groups)
@@ -239,12 +255,24 @@ def _run_tiles(grid, desc, tiles: np.ndarray, records: _Records, samples: np.nda
 _GROUP_BUFFERS: list[dict] = []
 
 
-def _buffer_sets(n: int, samples: int) -> list:
-    """n buffer sets for groups of tiles on threads, kept for the next trace (reused pages)."""
-    while len(_GROUP_BUFFERS) < n:
-        _GROUP_BUFFERS.append({"rays": np.empty(max(samples * 8, 1 << 12), dtype=RAY_DTYPE),
-                               "visits": np.empty(max(samples * 64, 1 << 14), dtype=VISIT_DTYPE)})
-    return _GROUP_BUFFERS[:n]
+_GROUP_SETS_KEPT = 16
+
+
+def _take_buffer_sets(n: int, samples: int) -> list:
+    """n buffer sets for groups of tiles on threads: those kept from an earlier trace (their
+    pages touched already), new ones for the rest."""
+    with _POOL_LOCK:
+        sets = [_GROUP_BUFFERS.pop() for _ in range(min(n, len(_GROUP_BUFFERS)))]
+    while len(sets) < n:
+        sets.append({"rays": np.empty(max(samples * 8, 1 << 12), dtype=RAY_DTYPE),
+                     "visits": np.empty(max(samples * 64, 1 << 14), dtype=VISIT_DTYPE)})
+    return sets
+
+
+def _give_back(sets: list) -> None:
+    """Keep buffer sets for the next trace (a few)."""
+    with _POOL_LOCK:
+        _GROUP_BUFFERS.extend(sets[:max(0, _GROUP_SETS_KEPT - len(_GROUP_BUFFERS))])
 
 
 def _setup(grid: Grid, width, height, rules, threshold, max_depth, mailbox, ambient, tile, threads, tiles, sample,
