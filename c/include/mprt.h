@@ -440,6 +440,23 @@ int mprt_grid_trace_tile(mprt_grid *grid, const mprt_render_desc *desc, int tile
                          mprt_trace_visit *visits, size_t cap_visits, size_t *nvisits,
                          mprt_counters *counters);
 
+/* Trace the tiles tiles[0..ntiles-1] in that order, writing each record
+ * once, in place, into one pair of buffers: the tiles' records follow one
+ * another, and ray ids (and so parents and visits' rays) are numbered on from
+ * first_ray, as if the tiles were one.  samples is the whole sample image
+ * (samples_h*samples_w*3 doubles, row by row; cap_samples doubles): each
+ * tile's samples are written in place.  The call stops before a tile that
+ * would not fit what is left of the buffers (it may trace it first, then
+ * leave it unrecorded and uncounted): the caller hands the records on and
+ * calls again with the tiles left.  OUT: ntraced (the tiles recorded),
+ * nrays and nvisits (their records), counters (theirs; may be NULL).  When
+ * not even the first tile fits, MPRT_ERR_CAPACITY is returned with nrays and
+ * nvisits the sizes it needs. */
+int mprt_grid_trace_tiles(mprt_grid *grid, const mprt_render_desc *desc, const int *tiles, size_t ntiles,
+                          double *samples, size_t cap_samples, int64_t first_ray, mprt_trace_ray *rays,
+                          size_t cap_rays, size_t *nrays, mprt_trace_visit *visits, size_t cap_visits,
+                          size_t *nvisits, size_t *ntraced, mprt_counters *counters);
+
 /* Write rgb (width*height*3 floats in [0,1], clamped) as an 8-bit PNG. */
 int mprt_image_write_png(const char *path, int width, int height, const float *rgb);
 

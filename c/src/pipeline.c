@@ -14,72 +14,9 @@
  * primitive id.  The accepted hit is therefore the nearest hit over all
  * primitives, whatever the subdivision, and so are the image and every ray
  * count. */
-#include "dda.h"
-#include "render.h"
-
-#include <string.h>
+#include "walk.h"
 
 #define INF_REAL ((real)INFINITY)
-
-/* ---- IC: one voxel's primitives ------------------------------------------- */
-
-/* Mailbox: primitive ids this ray has tested, direct-mapped.  A primitive
- * tested once need not be tested again in a later voxel: its hit, if any
- * within the (shrinking) search range, is already the candidate. */
-#define MAILBOX_SIZE 64
-typedef struct {
-    int32_t id[MAILBOX_SIZE];
-} mailbox;
-
-/* IC visit: test the voxel's list, counting into ic.  For a shadow ray
- * return 1 on any hit in (tmin, tmax].  Otherwise update the nearest hit
- * *best and return 1 when it lies within this voxel's stretch, or with
- * accept_listed wherever it lies (accepted). */
-static int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt__ray *ray, real dd, real tmin,
-                    real tmax, int shadow, int accept_listed, mprt__hit *best, mailbox *mb, mprt__visit *ic,
-                    mprt__sink *sink)
-{
-    uint32_t k, end = g->start[voxel + 1];
-    for (k = g->start[voxel]; k < end; k++) {
-        int32_t id = g->ids[k];
-        real t;
-        real limit = shadow ? tmax : best->t;
-        if (mb) {
-            if (mb->id[id & (MAILBOX_SIZE - 1)] == id) continue;
-            mb->id[id & (MAILBOX_SIZE - 1)] = id;
-        }
-        if (!mprt__ic_test(&g->ic, g->scene, id, ray, dd, tmin, limit, &t, ic->tests, &ic->vertices)) continue;
-        if (g->scene->prims[id].kind != mprt__ic_scene_kind(&g->ic, id)) {
-            /* the scene no longer holds what IC tested (a corrupted scene): no hit, an error */
-            sink->bad_prim = id;
-            continue;
-        }
-        if (shadow) {
-            best->t = t;
-            best->prim = id;
-            return 1;
-        }
-        if (t < best->t || (t == best->t && id < best->prim)) {
-            best->t = t;
-            best->prim = id;
-        }
-    }
-    return !shadow && best->prim >= 0 && (accept_listed || best->t <= t_exit);
-}
-
-/* ---- OS + IC ----------------------------------------------------------------- */
-
-/* Emit the OS visit that ends a walk (or a stretch of it, handing to IC). */
-static inline void emit_os(mprt__sink *sink, int64_t ray_id, int ray_kind, int outcome, int32_t steps, int64_t voxel_id,
-                    int32_t prim)
-{
-    mprt__visit os;
-    mprt__visit_init(&os, ray_id, ray_kind, MPRT_STAGE_OS, outcome);
-    os.steps = steps;
-    os.voxel_id = voxel_id;
-    os.prim = prim;
-    mprt__emit_visit(sink, &os);
-}
 
 int mprt__os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
                 mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind)
@@ -90,50 +27,9 @@ int mprt__os_ic(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, 
 int mprt__os_ic_accept(const mprt_grid *g, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
                        int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind)
 {
-    mprt__dda walk;
-    mailbox mb, *pmb = NULL;
-    int32_t steps;  /* voxels the walk entered since OS last had the ray */
-    const real dd = vdot(ray->d, ray->d);
-    int left = shadow ? MPRT_OUT_TO_SC : MPRT_OUT_LEFT;
-    best->t = tmax;
-    best->prim = -1;
-    if (!mprt__dda_start(g, ray, tmin, tmax, &walk)) {
-        emit_os(sink, ray_id, ray_kind, left, 0, -1, -1);
-        return 0;
-    }
-    if (use_mailbox) {
-        memset(&mb, 0xff, sizeof mb); /* -1: no primitive */
-        pmb = &mb;
-    }
-    steps = 1;
-    while (mprt__dda_seek(g, &walk, &steps)) {
-        /* OS hands the ray to IC */
-        mprt__visit ic;
-        int accepted;
-        emit_os(sink, ray_id, ray_kind, MPRT_OUT_TO_IC, steps, walk.voxel, -1);
-        mprt__visit_init(&ic, ray_id, ray_kind, MPRT_STAGE_IC, MPRT_OUT_RETURN);
-        ic.voxel_id = walk.voxel;
-        accepted = ic_visit(g, walk.voxel, walk.t_exit, ray, dd, tmin, tmax, shadow, accept_listed, best, pmb, &ic, sink);
-        if (accepted) {
-            ic.outcome = shadow ? MPRT_OUT_BLOCKED : MPRT_OUT_HIT;
-            ic.prim = best->prim;
-        }
-        mprt__emit_visit(sink, &ic);
-        if (accepted) return 1;
-        /* a return ray: back to OS, which walks on */
-        steps = 0;
-        if (!mprt__dda_next(g, &walk)) break;
-        steps++;
-    }
-    /* The walk has tested every voxel the ray crosses, so the nearest
-     * candidate is the nearest hit even when rounding put it past the
-     * last stretch (a primitive lying on the grid box's face). */
-    if (!shadow && best->prim >= 0) {
-        emit_os(sink, ray_id, ray_kind, MPRT_OUT_LATE_HIT, steps, -1, best->prim);
-        return 1;
-    }
-    emit_os(sink, ray_id, ray_kind, left, steps, -1, -1);
-    return 0;
+    if (sink->recorder)
+        return mprt__os_ic_trace(g, ray, tmin, tmax, shadow, use_mailbox, accept_listed, best, sink, ray_id, ray_kind);
+    return os_ic_walk(g, ray, tmin, tmax, shadow, use_mailbox, accept_listed, best, sink, ray_id, ray_kind, 0);
 }
 
 /* ---- A sample's ray tree -------------------------------------------------- */

@@ -6,38 +6,21 @@
 /* Narrow v into a record field of limit; flags the recorder when it does not fit. */
 static int64_t fit(mprt__recorder *recorder, int64_t v, int64_t limit)
 {
-    if (v > limit) {
-        recorder->too_wide = 1;
-        return limit;
-    }
-    return v;
+    return mprt__record_fit(recorder, v, limit);
 }
 
 void mprt__record_visit(mprt__recorder *recorder, const mprt__visit *visit)
 {
-    size_t at = recorder->nvisits++;
-    mprt_trace_visit *out;
-    int k;
-    if (at >= recorder->cap_visits) return;
-    out = &recorder->visits[at];
-    out->ray = visit->ray;
-    out->voxel_id = visit->voxel_id;
-    out->steps = visit->steps;
-    for (k = 0; k < MPRT_NKINDS; k++) out->tests[k] = visit->tests[k];
-    out->vertices = visit->vertices;
-    out->prim = visit->prim;
-    out->stage = (uint8_t)visit->stage;
-    out->outcome = (uint8_t)visit->outcome;
-    out->made = (uint8_t)fit(recorder, visit->made, UINT8_MAX);
-    out->suppressed = (uint8_t)fit(recorder, visit->suppressed, UINT8_MAX);
+    mprt__record_visit_here(recorder, visit);
 }
 
 int64_t mprt__record_ray(mprt__recorder *recorder, int64_t parent, int kind, int depth, int sample, int light,
                          double contribution)
 {
-    int64_t id = (int64_t)recorder->nrays++;
-    if ((size_t)id < recorder->cap_rays) {
-        mprt_trace_ray *out = &recorder->rays[id];
+    size_t at = recorder->nrays++;
+    int64_t id = recorder->base + (int64_t)at;
+    if (at < recorder->cap_rays) {
+        mprt_trace_ray *out = &recorder->rays[at];
         out->id = id;
         out->parent = parent;
         out->pixel = sample;

@@ -16,7 +16,7 @@
 
 /* What one stage visit did: the fields of mprt_trace_visit, in full width. */
 typedef struct {
-    int64_t ray;            /* tile-local ray number (0 when not tracing) */
+    int64_t ray;            /* the ray's number (mprt__record_ray; 0 when not tracing) */
     int ray_kind;           /* mprt_ray_kind, or MPRT__RAY_QUERY */
     int stage;              /* mprt_stage */
     int outcome;            /* mprt_outcome */
@@ -49,12 +49,16 @@ static inline void mprt__visit_init(mprt__visit *v, int64_t ray, int ray_kind, i
     v->tir = 0;
 }
 
-/* The trace records of one tile (mprt_grid_trace_tile's buffers). */
+/* The trace records of one tile (mprt_grid_trace_tile's buffers, or the
+ * stretch of mprt_grid_trace_tiles' buffers after the tiles before it).
+ * Records past a buffer's capacity are counted but not written, so the
+ * caller learns the sizes the tile needs. */
 typedef struct {
     mprt_trace_ray *rays;
     size_t cap_rays, nrays;     /* nrays counts every ray, also past cap_rays */
     mprt_trace_visit *visits;
     size_t cap_visits, nvisits; /* likewise */
+    int64_t base;               /* the number of the tile's first ray (ids are base + the tile-local number) */
     int too_wide;               /* 1 when a value did not fit its record field */
 } mprt__recorder;
 
@@ -76,10 +80,72 @@ static inline void mprt__sink_init(mprt__sink *sink, mprt__recorder *recorder)
     sink->over_budget = -1;
 }
 
-/* Append the records (record.c). */
+/* Narrow v into a record field of limit; flags the recorder when it does not fit. */
+static inline int64_t mprt__record_fit(mprt__recorder *recorder, int64_t v, int64_t limit)
+{
+    if (v > limit) {
+        recorder->too_wide = 1;
+        return limit;
+    }
+    return v;
+}
+
+/* Append a visit's record, written once, in place. */
+static inline void mprt__record_visit_here(mprt__recorder *recorder, const mprt__visit *visit)
+{
+    size_t at = recorder->nvisits++;
+    mprt_trace_visit *out;
+    int k;
+    if (at >= recorder->cap_visits) return;
+    out = &recorder->visits[at];
+    out->ray = visit->ray;
+    out->voxel_id = visit->voxel_id;
+    out->steps = visit->steps;
+    for (k = 0; k < MPRT_NKINDS; k++) out->tests[k] = visit->tests[k];
+    out->vertices = visit->vertices;
+    out->prim = visit->prim;
+    out->stage = (uint8_t)visit->stage;
+    out->outcome = (uint8_t)visit->outcome;
+    out->made = (uint8_t)mprt__record_fit(recorder, visit->made, UINT8_MAX);
+    out->suppressed = (uint8_t)mprt__record_fit(recorder, visit->suppressed, UINT8_MAX);
+}
+
+/* The same out of line (record.c), so that the emit functions stay small where
+ * nothing is recorded; and a ray's record, returning its number
+ * (recorder->base + the tile-local number). */
 void mprt__record_visit(mprt__recorder *recorder, const mprt__visit *visit);
 int64_t mprt__record_ray(mprt__recorder *recorder, int64_t parent, int kind, int depth, int sample, int light,
                          double contribution);
+
+/* A stage visit counted, in code compiled apart for tracing (1: recorded in
+ * place, inline) and for rendering (0: nothing recorded); the hot loop
+ * (pipeline.c's walk) has one copy of each. */
+static inline void mprt__emit_visit_as(mprt__sink *sink, const mprt__visit *v, const int tracing)
+{
+    mprt_counters *counters = &sink->counters;
+    int k;
+    switch (v->stage) {
+    case MPRT_STAGE_OS:
+        counters->os_visits++;
+        counters->voxels_traversed += v->steps;
+        break;
+    case MPRT_STAGE_IC:
+        counters->ic_visits++;
+        for (k = 0; k < MPRT_NKINDS; k++) counters->tests[k] += v->tests[k];
+        counters->polygon_vertices += v->vertices;
+        break;
+    default: /* MPRT_STAGE_SC */
+        counters->sc_visits++;
+        counters->suppressed_rays += v->suppressed;
+        counters->tir += v->tir;
+        break;
+    }
+    if (v->outcome == MPRT_OUT_HIT || v->outcome == MPRT_OUT_BLOCKED || v->outcome == MPRT_OUT_LATE_HIT) {
+        counters->hits++;
+        if (v->ray_kind == MPRT_RAY_PRIMARY) counters->eye_hits++;
+    }
+    if (tracing) mprt__record_visit_here(sink->recorder, v);
+}
 
 /* A stage visit: counted, and recorded when tracing. */
 static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
@@ -116,7 +182,7 @@ static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
 }
 
 /* A new ray: counted by kind, and recorded when tracing.  Returns its
- * tile-local number (0 when not tracing). */
+ * number (0 when not tracing). */
 static inline int64_t mprt__emit_ray(mprt__sink *sink, int64_t parent, int kind, int depth, int sample, int light,
                                      double contribution)
 {

@@ -151,7 +151,24 @@ static int budget_fail(mprt_grid *g, const mprt__render_setup *setup, const char
                            d->rules != MPRT_RULES_SPD ? d->threshold : 0.0, d->max_depth);
 }
 
-/* ---- Trace one tile ---------------------------------------------------------- */
+/* ---- Trace tiles ------------------------------------------------------------- */
+
+/* The error of a traced tile, or MPRT_OK: an unknown primitive, a sample over
+ * the budget, values too wide for the records. */
+static int tile_error(mprt_grid *g, const mprt__render_setup *setup, const mprt__sink *sink,
+                      const mprt__recorder *recorder, int tile)
+{
+    if (sink->bad_prim >= 0)
+        return mprt__grid_fail(g, MPRT_ERR_STATE, "trace: " MPRT__UNKNOWN_KIND, (long long)sink->bad_prim,
+                               g->scene->prims[sink->bad_prim].kind);
+    if (sink->over_budget >= 0) return budget_fail(g, setup, "trace", sink->over_budget);
+    if (recorder->too_wide)
+        return mprt__grid_fail(g, MPRT_ERR_STATE,
+                               "trace: tile %d has an SC visit making more than 255 rays or a light index over 32767 "
+                               "(the trace records cannot hold them)",
+                               tile);
+    return MPRT_OK;
+}
 
 int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, double *samples, size_t cap_samples,
                          mprt_trace_ray *rays, size_t cap_rays, size_t *nrays, mprt_trace_visit *visits,
@@ -192,18 +209,86 @@ int mprt_grid_trace_tile(mprt_grid *g, const mprt_render_desc *desc, int tile, d
     *nrays = recorder.nrays;
     *nvisits = recorder.nvisits;
     if (counters) *counters = sink.counters;
-    if (sink.bad_prim >= 0)
-        return mprt__grid_fail(g, MPRT_ERR_STATE, "trace: " MPRT__UNKNOWN_KIND, (long long)sink.bad_prim,
-                               g->scene->prims[sink.bad_prim].kind);
-    if (sink.over_budget >= 0) return budget_fail(g, &setup, "trace", sink.over_budget);
+    if (sink.bad_prim >= 0 || sink.over_budget >= 0) return tile_error(g, &setup, &sink, &recorder, tile);
     if (recorder.nrays > cap_rays || recorder.nvisits > cap_visits)
         return mprt__grid_fail(g, MPRT_ERR_CAPACITY, "trace: tile %d needs %zu rays and %zu visits", tile,
                                recorder.nrays, recorder.nvisits);
-    if (recorder.too_wide)
-        return mprt__grid_fail(g, MPRT_ERR_STATE,
-                               "trace: tile %d has an SC visit making more than 255 rays or a light index over 32767 "
-                               "(the trace records cannot hold them)",
-                               tile);
+    return tile_error(g, &setup, &sink, &recorder, tile);
+}
+
+int mprt_grid_trace_tiles(mprt_grid *g, const mprt_render_desc *desc, const int *tiles, size_t ntiles,
+                          double *samples, size_t cap_samples, int64_t first_ray, mprt_trace_ray *rays,
+                          size_t cap_rays, size_t *nrays, mprt_trace_visit *visits, size_t cap_visits,
+                          size_t *nvisits, size_t *ntraced, mprt_counters *counters)
+{
+    mprt__render_setup setup;
+    mprt__sink sink;
+    sample_buffer out;
+    mprt__tree_ray *stack;
+    int tiles_x, tiles_y;
+    size_t i, nr = 0, nv = 0, most_rays = 0, most_visits = 0;
+    int st = setup_render(g, desc, &setup);
+    if (st != MPRT_OK) return st;
+    if ((ntiles && (!tiles || !samples)) || !nrays || !nvisits || !ntraced || (cap_rays && !rays) ||
+        (cap_visits && !visits) || first_ray < 0)
+        return MPRT_ERR_INVALID_ARG;
+    *nrays = *nvisits = *ntraced = 0;
+    if (counters) memset(counters, 0, sizeof *counters);
+    mprt__tile_counts(&setup.camera, setup.desc.tile, &tiles_x, &tiles_y);
+    for (i = 0; i < ntiles; i++)
+        if (tiles[i] < 0 || tiles[i] >= tiles_x * tiles_y)
+            return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG, "trace: tiles[%zu] = %d is not in 0..%d", i, tiles[i],
+                                   tiles_x * tiles_y - 1);
+    if (cap_samples < (size_t)setup.camera.samples_w * (size_t)setup.camera.samples_h * 3)
+        return mprt__grid_fail(g, MPRT_ERR_CAPACITY, "trace: sample buffer holds %zu doubles, %zu needed", cap_samples,
+                               (size_t)setup.camera.samples_w * (size_t)setup.camera.samples_h * 3);
+    stack = malloc(mprt__tree_stack_size(&setup) * sizeof *stack);
+    if (!stack) return mprt__grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "trace: out of memory for the ray stack");
+    out.rgb = samples;
+    out.stride = setup.camera.samples_w;
+    out.x0 = out.y0 = 0;
+    mprt__sink_init(&sink, NULL);
+    for (i = 0; i < ntiles; i++) {
+        mprt__recorder recorder;
+        /* Stop before a tile that would likely not fit (as large as the largest
+         * so far): a tile that does not fit is traced again by the next call */
+        if (i > 0 && (cap_rays - nr < most_rays || cap_visits - nv < most_visits)) break;
+        memset(&recorder, 0, sizeof recorder);
+        recorder.rays = rays ? rays + nr : NULL;
+        recorder.cap_rays = cap_rays - nr;
+        recorder.visits = visits ? visits + nv : NULL;
+        recorder.cap_visits = cap_visits - nv;
+        recorder.base = first_ray + (int64_t)nr;
+        {
+            mprt_counters before = sink.counters;
+            sink.recorder = &recorder;
+            render_tile(&setup, tiles[i], &out, stack, &sink);
+            if (sink.bad_prim >= 0 || sink.over_budget >= 0 || recorder.too_wide) {
+                free(stack);
+                return tile_error(g, &setup, &sink, &recorder, tiles[i]);
+            }
+            if (recorder.nrays > recorder.cap_rays || recorder.nvisits > recorder.cap_visits) {
+                sink.counters = before; /* not recorded: not counted */
+                if (i == 0) {
+                    *nrays = recorder.nrays;
+                    *nvisits = recorder.nvisits;
+                    free(stack);
+                    return mprt__grid_fail(g, MPRT_ERR_CAPACITY, "trace: tile %d needs %zu rays and %zu visits",
+                                           tiles[0], recorder.nrays, recorder.nvisits);
+                }
+                break;
+            }
+        }
+        nr += recorder.nrays;
+        nv += recorder.nvisits;
+        if (recorder.nrays > most_rays) most_rays = recorder.nrays;
+        if (recorder.nvisits > most_visits) most_visits = recorder.nvisits;
+    }
+    free(stack);
+    *nrays = nr;
+    *nvisits = nv;
+    *ntraced = i;
+    if (counters) *counters = sink.counters;
     return MPRT_OK;
 }
 

@@ -18,7 +18,7 @@ typedef struct {
     double light_rgb[3];    /* shadow rays: light it carries to the sample */
     int kind;               /* mprt_ray_kind */
     int depth;              /* ray tree level, the eye ray is 1 */
-    int64_t id;             /* tile-local ray number (tracing) */
+    int64_t id;             /* the ray's number in the trace records (tracing) */
 } mprt__tree_ray;
 
 /* The nearest hit found so far. */
@@ -50,6 +50,10 @@ int mprt__os_ic(const mprt_grid *grid, const mprt__ray *ray, real tmin, real tma
  * nearest hit of a voxel's list wherever it lies (MPRT_ACCEPT_LISTED). */
 int mprt__os_ic_accept(const mprt_grid *grid, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
                        int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind);
+
+/* mprt__os_ic_accept compiled for tracing (pipeline_trace.c): sink->recorder is set. */
+int mprt__os_ic_trace(const mprt_grid *grid, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
+                      int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind);
 
 /* Trace the whole ray tree of the sample whose eye ray is eye; its colour
  * goes to rgb.  stack holds mprt__tree_stack_size rays. */

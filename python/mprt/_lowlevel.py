@@ -86,6 +86,7 @@ REPLAY_NODE_DTYPE = _record_dtype(_FFI, "mprt_replay_node")
 REPLAY_PE_DTYPE = _record_dtype(_FFI, "mprt_replay_pe")
 # What each C element type of a buffer argument is in numpy (Binding._buffer checks it).
 _CTYPE_DTYPES = {"double": np.dtype(np.float64), "float": np.dtype(np.float32), "int32_t": np.dtype(np.int32),
+                 "int": np.dtype(f"i{_FFI.sizeof('int')}"),
                  "int64_t": np.dtype(np.int64), "uint32_t": np.dtype(np.uint32), "mprt_trace_ray": RAY_DTYPE,
                  "mprt_trace_visit": VISIT_DTYPE, "mprt_replay_proc": REPLAY_PROC_DTYPE,
                  "mprt_replay_node": REPLAY_NODE_DTYPE, "mprt_replay_pe": REPLAY_PE_DTYPE}
@@ -412,6 +413,22 @@ class Binding:
             return int(nr[0]), int(nv[0]), False
         self._grid(h, rc)
         return int(nr[0]), int(nv[0]), True
+
+    def grid_trace_tiles(self, h, desc: dict, tiles: np.ndarray, samples: np.ndarray, first_ray: int,
+                         rays: np.ndarray, visits: np.ndarray):
+        """Trace the tiles in order, records written in place from the buffers' starts with ray ids
+        from first_ray, samples into the whole sample image: (tiles traced, nrays, nvisits).  Stops
+        before a tile that would not fit; (0, nrays, nvisits needed) when the first does not."""
+        ffi = self.ffi
+        nr, nv, nt = ffi.new("size_t *"), ffi.new("size_t *"), ffi.new("size_t *")
+        rc = self.lib.mprt_grid_trace_tiles(
+            h, self._desc(desc), self._in("int", tiles), len(tiles), self._out("double", samples), samples.size,
+            int(first_ray), self._out("mprt_trace_ray", rays), len(rays), nr, self._out("mprt_trace_visit", visits),
+            len(visits), nv, nt, ffi.NULL)
+        if rc == Status.ERR_CAPACITY and (nr[0] > len(rays) or nv[0] > len(visits)):
+            return 0, int(nr[0]), int(nv[0])
+        self._grid(h, rc)
+        return int(nt[0]), int(nr[0]), int(nv[0])
 
     # -- replay ------------------------------------------------------------------------
     def _replay_config(self, config: dict):

@@ -19,9 +19,11 @@ import threading
 import time
 import zlib
 
+import numpy as np
+
 from tqdm import tqdm
 
-from . import options
+from . import options, tracefile
 from .errors import MprtError
 from .grid import render_desc, write_png
 from .explore.cli import add_parsers as add_explore
@@ -29,7 +31,7 @@ from .fidelity.cli import add_parser as add_simulate
 from .options import UsageError
 from .scene import SPD_SCENES
 from .trace import load_trace
-from .tracing import select_tiles, trace
+from .tracing import select_tiles, trace, trace_records
 from .atomic import open_replacing
 
 EPILOG = options.EXIT_STATUS
@@ -173,15 +175,29 @@ ESTIMATE_TILES = 16    # tiles traced to estimate a trace's size: this many, or 
 ESTIMATE_FROM = 64     # estimate only runs of at least this many tiles
 
 
+ESTIMATE_BLOCKS, ESTIMATE_BLOCK = 16, 1 << 16   # deflated to estimate --compress: at most 1 MiB of each array
+
+
+def _packed_size(a) -> float:
+    """About how many bytes deflate (at --compress's level) makes of the array: its bytes, or
+    ESTIMATE_BLOCKS blocks spread over them when more, deflated and scaled."""
+    b = a.view(np.uint8).reshape(-1)
+    if b.size <= ESTIMATE_BLOCKS * ESTIMATE_BLOCK:
+        return len(zlib.compress(b.tobytes(), tracefile.DEFLATE_LEVEL))
+    step = (b.size - ESTIMATE_BLOCK) // (ESTIMATE_BLOCKS - 1)
+    part = b"".join(b[i * step:i * step + ESTIMATE_BLOCK].tobytes() for i in range(ESTIMATE_BLOCKS))
+    return len(zlib.compress(part, tracefile.DEFLATE_LEVEL)) * b.size / len(part)
+
+
 def _estimate(grid, kw: dict, sel, static: int):
     """(bytes, bytes with --compress, tiles used): the size of a trace of the tiles ``sel``
     from ESTIMATE_TILES of them (or 1%) spread evenly, traced in memory first; ``static`` is the
     size of what does not depend on the tiles (voxel lists, primitive table, samples)."""
     k = max(ESTIMATE_TILES, len(sel) // 100)
     pick = sorted({int(sel[round(i * (len(sel) - 1) / (k - 1))]) for i in range(k)})
-    _, sample = trace(grid, **kw, tiles=pick)
-    raw = sample.rays.nbytes + sample.visits.nbytes
-    packed = len(zlib.compress(sample.rays.tobytes(), 6)) + len(zlib.compress(sample.visits.tobytes(), 6))
+    rays, visits = trace_records(grid, pick, **kw)
+    raw = rays.nbytes + visits.nbytes
+    packed = _packed_size(rays) + _packed_size(visits)
     per_tile = raw / len(pick)
     return static + per_tile * len(sel), static + packed / len(pick) * len(sel), len(pick)
 

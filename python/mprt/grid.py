@@ -8,6 +8,7 @@ beyond the record buffers it hands to the library.
 """
 from __future__ import annotations
 
+import copy
 from typing import Sequence
 
 import numpy as np
@@ -78,17 +79,26 @@ class Grid:
         self.listing = listing
         self._ll = scene._ll
         self._h = self._ll.grid_create(scene._h, dims, max_bytes, LISTINGS[listing])
+        self._stats = self._lists = None
         scene._add_grid(self)
 
     def stats(self) -> dict:
-        """Voxels per axis, non-empty voxels, list lengths, memory, the box covered."""
-        return self._ll.grid_get_stats(self._h)
+        """Voxels per axis, non-empty voxels, list lengths, memory, the box covered (computed
+        once: a grid does not change; a trace asks twice)."""
+        if self._stats is None:
+            self._stats = self._ll.grid_get_stats(self._h)
+        return copy.deepcopy(self._stats)
 
     def lists(self):
         """The voxel lists in CSR form: voxel v (x fastest, then y, then z) lists primitive ids
-        ``ids[start[v]:start[v + 1]]``.  Returns (start uint32, ids int32)."""
-        st = self.stats()
-        return self._ll.grid_get_lists(self._h, st["voxels"], st["refs"])
+        ``ids[start[v]:start[v + 1]]``.  Returns (start uint32, ids int32), read-only: copied
+        from the library once (a grid does not change; every trace carries them)."""
+        if self._lists is None:
+            st = self.stats()
+            self._lists = self._ll.grid_get_lists(self._h, st["voxels"], st["refs"])
+            for a in self._lists:
+                a.setflags(write=False)
+        return self._lists
 
     # -- a render's description, samples and tiles -------------------------------------------
     def resolve(self, desc: dict) -> dict:
@@ -124,6 +134,15 @@ class Grid:
         Returns (nrays, nvisits, fitted); when fitted is False the records did not fit and
         nothing was written: nrays and nvisits are the sizes needed."""
         return self._ll.grid_trace_tile(self._h, desc, tile, samples, rays, visits)
+
+    def trace_tiles(self, desc: dict, tiles: np.ndarray, samples: np.ndarray, first_ray: int, rays: np.ndarray,
+                    visits: np.ndarray):
+        """Trace the tiles (``np.intc`` tile numbers) in order, writing each record once, in place,
+        from the start of ``rays`` and ``visits`` with ray ids numbered on from ``first_ray``, and
+        each tile's sample colours into ``samples``, the whole sample image ((samples_h, samples_w,
+        3) float64).  Stops before a tile that would not fit.  Returns (tiles traced, nrays,
+        nvisits); (0, nrays, nvisits) when not even the first tile fits: the sizes it needs."""
+        return self._ll.grid_trace_tiles(self._h, desc, tiles, samples, first_ray, rays, visits)
 
     # -- rendering and intersection ----------------------------------------------------------
     def render(self, width: int = 0, height: int = 0, rules: str = "paper", threshold: float | None = None,

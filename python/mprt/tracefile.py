@@ -5,9 +5,10 @@ version 1 files of the first trace format carry a SHA-256 instead), so
 an unknown version, a truncated file or edited data are each a clear
 ``TraceError``.  The records (``rays``, ``visits``) are stored as they are in
 memory, uncompressed unless asked, so that they are memory-mapped on request
-(a trace of any size opens in bounded memory), and a trace can be written from
-record files streamed to disk without holding them in memory.  Everything else
-is small once stored compactly and is always deflated: version 3 keeps the
+(a trace of any size opens in bounded memory), and a trace can be written while
+it is traced (``TraceWriter``) without holding its records in memory.  The
+samples follow the records (deflate gains little on them); everything else is
+small once stored compactly and is always deflated: version 3 keeps the
 voxel lists of the non-empty voxels only (the ids of those voxels as gaps, the
 length of each list in the narrowest unsigned type, and the lists), where
 versions 1 and 2 kept a list start for every voxel of the grid (a 128^3 grid
@@ -24,8 +25,10 @@ import json
 import mmap
 import os
 import shutil
+import tempfile
 import zipfile
 import zlib
+from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
@@ -101,9 +104,10 @@ def file_members(meta: dict, arrays: dict) -> dict:
 
 
 def _stored(name: str, compress: bool) -> zipfile.ZipInfo:
-    """The zip entry of a member: records deflated only when compress, others always."""
+    """The zip entry of a member: records and samples deflated only when compress, others always
+    (deflate shrinks the samples, float64 colours, by about a tenth, at about 10 MB/s)."""
     info = zipfile.ZipInfo(name + ".npy")
-    if compress or name not in RECORDS:
+    if compress or name not in RECORDS + ("samples",):
         info.compress_type = zipfile.ZIP_DEFLATED
         # the level's attribute is compress_level from Python 3.13, _compresslevel before
         setattr(info, "compress_level" if hasattr(info, "compress_level") else "_compresslevel", DEFLATE_LEVEL)
@@ -242,28 +246,162 @@ def write(path, meta: dict, arrays: dict, compress: bool | None = None) -> dict:
     return meta
 
 
-def write_streamed(path, meta: dict, streamed: dict, arrays: dict) -> dict:
-    """Write a trace whose record arrays are raw files on disk: ``streamed`` maps an array name
-    to (file, dtype, count, crc32 of the file); ``arrays`` holds the others.  The raw files are
-    copied in blocks, never read whole, and stored uncompressed.  Returns the metadata as
-    written."""
-    members = file_members(meta, arrays)
-    sums = {k: s[3] for k, s in streamed.items()}
-    sums.update({k: crc(v) for k, v in members.items()})
-    meta = dict(meta, format=FORMAT, version=FORMAT_VERSION, crc32=sums)
-    with zipfile.ZipFile(path, "w", allowZip64=True) as z:
-        z.writestr("meta.json", json.dumps(meta, sort_keys=True))
-        for k in MEMBERS:
-            if k not in streamed:
-                _write_array(z, k, members[k], False)
-                continue
-            src, dtype, count, _ = streamed[k]
-            with z.open(_stored(k, False), "w", force_zip64=True) as f:
-                header = {"descr": np.lib.format.dtype_to_descr(dtype), "fortran_order": False, "shape": (count,)}
-                np.lib.format.write_array_header_2_0(f, header)
-                with open(src, "rb") as s:
-                    shutil.copyfileobj(s, f, 1 << 22)
-    return meta
+def crc32_combine(crc1: int, crc2: int, len2: int) -> int:
+    """The CRC-32 of A + B from crc32(A), crc32(B) and len(B) (zlib's crc32_combine, which
+    Python's zlib does not offer): CRC-32 is linear, so A's part is crc1 carried through
+    len2 zero bytes, by squaring a 32x32 GF(2) matrix."""
+    def times(mat, vec):
+        out, i = 0, 0
+        while vec:
+            if vec & 1:
+                out ^= mat[i]
+            vec >>= 1
+            i += 1
+        return out
+
+    def square(mat):
+        return [times(mat, mat[n]) for n in range(32)]
+
+    if len2 <= 0:
+        return crc1 ^ crc2
+    odd = [0xEDB88320] + [1 << n for n in range(31)]   # one zero bit
+    even = square(odd)                                   # two
+    odd = square(even)                                   # four
+    while True:
+        even = square(odd)
+        if len2 & 1:
+            crc1 = times(even, crc1)
+        len2 >>= 1
+        if not len2:
+            break
+        odd = square(even)
+        if len2 & 1:
+            crc1 = times(odd, crc1)
+        len2 >>= 1
+        if not len2:
+            break
+    return crc1 ^ crc2
+
+
+_COUNT_DIGITS = 20   # a record count's width in a streamed member's header: any count fits
+
+
+def npy_header(dtype: np.dtype, count: int) -> bytes:
+    """The .npy (version 2.0) header of a 1-d array of count records, its count right-aligned in
+    a fixed width (a valid tuple literal), so that the header of any count has the same length
+    and can be written before the count is known, then overwritten in place."""
+    d = "{'descr': %r, 'fortran_order': False, 'shape': (%*d,), }" % (
+        np.lib.format.dtype_to_descr(np.dtype(dtype)), _COUNT_DIGITS, count)
+    total = -(-(12 + len(d) + 1) // 64) * 64   # magic, version, length, dict, newline: 64-byte aligned
+    return b"\x93NUMPY\x02\x00" + (total - 12).to_bytes(4, "little") + (d.ljust(total - 13) + "\n").encode("latin1")
+
+
+class TraceWriter:
+    """A trace file written while the trace is made, in bounded memory: ``write`` hands over a
+    chunk of records, written in the background (visits straight into the file's stored
+    ``visits.npy``, rays into an unnamed file beside it) while the caller makes the next;
+    ``finish`` completes the file (the visits' count and checksum put in place, the rays
+    copied in, the other arrays, ``meta.json`` last) and moves it onto the path; ``abort``
+    leaves the path untouched.  The records' checksums for ``meta`` come from the ones the zip
+    computes as it writes: no pass of its own over the records."""
+
+    def __init__(self, path):
+        self.path = os.fspath(path)
+        where = os.path.dirname(os.path.abspath(self.path))
+        fd, self.part = tempfile.mkstemp(prefix=os.path.basename(self.path) + ".", suffix=".part", dir=where)
+        os.close(fd)
+        self.z = self.rays = self.visits = self.pending = None
+        self.pool = ThreadPoolExecutor(max_workers=1)
+        try:
+            self.z = zipfile.ZipFile(self.part, "w", allowZip64=True)
+            self.rays = tempfile.TemporaryFile(dir=where)
+            self.info = _stored("visits", False)
+            self.visits = self.z.open(self.info, "w", force_zip64=True)
+            self.visits.write(npy_header(VISIT_DTYPE, 0))
+        except BaseException:
+            self.abort()
+            raise
+        self.count = {"rays": 0, "visits": 0}
+
+    def _write(self, rays: np.ndarray, visits: np.ndarray) -> None:
+        for f, a in ((self.rays, rays), (self.visits, visits)):
+            if len(a):
+                f.write(memoryview(as_bytes(a)))   # crc32 and write let other threads run
+
+    def _wait(self) -> None:
+        """Wait for the write in flight (raising its error)."""
+        pending, self.pending = self.pending, None
+        if pending is not None:
+            pending.result()
+
+    def write(self, rays: np.ndarray, visits: np.ndarray) -> None:
+        """Append records (contiguous RAY_DTYPE and VISIT_DTYPE arrays), written in the background:
+        the caller leaves the arrays alone until its next call of write, finish or abort."""
+        self._wait()
+        self.count["rays"] += len(rays)
+        self.count["visits"] += len(visits)
+        self.pending = self.pool.submit(self._write, rays, visits)
+
+    def _records_crc(self, info, header: bytes, nbytes: int) -> int:
+        """The CRC-32 of a record member's data alone, from the zip's CRC of header + data."""
+        return info.CRC ^ crc32_combine(zlib.crc32(header), 0, nbytes)
+
+    def finish(self, meta: dict, arrays: dict) -> dict:
+        """Complete the file with the arrays other than the records and the metadata, and move it
+        onto the path.  Returns the metadata as written."""
+        try:
+            self._wait()
+            sums = {}
+            nbytes = self.count["visits"] * VISIT_DTYPE.itemsize
+            self.visits.close()   # the zip wrote the member's local header: CRC and sizes
+            self.visits = None
+            placeholder, header = npy_header(VISIT_DTYPE, 0), npy_header(VISIT_DTYPE, self.count["visits"])
+            sums["visits"] = self._records_crc(self.info, placeholder, nbytes)
+            self.info.CRC = crc32_combine(zlib.crc32(header), sums["visits"], nbytes)
+            fp, end = self.z.fp, self.z.fp.tell()
+            local = self.info.FileHeader(True)
+            fp.seek(self.info.header_offset + len(local))
+            fp.write(header)
+            fp.seek(self.info.header_offset)
+            fp.write(self.info.FileHeader(True))
+            fp.seek(end)
+            header = npy_header(RAY_DTYPE, self.count["rays"])
+            info = _stored("rays", False)
+            with self.z.open(info, "w", force_zip64=True) as f:
+                f.write(header)
+                self.rays.seek(0)
+                shutil.copyfileobj(self.rays, f, 1 << 22)
+            sums["rays"] = self._records_crc(info, header, self.count["rays"] * RAY_DTYPE.itemsize)
+            members = file_members(meta, arrays)
+            for k in MEMBERS:
+                if k not in RECORDS:
+                    _write_array(self.z, k, members[k], False)
+                    sums[k] = crc(members[k])
+            meta = dict(meta, format=FORMAT, version=FORMAT_VERSION, crc32=sums)
+            self.z.writestr("meta.json", json.dumps(meta, sort_keys=True))
+            self.z.close()
+            self.z = None
+            os.replace(self.part, self.path)
+        finally:
+            self.abort()
+        return meta
+
+    def abort(self) -> None:
+        """Close and remove what was written (the path is left as it was)."""
+        try:
+            self._wait()
+        except (OSError, ValueError):
+            pass
+        self.pool.shutdown()
+        for f in (self.visits, self.z, self.rays):
+            if f is not None:
+                try:
+                    f.close()
+                except (OSError, ValueError, zipfile.BadZipFile):
+                    pass
+        self.visits = self.z = self.rays = None
+        if os.path.exists(self.part):
+            os.unlink(self.part)
 
 
 def _member_offset(f, info) -> int:

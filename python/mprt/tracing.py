@@ -1,10 +1,13 @@
 """Tracing: ``trace(grid, ...) -> (image, Trace)``, every stage visit of every ray.
 
-The library traces one tile of samples at a time (``Grid.trace_tile``).  Here
-tiles are chosen (all, a list, or a random, stratified or regular sample), traced on a
-pool of threads through a bounded window of reusable buffers, renumbered into
-global ray ids in tile order (so the result is the same bits for any thread
-count) and gathered in memory or streamed to disk in bounded memory.
+The library traces a run of tiles in one call (``Grid.trace_tiles``), writing
+each record once, in place, numbered as one trace.  Here tiles are chosen (all,
+a list, or a random, stratified or regular sample) and traced on one thread straight into
+the trace's arrays (kept for the next trace, so their pages are touched once
+per process) or into a chunk written to the trace file while tracing (bounded
+memory); on more threads, groups of tiles go through a bounded window of
+reused buffers and are renumbered in tile order, so the result is the same
+bits for any thread count.
 
 This module also gives ``Grid`` its ``trace`` method (a thin call of
 ``trace``), so that the grid layer below does not depend on tracing.
@@ -12,10 +15,8 @@ This module also gives ``Grid`` its ``trace`` method (a thin call of
 from __future__ import annotations
 
 import math
-import os
-import shutil
-import tempfile
-import zlib
+import sys
+import threading
 from collections import deque
 from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
@@ -113,7 +114,7 @@ def select_tiles(ntiles: int, tiles=None, sample=None, tiles_x: int | None = Non
     if tiles is not None and sample is not None:
         raise InvalidArgument("give tiles or sample, not both")
     if tiles is not None:
-        sel = np.unique(np.asarray(list(tiles), dtype=np.int64))
+        sel = np.array(sorted({int(t) for t in tiles}), dtype=np.int64)
         if sel.size == 0 or sel[0] < 0 or sel[-1] >= ntiles:
             raise InvalidArgument(f"tiles must be in 0..{ntiles - 1}")
         return sel
@@ -127,118 +128,251 @@ def select_tiles(ntiles: int, tiles=None, sample=None, tiles_x: int | None = Non
     return choose(s, tx, ntiles // tx)[0]
 
 
-class _Sink:
-    """Where traced tiles' records go: memory, or raw files on disk (bounded memory)."""
+# Record arrays kept for the next trace in this process, so that a trace writes into pages it
+# (or one before it) has touched already instead of having the kernel fault in and zero fresh
+# ones: most of what tracing costs over rendering was that first touch.  A trace in memory
+# returns views of its arrays; an entry is taken again only once nothing else refers to its
+# arrays (the trace that held them is gone).  release_buffers() gives the memory back.
+_POOL: list[dict] = []
+_POOL_ENTRIES = 2
+# Reserved per sample for a trace in memory (address space: pages never written cost nothing).
+# 16 rays and 128 visits per sample is over twice what any SPD scene needs at 512x512 (rings:
+# 58 visits); a trace needing more grows its arrays by doubling.
+RESERVE_RAYS, RESERVE_VISITS = 16, 128
+# The chunk a trace streamed to disk records into before each write (bounded memory).
+CHUNK_RAYS, CHUNK_VISITS = 1 << 15, 1 << 17
+# Tiles per library call: progress is reported between calls.
+TILES_PER_CALL = 64
 
-    def __init__(self, directory=None, samples=0):
-        self.dir = directory
-        # Reserve generously without touching: pages never written cost
-        # nothing, so every record page is faulted in once (growing later
-        # copies).  16 rays and 128 visits per sample is over twice what any
-        # SPD scene needs at 512x512 (rings: 58 visits); if the system will
-        # not reserve that much address space, reserve less.
-        n = 0 if directory else samples
-        per_ray, per_visit = 16, 128
-        while True:
-            try:
-                self.arrays = {"rays": np.empty(max(n * per_ray, 1 << 12), dtype=RAY_DTYPE),
-                               "visits": np.empty(max(n * per_visit, 1 << 14), dtype=VISIT_DTYPE)}
-                break
-            except MemoryError:
-                if per_visit <= 4:
-                    raise
-                per_ray, per_visit = max(per_ray // 2, 1), per_visit // 2
-        self.count = {"rays": 0, "visits": 0}
-        self.files = {}
-        self.crc = {"rays": 0, "visits": 0}
-        if directory:
-            for k in self.arrays:
-                self.files[k] = open(self.file(k), "wb")
 
-    def file(self, key):
-        return os.path.join(self.dir, key + ".bin")
+_POOL_LOCK = threading.Lock()   # traces may run at once on several Python threads
 
-    def add(self, key, arr):
-        self.count[key] += len(arr)
-        if self.dir:
-            b = memoryview(np.ascontiguousarray(arr)).cast("B")
-            self.crc[key] = zlib.crc32(b, self.crc[key])
-            self.files[key].write(b)
-            return
-        n0, n1 = self.count[key] - len(arr), self.count[key]
-        a = self.arrays[key]
-        if n1 > len(a):  # grow by doubling: each record is copied O(1) times
-            bigger = np.empty(max(n1, 2 * len(a)), dtype=a.dtype)
-            tracefile.as_bytes(bigger)[: tracefile.as_bytes(a[:n0]).size] = tracefile.as_bytes(a[:n0])
-            self.arrays[key] = a = bigger
-        # byte views: a memcpy (structured assignment goes field by field)
-        tracefile.as_bytes(a[n0:n1])[:] = tracefile.as_bytes(arr)
+
+def release_buffers() -> None:
+    """Give back the record arrays kept for the next trace (see ``_POOL``)."""
+    with _POOL_LOCK:
+        _POOL.clear()
+        _GROUP_BUFFERS.clear()
+
+
+def _idle(entry: dict) -> bool:
+    """Nothing but the pool refers to the entry's arrays (no trace holds a view of them)."""
+    return all(sys.getrefcount(entry[k]) <= 2 for k in ("rays", "visits"))
+
+
+def _reserve(rays: int, visits: int) -> dict:
+    """Record arrays of at least rays and visits entries: an idle pooled pair when one is large
+    enough, else a new pair (pooled while there is room, or in place of an idle smaller pair)."""
+    for entry in _POOL:
+        if len(entry["rays"]) >= rays and len(entry["visits"]) >= visits and _idle(entry):
+            return entry
+    while True:
+        try:
+            entry = {"rays": np.empty(rays, dtype=RAY_DTYPE), "visits": np.empty(visits, dtype=VISIT_DTYPE)}
+            break
+        except MemoryError:   # the system will not reserve that much address space: reserve less
+            if visits <= 1 << 14:
+                raise
+            rays, visits = max(rays // 2, 1 << 12), visits // 2
+    idle = [k for k, e in enumerate(_POOL) if _idle(e)]
+    if len(_POOL) < _POOL_ENTRIES:
+        _POOL.append(entry)
+    elif idle:
+        _POOL[idle[0]] = entry
+    return entry
+
+
+class _Records:
+    """Where a trace's records go: straight into the trace's arrays in memory, or (``writer``, a
+    tracefile.TraceWriter) into one of two reused chunks: each time one fills, the writer
+    writes it to the file in the background while the other fills."""
+
+    def __init__(self, samples: int, writer=None):
+        self.writer = writer
+        with _POOL_LOCK:   # taken (referred to here) before another trace looks for idle arrays
+            if writer:
+                self.chunks = [dict(_reserve(CHUNK_RAYS, CHUNK_VISITS)) for _ in range(2)]
+                self.arrays = self.chunks[0]
+            else:
+                self.arrays = dict(_reserve(max(samples * RESERVE_RAYS, CHUNK_RAYS),
+                                            max(samples * RESERVE_VISITS, CHUNK_VISITS)))
+        self.n = {"rays": 0, "visits": 0}        # in the arrays
+        self.first_ray = 0                        # the number of the arrays' first ray
+
+    def room(self):
+        """The free ends of the arrays."""
+        return self.arrays["rays"][self.n["rays"]:], self.arrays["visits"][self.n["visits"]:]
+
+    def commit(self, nrays: int, nvisits: int) -> None:
+        """The library recorded nrays and nvisits more into room()."""
+        self.n["rays"] += nrays
+        self.n["visits"] += nvisits
+
+    def make_room(self, rays: int = 0, visits: int = 0) -> None:
+        """Room for at least rays and visits more records (the sizes a tile needs), or with none
+        given, room after a call that stopped short: the chunk handed to the writer, or the
+        arrays grown by doubling (each record is copied O(1) times)."""
+        if self.writer and (self.n["rays"] or self.n["visits"]):
+            self.flush()
+        for key, need in (("rays", rays), ("visits", visits)):
+            a, n = self.arrays[key], self.n[key]
+            if len(a) - n < need or not (self.writer or rays or visits):
+                bigger = np.empty(max(n + need, 2 * len(a)), dtype=a.dtype)
+                tracefile.as_bytes(bigger[:n])[:] = tracefile.as_bytes(a[:n])
+                self.arrays[key] = bigger
+
+    def add(self, rays: np.ndarray, visits: np.ndarray) -> None:
+        """Append records numbered from 0 (one thread's tiles), renumbered to follow the others."""
+        if len(self.arrays["rays"]) - self.n["rays"] < len(rays) or \
+                len(self.arrays["visits"]) - self.n["visits"] < len(visits):
+            self.make_room(len(rays), len(visits))
+        offset = self.first_ray + self.n["rays"]
+        r, v = self.room()
+        r, v = r[:len(rays)], v[:len(visits)]
+        tracefile.as_bytes(r)[:] = tracefile.as_bytes(rays)   # byte views: one memcpy
+        tracefile.as_bytes(v)[:] = tracefile.as_bytes(visits)
+        if offset:
+            r["id"] += offset
+            np.add(r["parent"], offset, out=r["parent"], where=r["parent"] >= 0)
+            v["ray"] += offset
+        self.commit(len(rays), len(visits))
+
+    def flush(self) -> None:
+        """Hand the chunk to the writer and go on in the other one (whose write the writer has
+        finished: it has one write in flight at most)."""
+        self.writer.write(self.arrays["rays"][:self.n["rays"]], self.arrays["visits"][:self.n["visits"]])
+        self.first_ray += self.n["rays"]
+        self.n = {"rays": 0, "visits": 0}
+        self.chunks.reverse()
+        self.arrays = self.chunks[0]
 
     def result(self, key):
-        return self.arrays[key][: self.count[key]]
-
-    def streamed(self):
-        """The record files as tracefile.write_streamed takes them."""
-        dtypes = {"rays": RAY_DTYPE, "visits": VISIT_DTYPE}
-        return {k: (self.file(k), dtypes[k], self.count[k], self.crc[k]) for k in dtypes}
-
-    def close(self):
-        for f in self.files.values():
-            f.close()
+        return self.arrays[key][: self.n[key]]
 
 
-def _trace_one(grid: Grid, desc: dict, t: int, rect, b: dict):
-    """Trace tile t into buffer set b (reused; grown when a tile needs more)."""
-    i0, j0, i1, j1 = rect
-    buf = b["samples"][: (j1 - j0) * (i1 - i0) * 3]
+def _trace_group(grid: Grid, desc: dict, tiles: np.ndarray, samples: np.ndarray, b: dict):
+    """Trace a group of tiles into buffer set b (reused; grown when the group needs more), rays
+    numbered from 0: (nrays, nvisits)."""
+    done = nr = nv = 0
     while True:
-        nr, nv, fitted = grid.trace_tile(desc, t, buf, b["rays"], b["visits"])
-        if fitted:
-            return buf.reshape(j1 - j0, i1 - i0, 3), nr, nv
-        b["rays"] = np.empty(max(len(b["rays"]), int(nr * 1.5)), dtype=RAY_DTYPE)
-        b["visits"] = np.empty(max(len(b["visits"]), int(nv * 1.5)), dtype=VISIT_DTYPE)
+        n, r, v = grid.trace_tiles(desc, tiles[done:], samples, nr, b["rays"][nr:], b["visits"][nv:])
+        if n:
+            done, nr, nv, r, v = done + n, nr + r, nv + v, 0, 0
+            if done == len(tiles):
+                return nr, nv
+        for key, have, need in (("rays", nr, r), ("visits", nv, v)):
+            a = b[key]
+            b[key] = np.empty(max(2 * len(a), have + need), dtype=a.dtype)
+            tracefile.as_bytes(b[key][:have])[:] = tracefile.as_bytes(a[:have])
 
 
-def _run_tiles(grid, desc, sel, rects, sink, samples, covered, bar):
-    """Trace the tiles ``sel`` (sample rectangles ``rects``) on desc['threads'] threads and hand
-    them to the sink in tile order.
+def _run_tiles(grid, desc, tiles: np.ndarray, records: _Records, samples: np.ndarray, bar):
+    """Trace the tiles in order, their records handed to ``records`` in tile order.
 
-    A window of tiles is in flight, each with its own buffer set: results are consumed in tile
-    order, and no tile ever waits for a buffer held by a later one.  Buffers are reused, so
-    memory is touched once."""
+    On one thread the library writes each record once, in place, into the trace's arrays (or
+    the chunk streamed to disk), numbered as it goes.  On more, groups of tiles are traced into
+    reused buffer sets, a bounded window of them in flight, and copied over in tile order, so
+    the records are the same bits for any thread count."""
     threads = desc["threads"]
+    if threads == 1:
+        i = 0
+        while i < len(tiles):
+            part = tiles[i:i + TILES_PER_CALL]
+            rays, visits = records.room()
+            n, nr, nv = grid.trace_tiles(desc, part, samples, records.first_ray + records.n["rays"], rays, visits)
+            if n == 0:
+                records.make_room(nr, nv)
+                continue
+            records.commit(nr, nv)
+            if n < len(part):
+                records.make_room()
+            i += n
+            if bar:
+                bar.update(n)
+        return
     window = threads + 1
+    size = max(1, min(TILES_PER_CALL // 4, len(tiles) // (8 * threads)))
+    groups = [tiles[i:i + size] for i in range(0, len(tiles), size)]
     ts = desc["tile"]
-    free = [{"samples": np.empty(ts * ts * 3), "rays": np.empty(ts * ts * 8, dtype=RAY_DTYPE),
-             "visits": np.empty(ts * ts * 64, dtype=VISIT_DTYPE)} for _ in range(window)]
+    sets = _take_buffer_sets(window, size * ts * ts)
+    try:
+        _run_groups(grid, desc, groups, records, samples, bar, threads, list(sets))
+    finally:   # the workers are done (the pool waits for them): the sets are free again
+        _give_back(sets)
+
+
+def _run_groups(grid, desc, groups, records, samples, bar, threads, free):
+    """The groups on threads, a window of len(free) in flight, handed to records in order."""
+    window = len(free)
     with ThreadPoolExecutor(max_workers=threads) as pool:
         pending = deque()
-        todo = iter(zip(sel, rects))
+        todo = iter(groups)
 
         def submit():
-            t, rect = next(todo, (None, None))
-            if t is not None:
+            group = next(todo, None)
+            if group is not None:
                 b = free.pop()
-                pending.append((pool.submit(_trace_one, grid, desc, int(t), rect, b), rect, b))
+                pending.append((pool.submit(_trace_group, grid, desc, group, samples, b), b, len(group)))
 
         for _ in range(window):
             submit()
         while pending:
-            fut, (i0, j0, i1, j1), b = pending.popleft()
-            buf, nr, nv = fut.result()
-            offset = sink.count["rays"]
-            rays, visits = b["rays"][:nr], b["visits"][:nv]
-            rays["id"] += offset
-            np.add(rays["parent"], offset, out=rays["parent"], where=rays["parent"] >= 0)
-            visits["ray"] += offset
-            sink.add("rays", rays)
-            sink.add("visits", visits)
-            samples[j0:j1, i0:i1] = buf
-            covered[j0:j1, i0:i1] = True
+            fut, b, n = pending.popleft()
+            nr, nv = fut.result()
+            records.add(b["rays"][:nr], b["visits"][:nv])
             free.append(b)
             submit()
             if bar:
-                bar.update(1)
+                bar.update(n)
+
+
+_GROUP_BUFFERS: list[dict] = []
+
+
+_GROUP_SETS_KEPT = 16
+
+
+def _take_buffer_sets(n: int, samples: int) -> list:
+    """n buffer sets for groups of tiles on threads: those kept from an earlier trace (their
+    pages touched already), new ones for the rest."""
+    with _POOL_LOCK:
+        sets = [_GROUP_BUFFERS.pop() for _ in range(min(n, len(_GROUP_BUFFERS)))]
+    while len(sets) < n:
+        sets.append({"rays": np.empty(max(samples * 8, 1 << 12), dtype=RAY_DTYPE),
+                     "visits": np.empty(max(samples * 64, 1 << 14), dtype=VISIT_DTYPE)})
+    return sets
+
+
+def _give_back(sets: list) -> None:
+    """Keep buffer sets for the next trace (a few)."""
+    with _POOL_LOCK:
+        _GROUP_BUFFERS.extend(sets[:max(0, _GROUP_SETS_KEPT - len(_GROUP_BUFFERS))])
+
+
+def _setup(grid: Grid, width, height, rules, threshold, max_depth, mailbox, ambient, tile, threads, tiles, sample,
+           conventions, max_rays):
+    """(desc, tiling, selected tiles, sample image (NaN where not traced), samples traced)."""
+    desc = grid.resolve(render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox,
+                                    conventions, max_rays))
+    tiling = grid.tiling(desc)
+    sw, sh, tx, ty = tiling
+    sel = select_tiles(tx * ty, tiles, sample, tiles_x=tx)
+    subset = len(sel) < tx * ty
+    samples = np.full((sh, sw, 3), np.nan) if subset else np.empty((sh, sw, 3))
+    nsamples = sum((i1 - i0) * (j1 - j0) for i0, j0, i1, j1 in (grid.tile_rect(desc, int(t)) for t in sel)) \
+        if subset else sw * sh
+    return desc, tiling, sel, samples, nsamples
+
+
+def trace_records(grid: Grid, tiles, width=0, height=0, rules="paper", threshold=None, max_depth=0, mailbox=False,
+                  ambient=None, tile=None, threads=1, conventions=None, max_rays=None):
+    """The records alone (rays, visits) of the given tiles, as ``trace`` would record them (for a
+    quick look at a trace's size: no image, grid tables or metadata)."""
+    desc, _, sel, samples, nsamples = _setup(grid, width, height, rules, threshold, max_depth, mailbox, ambient,
+                                             tile, threads, tiles, None, conventions, max_rays)
+    records = _Records(nsamples)
+    _run_tiles(grid, desc, sel.astype(np.intc), records, samples, None)
+    return records.result("rays"), records.result("visits")
 
 
 def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_depth=0, mailbox=False, ambient=None,
@@ -248,45 +382,40 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
 
     The render options are those of ``Grid.render``; ``tile`` is the tile edge in samples (the
     unit of subsets), ``tiles`` a list of tile numbers or ``sample`` (``SAMPLE_GRAMMAR``'s
-    random, stratified or regular) traces a subset (other samples are NaN).  With ``path`` the records stream
-    to disk tile batch by tile batch and the trace is saved there (memory stays bounded by the
-    batch and the image); ``progress`` shows a progress bar."""
-    desc = grid.resolve(render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox,
-                                    conventions, max_rays))
-    tiling = grid.tiling(desc)
-    sw, sh, tx, ty = tiling
-    sel = select_tiles(tx * ty, tiles, sample, tiles_x=tx)
-    rects = [grid.tile_rect(desc, int(t)) for t in sel]
-    samples = np.zeros((sh, sw, 3), dtype=np.float64)
-    covered = np.zeros((sh, sw), dtype=bool)
-    tmpdir = sink = bar = None
+    random, stratified or regular) traces a subset (other samples are NaN).  With ``path`` the trace file is
+    written while tracing, a bounded chunk of records at a time (memory stays bounded by the
+    chunk and the image); ``progress`` shows a progress bar."""
+    desc, tiling, sel, samples, nsamples = _setup(grid, width, height, rules, threshold, max_depth, mailbox, ambient,
+                                                  tile, threads, tiles, sample, conventions, max_rays)
+    writer = bar = None
+    # the metadata and the grid's tables (the scene's content hash, a copy of the voxel lists) are
+    # made on a thread of their own while the tiles are traced
+    side = ThreadPoolExecutor(max_workers=1)
+    static = side.submit(lambda: (_meta(grid, desc, tiling, sel, tiles, sample), grid_arrays(grid)))
     try:
         if path:
-            tmpdir = tempfile.mkdtemp(prefix="mprt-trace-", dir=os.path.dirname(os.path.abspath(path)))
-        sink = _Sink(tmpdir, samples=sum((i1 - i0) * (j1 - j0) for i0, j0, i1, j1 in rects))
+            writer = tracefile.TraceWriter(path)
+        records = _Records(nsamples, writer)
         if progress:
             bar = tqdm(total=len(sel), unit="tile", desc="trace", leave=False)
-        _run_tiles(grid, desc, sel, rects, sink, samples, covered, bar)
-        sink.close()
-        meta = _meta(grid, desc, tiling, sel, tiles, sample)
-        if not covered.all():
-            samples[~covered] = np.nan
-        arrays = grid_arrays(grid)
+        _run_tiles(grid, desc, sel.astype(np.intc), records, samples, bar)
+        meta, arrays = static.result()
         arrays["samples"] = samples
         if path:
-            tracefile.write_streamed(path, meta, sink.streamed(), arrays)
+            records.flush()
+            writer.finish(meta, arrays)
+            writer = None
             result = load_trace(path, mmap=True, verify=False)
         else:
-            arrays["rays"] = sink.result("rays")
-            arrays["visits"] = sink.result("visits")
+            arrays["rays"] = records.result("rays")
+            arrays["visits"] = records.result("visits")
             result = Trace.from_arrays(meta, arrays)
     finally:
+        side.shutdown()
         if bar:
             bar.close()
-        if sink:
-            sink.close()
-        if tmpdir:
-            shutil.rmtree(tmpdir, ignore_errors=True)
+        if writer:
+            writer.abort()
     return result.image, result
 
 
