@@ -95,7 +95,8 @@ def _common(p, res_default: str):
 
 
 def add_parsers(sub) -> None:
-    from .search import GLOBAL_ALGORITHMS, OBJECTIVES, POLISHES
+    from ..machine.config import BUILTIN
+    from .search import GLOBAL_ALGORITHMS, OBJECTIVES, POLISHES, STARTS
 
     e = sub.add_parser("explore", help="search the design space for the fastest machine (and subdivision)",
                        description="Search a design space (--space, or the built-in one) with NLopt for the "
@@ -106,9 +107,8 @@ def add_parsers(sub) -> None:
                    help="time: cycles (under --budget); time*cost; pareto: the front by a sweep of budgets")
     e.add_argument("--budget", type=_positive(float), default=None, help="hardware budget in kGE")
     e.add_argument("--level", choices=("0", "1", "2", "3", "auto"), default="auto",
-                   help="fidelity level: auto (default) measures the ladder on this scene and takes the cheapest "
-                        "within --tolerance; the search runs at no more than level 1, the best designs are "
-                        "verified at the level chosen")
+                   help="fidelity level of the search and of everything after it: auto (default) measures "
+                        "the ladder on this scene and takes the lowest within --tolerance")
     e.add_argument("--tolerance", type=_percent, default=0.01,
                    help="error the level may have against the most faithful one, with --level auto (default 1%%)")
     e.add_argument("--sample", type=_sample, default="auto",
@@ -116,12 +116,19 @@ def add_parsers(sub) -> None:
                         "(stratified:K:SEED, random:N:SEED, regular:K, or none; default: stratified:16:1 above "
                         "256x256)")
     e.add_argument("--verify", type=_positive(int), default=4,
-                   help="designs re-evaluated at the verification level when it is above the search's (default 4)")
+                   help="best designs of the low-resolution search re-evaluated at --res (with the best of each "
+                        "stage mapping) before the full-resolution polish (default 4)")
     e.add_argument("--algorithm", choices=[a for a in GLOBAL_ALGORITHMS if a != "none"], default="direct-l")
     e.add_argument("--polish", choices=POLISHES, default="lattice")
     e.add_argument("--max-evals", type=_positive(int), default=1000,
                    help="most distinct designs in the global phase (default 1000)")
     e.add_argument("--seed", type=int, default=1)
+    e.add_argument("--starts", choices=STARTS, default="whole",
+                   help="the global phase: one start over the whole space (default), or one per stage mapping "
+                        "(run in parallel, each with a share of --max-evals)")
+    e.add_argument("--workers", type=int, default=None,
+                   help="processes evaluating independent designs in parallel (default: one per core; 0 or 1: "
+                        "in this process); the answer is the same for any number")
     e.add_argument("--fraction", type=_positive(int), default=None,
                    help="search on traces at 1/FRACTION of --res, then polish the best at --res "
                         "(default: about 64 pixels across; 1: search at --res)")
@@ -132,8 +139,18 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("prepass", help="choose the voxel subdivision from low-resolution traces",
                        description="Trace SCENE at a fraction of --res over candidate subdivisions (searched over "
                                    "--range, or the --candidates given), predict each one's full-resolution "
-                                   "cycles on the paper's 3MPPE, and print the best.")
+                                   "cycles on the machine named (default: the paper's 3MPPE) at the level the "
+                                   "fidelity ladder trusts for it, and print the best.")
     _common(p, "512x512")
+    p.add_argument("--model", choices=tuple(BUILTIN), default=None,
+                   help="built-in machine to choose the subdivision for (default: 3mppe)")
+    p.add_argument("--config", metavar="FILE.toml", default=None, help="machine configuration file")
+    p.add_argument("--level", choices=("0", "1", "2", "3", "auto"), default="auto",
+                   help="fidelity level of the candidates' replays: auto (default) measures the ladder for the "
+                        "machine on the middle candidate's trace and takes the lowest within --tolerance")
+    p.add_argument("--tolerance", type=_percent, default=0.01,
+                   help="error the level may have against the machine's own level, with --level auto "
+                        "(default 1%%)")
     p.add_argument("--candidates", type=_candidates, default=None,
                    help="subdivisions to try, e.g. 20,50,100 or 20,50,100/8x8x2 (default: searched)")
     p.add_argument("--range", type=_range, default=None, dest="n_range",
@@ -200,13 +217,15 @@ def run_explore(a) -> int:
     kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget,
               level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, algorithm=a.algorithm,
               polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads, fraction=a.fraction,
-              sample=a.sample, verify=a.verify)
+              sample=a.sample, verify=a.verify, starts=a.starts)
+    if a.workers is not None and a.workers < 0:
+        raise opt.UsageError(f"--workers {a.workers}: give 0 or more processes")
     if a.scheduler:
         from .distributed import run_remote
         rep = run_remote(a.scheduler, explore_spec, a.scene, kw)
     else:
         show = _progress_printer()
-        rep = explore(scene, progress=show, log=show.line, **kw)
+        rep = explore(scene, progress=show, log=show.line, workers=a.workers, **kw)
         show.end()
     print_report(rep)
     if a.json:
@@ -220,9 +239,10 @@ def run_explore(a) -> int:
 
 
 def explore_spec(scene_spec, kw):
-    """Runs on a Dask worker: load the scene there and explore."""
+    """Runs on a Dask worker: load the scene there and explore (in that process: a Dask
+    worker is a daemon process and may not start a pool)."""
     from .explorer import explore
-    return explore(opt.load_scene(scene_spec)[0], **kw)
+    return explore(opt.load_scene(scene_spec)[0], workers=1, **kw)
 
 
 def print_report(rep: dict) -> None:
@@ -232,7 +252,7 @@ def print_report(rep: dict) -> None:
           + (f", budget {rep['budget']:g} kGE" if rep.get("budget") else "")
           + f": {rep['evaluations']} designs evaluated in {rep['seconds']:.1f} s")
     lv = rep["level"]
-    print(f"level   search at {lv['search']}, verified at {lv['verify']}"
+    print(f"level   {lv['search']}: search, full-resolution polish and references"
           + (f" (the ladder's choice within {100 * rep['tolerance']:g}%)" if lv["asked"] == "auto" else ""))
     print(f"best    {b['described']}")
     print(f"        subdivision {'x'.join(map(str, b['subdivision']))}; {b['cycles']:,.0f} cycles; "
@@ -257,11 +277,15 @@ def run_prepass(a) -> int:
     w, h = a.res
     if a.check < 0:
         raise opt.UsageError(f"--check {a.check}: give 0 or more candidates")
+    from ..machine.config import resolve
+    machine = resolve(a.model or (None if a.config else "3mppe"), a.config, None)
     r = prepass(scene, w, h, candidates=a.candidates, n_range=a.n_range, fraction=a.fraction, shape=a.shape,
-                threads=a.threads, check=a.check, refine=a.refine)
+                threads=a.threads, check=a.check, refine=a.refine, design=machine,
+                level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance)
     lw, lh = r["low_resolution"]
     print(f"prepass {scene.name}: {len(r['candidates'])} subdivisions traced at {lw}x{lh} in {r['seconds']:.2f} s; "
-          f"cycles predicted for {w}x{h} on the paper's 3MPPE (level {r['level']})"
+          f"cycles predicted for {w}x{h} on {r['machine']} at level {r['level']}"
+          + (f" (the ladder's choice within {100 * a.tolerance:g}%)" if a.level == "auto" else "")
           + (f"; the best {a.check} checked on {r['check_sample']} at {w}x{h}" if r["check_sample"] else ""))
     best = r["subdivision"]
     for c in r["candidates"]:
