@@ -297,7 +297,7 @@ def plot(report: dict, path) -> None:
     feas = np.array([r["feasible"] for r in h])
     live = np.array([r["cycles"] < DEADLOCK_CYCLES for r in h])
     feas &= live
-    full = np.array([r["phase"] == "full" for r in h])
+    full = np.array([r["phase"].startswith("full") for r in h])
     ver = np.array([r["phase"].startswith("verify") for r in h])
     best = np.minimum.accumulate(np.where(feas, cyc, np.inf))
     ax[0].scatter(n[feas & ~full], cyc[feas & ~full], s=6, c="tab:blue", label="search (scaled to full res.)")
@@ -334,7 +334,7 @@ def plot(report: dict, path) -> None:
     ax[2].set(ylim=(0, 1.05), ylabel="utilisation", title="best design (red) and the paper's 3MPPE")
     fig.suptitle(f"{report['scene']} {report['width']}x{report['height']}: objective {report['objective']}, "
                  f"{report['evaluations']} evaluations, "
-                 f"level {report['level']['search']} (search), {report['level']['verify']} (verify)")
+                 f"level {report['level']['search']}")
     fig.tight_layout()
     fig.savefig(path, dpi=100)
     plt.close(fig)
