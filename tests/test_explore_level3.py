@@ -1,7 +1,6 @@
 """The explorer at the level its answer is judged by: the search at level 3 (memories free) against
 exhaustive enumeration there, the polish's trades, workers, and the prepass for a named machine."""
 import argparse
-import itertools
 import json
 from pathlib import Path
 
