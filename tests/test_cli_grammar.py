@@ -26,6 +26,8 @@ DEFAULTS_MAY_DIFFER = {
     "--tolerance": "explore's level choice (1%) and simulate's, which also pins a baseline (0 there)",
     "--scheduler": "explore runs in this process, sweep on a LocalCluster",
     "--output": "scene writes NFF to stdout, trace needs a file, render writes an image only when asked",
+    "--model": "simulate replays model M unless told; prepass chooses the subdivision for the paper's 3MPPE",
+    "--workers": "explore evaluates on a process per core; sweep runs a LocalCluster of one worker per core",
 }
 # option: why its syntax differs between subcommands
 SYNTAX_MAY_DIFFER = {

@@ -14,6 +14,7 @@ PACKAGE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 ORDER = [
     "_build",      # cffi builder of the extensions (imports none of the package)
     "errors",      # exceptions
+    "atomic",      # outputs written whole (a temporary renamed into place)
     "_lowlevel",   # the only importer of the compiled extensions: one wrapper per C call, enums, record dtypes
     "scene",       # Scene
     "grid",        # Grid (adds Scene.grid), render, intersect, camera rays, per-tile calls
@@ -23,6 +24,7 @@ ORDER = [
     "trace",       # Trace, load_trace, the record enums and dtypes
     "tracing",     # trace(grid, ...) -> (image, Trace) (adds Grid.trace)
     "options",     # the command line's options, validated once for every subcommand
+    "report",      # self-contained HTML pages of explore, simulate and sweep (from their JSON and plots)
     "cost",        # operation costs of stage visits (takes a Trace)
     "replay",      # costed trace -> per-PE ray streams
     "machine",     # the SimPy machine model (takes a Trace, never a Grid)

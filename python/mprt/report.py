@@ -11,7 +11,6 @@ from __future__ import annotations
 import base64
 import html
 import io
-import os
 import shlex
 import sys
 import time
@@ -125,9 +124,8 @@ def ladder_png(ladder: list) -> bytes:
     return data
 
 
-def explore_html(rep: dict, argv=None, plot_path=None) -> str:
-    from .explore.explorer import plot
-
+def explore_html(rep: dict, argv, plot_path) -> str:
+    """The page of an explore report (its JSON) with its plot (a PNG file, as explorer.plot draws it)."""
     b, refs, lv = rep["best"], rep["references"], rep["level"]
     feasible = b.get("feasible", True)
     budget = f" within {rep['budget']:g} kGE" if rep.get("budget") else ""
@@ -159,14 +157,7 @@ def explore_html(rep: dict, argv=None, plot_path=None) -> str:
     hist_html = (f"<p>{rep['evaluations']} designs evaluated in {rep['seconds']:.1f} s "
                  f"({', '.join(f'{k}: {v}' for k, v in phases.items())}); algorithm "
                  f"{esc(rep.get('algorithm'))}.</p>")
-    if plot_path is None:
-        import tempfile
-        with tempfile.TemporaryDirectory() as d:
-            p = os.path.join(d, "explore.png")
-            plot(rep, p)
-            plots = file_png(p, "search history, cycles against cost, utilisation")
-    else:
-        plots = file_png(plot_path, "search history, cycles against cost, utilisation")
+    plots = file_png(plot_path, "search history, cycles against cost, utilisation")
     front = ""
     if "front" in rep:
         front = table(("cost (kGE)", "cycles", "mapping", "PEs", "subdivision"),

@@ -95,7 +95,8 @@ def _common(p):
 
 
 def add_parsers(sub) -> None:
-    from .search import GLOBAL_ALGORITHMS, OBJECTIVES, POLISHES
+    from ..machine.config import BUILTIN
+    from .search import GLOBAL_ALGORITHMS, OBJECTIVES, POLISHES, STARTS
 
     e = sub.add_parser("explore", help="search the design space for the fastest machine (and subdivision)",
                        description="Search a design space (--space, or the built-in one) with NLopt for the "
@@ -110,8 +111,8 @@ def add_parsers(sub) -> None:
                    help="hardware budget in kGE; one below the space's cheapest design is refused before any "
                         "work (default: none)")
     opt.add_level(e, default="auto", default_text="auto",
-                  extra="; auto measures the ladder on this scene and takes the cheapest within --tolerance; the "
-                        "search runs at no more than level 1, the best designs are verified at the level chosen")
+                  extra="; the search and everything after it run at that level; auto measures the ladder on this "
+                        "scene and takes the lowest within --tolerance")
     e.add_argument("--tolerance", type=_percent, default=0.01, metavar="P",
                    help="error the level may have against the most faithful one, with --level auto (default: 1%%)")
     e.add_argument("--sample", type=_sample, default="auto", metavar="SPEC",
@@ -119,7 +120,8 @@ def add_parsers(sub) -> None:
                         "(stratified:K:SEED, random:N:SEED, regular:K, or none) (default: auto, stratified:16:1 "
                         "above 256x256)")
     e.add_argument("--verify", type=_positive(int), default=4, metavar="K",
-                   help="designs re-evaluated at the verification level when it is above the search's (default: 4)")
+                   help="best designs of the low-resolution search re-evaluated at --res (with the best of each "
+                        "stage mapping) before the full-resolution polish (default: 4)")
     e.add_argument("--algorithm", choices=[a for a in GLOBAL_ALGORITHMS if a != "none"], default="direct-l",
                    help="NLopt's global search (default: direct-l)")
     e.add_argument("--polish", choices=POLISHES, default="lattice",
@@ -129,6 +131,12 @@ def add_parsers(sub) -> None:
                    help="most distinct designs in the global phase (default: 1000)")
     e.add_argument("--seed", type=int, default=1, help="seed of the randomised searches and of the ladder's "
                                                        "designs (default: 1)")
+    e.add_argument("--starts", choices=STARTS, default="whole",
+                   help="the global phase: one start over the whole space, or one per stage mapping (run in "
+                        "parallel, each with a share of --max-evals) (default: whole)")
+    e.add_argument("--workers", type=_nonnegative_int, default=None, metavar="N",
+                   help="processes evaluating independent designs in parallel; the answer is the same for any "
+                        "number (default: one per core; 0 or 1: in this process)")
     e.add_argument("--fraction", type=_positive(int), default=None, metavar="F",
                    help="search on traces at 1/F of --res, then polish the best at --res "
                         "(default: about 64 pixels across; 1: search at --res)")
@@ -144,9 +152,20 @@ def add_parsers(sub) -> None:
     p = sub.add_parser("prepass", help="choose the voxel subdivision from low-resolution traces",
                        description="Trace SCENE at a fraction of --res over candidate subdivisions (searched over "
                                    "--range, or the --candidates given), predict each one's full-resolution "
-                                   "cycles on the paper's 3MPPE, and print the best.",
+                                   "cycles on the machine named (default: the paper's 3MPPE) at the level the "
+                                   "fidelity ladder trusts for it, and print the best.",
                        epilog=opt.EXIT_STATUS)
     _common(p)
+    p.add_argument("--model", choices=tuple(BUILTIN), default=None,
+                   help="built-in machine to choose the subdivision for (default: 3mppe)")
+    p.add_argument("--config", metavar="FILE.toml", default=None,
+                   help="machine configuration file (default: none, the --model)")
+    opt.add_level(p, default="auto", default_text="auto",
+                  extra="; of the candidates' replays: auto measures the ladder for the machine on the middle "
+                        "candidate's trace and takes the lowest within --tolerance")
+    p.add_argument("--tolerance", type=_percent, default=0.01, metavar="P",
+                   help="error the level may have against the machine's own level, with --level auto "
+                        "(default: 1%%)")
     p.add_argument("--candidates", type=_candidates, default=None, metavar="N,...|NXxNYxNZ,...",
                    help="subdivisions to try, e.g. 20,50,100 or 20,50,100/8x8x2 (default: searched)")
     p.add_argument("--range", type=_range, default=None, dest="n_range", metavar="LO:HI",
@@ -274,11 +293,13 @@ def run_explore(a) -> int:
     kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget,
               level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, algorithm=a.algorithm,
               polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads, fraction=a.fraction,
-              sample=a.sample, verify=a.verify)
+              sample=a.sample, verify=a.verify, starts=a.starts)
+    if a.workers is not None and a.workers < 0:
+        raise opt.UsageError(f"--workers {a.workers}: give 0 or more processes")
     print(f"explore {scene.name} at {w}x{h}: "
           + ("measure the fidelity ladder on a low-resolution trace, " if a.level == "auto" else "")
-          + f"search up to {a.max_evals} designs ({a.algorithm}, then {a.polish}), polish the best subdivisions "
-            f"at {w}x{h}, verify the best {a.verify}"
+          + f"search up to {a.max_evals} designs ({a.algorithm}, then {a.polish}) at the level chosen, "
+            f"re-evaluate the best {a.verify} at {w}x{h} and polish them"
           + (f", on the Dask scheduler {a.scheduler}" if a.scheduler else "")
           + "; each phase reports its progress and time", flush=True)
     if a.scheduler:
@@ -286,7 +307,7 @@ def run_explore(a) -> int:
         rep = run_remote(a.scheduler, explore_spec, a.scene, kw)
     else:
         show = _progress_printer()
-        rep = explore(scene, progress=show, log=show.line, **kw)
+        rep = explore(scene, progress=show, log=show.line, workers=a.workers, **kw)
         show.end()
     mark_feasible(rep)
     print_report(rep)
@@ -298,8 +319,14 @@ def run_explore(a) -> int:
         plot(rep, a.plot)
         print(f"wrote   {a.plot}")
     if a.report:
+        import tempfile
+
         from .. import report
-        report.write(a.report, report.explore_html(rep, getattr(a, "argv", None), a.plot))
+        with tempfile.TemporaryDirectory() as d:
+            png = a.plot or os.path.join(d, "explore.png")
+            if not a.plot:
+                plot(rep, png)
+            report.write(a.report, report.explore_html(rep, getattr(a, "argv", None), png))
         print(f"wrote   {a.report}")
     if not rep["feasible"]:
         print(f"mprt explore: error: the search found no design within the budget of {rep['budget']:g} kGE "
@@ -330,9 +357,10 @@ def mark_feasible(rep: dict) -> None:
 
 
 def explore_spec(scene_spec, kw):
-    """Runs on a Dask worker: load the scene there and explore."""
+    """Runs on a Dask worker: load the scene there and explore (in that process: a Dask
+    worker is a daemon process and may not start a pool)."""
     from .explorer import explore
-    return explore(opt.load_scene(scene_spec)[0], **kw)
+    return explore(opt.load_scene(scene_spec)[0], workers=1, **kw)
 
 
 def print_report(rep: dict) -> None:
@@ -342,7 +370,7 @@ def print_report(rep: dict) -> None:
           + (f", budget {rep['budget']:g} kGE" if rep.get("budget") else "")
           + f": {rep['evaluations']} designs evaluated in {rep['seconds']:.1f} s")
     lv = rep["level"]
-    print(f"level   search at {lv['search']}, verified at {lv['verify']}"
+    print(f"level   {lv['search']}: search, full-resolution polish and references"
           + (f" (the ladder's choice within {100 * rep['tolerance']:g}%)" if lv["asked"] == "auto" else ""))
     print(f"best    {b['described']}" + ("" if rep.get("feasible", True) else "  (OVER THE BUDGET)"))
     print(f"        subdivision {'x'.join(map(str, b['subdivision']))}; {b['cycles']:,.0f} cycles; "
@@ -365,11 +393,15 @@ def run_prepass(a) -> int:
     opt.check_outputs(("--json", a.json, "json"))
     scene = opt.load_scene(a.scene, skip_unknown=a.skip_unknown)[0]
     w, h = a.res or scene.info()["resolution"]
+    from ..machine.config import resolve
+    machine = resolve(a.model or (None if a.config else "3mppe"), a.config, None)
     r = prepass(scene, w, h, candidates=a.candidates, n_range=a.n_range, fraction=a.fraction, shape=a.shape,
-                threads=a.threads, check=a.check, refine=a.refine)
+                threads=a.threads, check=a.check, refine=a.refine, design=machine,
+                level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance)
     lw, lh = r["low_resolution"]
     print(f"prepass {scene.name}: {len(r['candidates'])} subdivisions traced at {lw}x{lh} in {r['seconds']:.2f} s; "
-          f"cycles predicted for {w}x{h} on the paper's 3MPPE (level {r['level']})"
+          f"cycles predicted for {w}x{h} on {r['machine']} at level {r['level']}"
+          + (f" (the ladder's choice within {100 * a.tolerance:g}%)" if a.level == "auto" else "")
           + (f"; the best {a.check} checked on {r['check_sample']} at {w}x{h}" if r["check_sample"] else ""))
     best = r["subdivision"]
     for c in r["candidates"]:

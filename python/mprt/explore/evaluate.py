@@ -266,6 +266,13 @@ class SceneEvaluator:
         self.trace_seconds = 0.0
         self.traces_made = 0
 
+    def settings(self) -> dict:
+        """What makes this evaluator's results (the scene apart): a worker process builds its own
+        from these (one tracing thread each; the trace is the same whatever the threads)."""
+        return {"width": self.width, "height": self.height, "level": self.level, "shape": self.shape,
+                "unit_costs": self.unit_costs, "max_visits": self.max_visits, "rules": self.rules, "threads": 1,
+                "sample": self.sample}
+
     def evaluator(self, dims) -> tuple:
         """(TraceEvaluator, scale) of a grid's trace."""
         import time

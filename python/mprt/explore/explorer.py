@@ -7,48 +7,68 @@ import numpy as np
 
 from ..errors import MprtError
 from .evaluate import DEADLOCK_CYCLES, SceneEvaluator, grid_dims, machine_config
-from .hwcost import UnitCosts, cost_breakdown
+from .hwcost import UnitCosts, cost_breakdown, hardware_cost
+from .parallel import Pool
 from .prepass import low_resolution
-from .search import Problem, compass, cost_range, pareto, search
-from .space import REFERENCE_DESIGNS, Point, Space, SpaceError, Var, default_space, paper_3mppe
+from .search import Problem, compass, cost_range, global_start, pareto, search
+from .space import REFERENCE_DESIGNS, Point, Space, default_space
 from ..atomic import replacing
 
 
-VERIFY_FREE = ("cache.", "resident.", "pes", "replication.", "fifo")   # what the verification polish varies
-# level 2 (the ring without memories) is left out of the ladder: SimPy runs are its cost, and
-# where level 2 would do, verifying at 3 costs only its few designs
+# level 2 (the ring without memories) is left out of the ladder: where it would do, level 3 costs little more
 LADDER_LEVELS = (0, 1, 3)
-VERIFY_MORE = 12              # designs further down the ranking verified while all above deadlock
-SEARCH_LEVEL_MAX = 1          # the compiled replay: exact, milliseconds a design; SimPy (2, 3) takes seconds
 
 
 def explore(scene, width: int = 64, height: int = 64, space: Space | None = None, objective: str = "time",
             budget: float | None = None, level: int | str = "auto", tolerance: float = 0.01,
             algorithm: str = "direct-l", polish: str = "lattice", max_evals: int = 1000, seed: int = 1,
             budgets: int = 6, progress=None, threads: int = 1, fraction: int | None = None, refine: int = 2,
-            refine_evals: int = 60, sample: str | None = "auto", verify: int = 4, verify_polish: int = 16,
-            log=None) -> dict:
+            refine_evals: int = 60, sample: str | None = "auto", verify: int = 4, workers: int | None = None,
+            starts: str = "whole", log=None) -> dict:
     """Search ``space`` for ``scene`` at width x height; returns the report
     as a dict (the JSON of ``mprt explore``).
 
-    Levels: ``level`` 0-3, or "auto": the fidelity ladder is measured on a
+    Level: ``level`` 0-3, or "auto": the fidelity ladder is measured on a
     low-resolution trace of the scene for the reference machines and a few
-    designs of the space, and the cheapest level within ``tolerance`` of the
-    top level (``Table.choose``) is the verification level.  The search runs
-    at that level or at level 1 (the compiled replay), whichever is lower;
-    when the verification level is higher, the ``verify`` best designs found
-    are re-evaluated there and the best one polished at that level
-    (``verify_polish`` designs, see ``_verify``), ``log`` reporting each.
+    designs of the space, and the lowest level within ``tolerance`` of the
+    top level is taken.  The search, the full-resolution checks and polish
+    and the references all run at that one level, every variable of the
+    space free (memory sizes included), each evaluation through the fidelity
+    ladder's ``evaluate`` with engine "auto" (the compiled replay wherever it
+    is exact, SimPy elsewhere).
 
     The subdivision changes the trace, so the search runs on traces at
     1/``fraction`` of the resolution (default: about 64 pixels across; 1
-    searches at full resolution), as the prepass does.  Then the ``refine``
-    best subdivisions are traced at full resolution (``sample``: a sampled
-    replay's tiles, scaled to the frame; "auto": ``stratified:16:1`` above
-    256x256, the whole frame below) and their designs polished there (lattice
-    steps, ``refine_evals`` designs each); the best of those is the answer."""
+    searches at full resolution), as the prepass does.  Then the ``verify``
+    best designs of the search and its best of each stage mapping are
+    evaluated at full resolution (``sample``: a sampled replay's tiles,
+    scaled to the frame; "auto": ``stratified:16:1`` above 256x256, the whole
+    frame below), and from the ``refine`` best subdivisions among them the
+    designs are polished there (lattice steps and pair trades,
+    ``refine_evals`` designs each); the best of those is the answer.
+
+    ``workers`` (default: one per core; 1: none) evaluate what does not depend
+    on each other in parallel (``parallel.Pool``): the ladder's designs, a
+    polish neighbourhood, the full-resolution checks, the references and,
+    with ``starts="mapping"``, the global phase's starts.  The answer does not
+    depend on their number."""
+    pool = Pool(scene, workers)
+    try:
+        return _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish,
+                        max_evals, seed, budgets, progress, threads, fraction, refine, refine_evals, sample, verify,
+                        starts, log or (lambda text: None), pool)
+    finally:
+        pool.close()
+
+
+def _global_task(sev, level, task):
+    """One start of the global phase on a SceneEvaluator (in a worker or here)."""
+    return global_start(lambda pts: [sev.run(p, level) for p in pts], *task)
+
+
+def _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish, max_evals, seed,
+             budgets, progress, threads, fraction, refine, refine_evals, sample, verify, starts, say, pool) -> dict:
     t0 = time.perf_counter()
-    say = log or (lambda text: None)
     space = space or default_space()
     unit_costs = UnitCosts.from_table(space.cost)
     if fraction is None:
@@ -56,11 +76,13 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
     if sample == "auto":
         sample = "stratified:16:1" if width * height > 256 * 256 and fraction > 1 else None
     low = (width, height) if fraction == 1 else low_resolution(width, height, fraction)
-    ev = low_ev = SceneEvaluator(scene, *low, level=0, shape=space.shape, unit_costs=unit_costs, threads=threads)
-    levels = choose_levels(scene, ev, space, level, tolerance, seed, say)
-    ev.level = levels["search"]
-    full_space, space = space, searched_space(space, levels)
-    problem = Problem(space, ev, objective, budget if objective != "pareto" else None, progress=progress)
+    ev = SceneEvaluator(scene, *low, level=0, shape=space.shape, unit_costs=unit_costs, threads=threads)
+    levels = choose_levels(scene, ev, space, level, tolerance, seed, say, pool)
+    ev.level = lv = levels["search"]
+    cost_of = lambda p: hardware_cost(p.design, unit_costs)  # noqa: E731
+    problem = Problem(space, lambda pts: pool.run(ev, pts, lv), objective,
+                      budget if objective != "pareto" else None, progress=progress, cost_of=cost_of)
+    run_starts = lambda tasks: pool.map(_global_task, ev, [(lv, t) for t in tasks])  # noqa: E731
     front = []
     if objective == "pareto":
         lo, hi = cost_range(space, unit_costs)
@@ -69,50 +91,42 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
         front = res.front
         best = min(front, key=lambda e: (e.cycles * e.cost, e.serial))        # the knee: least time x cost
     else:
-        res = search(problem, algorithm, polish, max_evals, seed)
+        res = search(problem, algorithm, polish, max_evals, seed, starts=starts, run_starts=run_starts)
         best = res.best
-    history = [dict(r, phase="search", resolution=list(low), level=ev.level) for r in problem.history()]
+    say(f"search  {len(problem.memo)} designs at level {lv}, {low[0]}x{low[1]}: best {best.cycles:,.0f} cycles, "
+        f"cost {best.cost:.0f} kGE, {time.perf_counter() - t0:.1f} s")
+    history = [dict(r, phase="search", resolution=list(low), level=lv) for r in problem.history()]
     evaluations = res.evaluations
-    top = [best]
     if fraction > 1:
-        full = SceneEvaluator(scene, width, height, level=ev.level, shape=space.shape, unit_costs=unit_costs,
+        full = SceneEvaluator(scene, width, height, level=lv, shape=space.shape, unit_costs=unit_costs,
                               threads=threads, sample=sample)
         if objective == "pareto":
-            fp = Problem(space, full, "time")
+            fp = Problem(space, lambda pts: pool.run(full, pts, lv), "time")
             fp.evaluate_many([e.index for e in front])
             front = [fp.memo[space.canonical(e.index)] for e in front]
             best = min(front, key=lambda e: (e.cycles * e.cost, e.serial))
-            history += [dict(r, phase="full", resolution=[width, height], level=ev.level) for r in fp.history()]
+            history += [dict(r, phase="full", resolution=[width, height], level=lv) for r in fp.history()]
             evaluations += len(fp.memo)
-            top = [best]
         else:
-            top, rows, n = _refine(problem, space, full, objective, budget, refine, refine_evals)
-            history += [dict(r, phase="full", resolution=[width, height], level=ev.level) for r in rows]
+            best, rows, n = _refine(problem, space, full, objective, budget, refine, refine_evals, verify, pool,
+                                    cost_of)
+            history += [dict(r, resolution=[width, height], level=lv) for r in rows]
             evaluations += n
+            say(f"full    {n} designs at level {lv}, {width}x{height}"
+                f"{' (' + sample + ')' if sample else ''}: best {best.cycles:,.0f} cycles, cost {best.cost:.0f} kGE, "
+                f"{time.perf_counter() - t0:.1f} s")
         ev = full
-    elif objective != "pareto":
-        top = sorted(problem.memo.values(), key=problem.rank)
-    if levels["verify"] > levels["search"]:
-        # the search's best design of each stage mapping: its level is blind to the ring, which only
-        # pipelines use, so its best few can all be pipelines that are slower at the verification's level
-        mappings = {}
-        if objective != "pareto":
-            for e in sorted(problem.memo.values(), key=problem.rank):
-                mappings.setdefault(e.point.design.mapping, e)
-        best, rows = _verify(full_space, top, verify, levels["verify"], ev, low_ev, objective, budget,
-                             verify_polish, say, list(mappings.values()))
-        history += [dict(r, level=levels["verify"]) for r in rows]
-        evaluations += len(rows)
-    else:
-        best = top[0]
+    if best.cycles >= DEADLOCK_CYCLES:
+        raise NoLiveDesignError(f"explore: every design evaluated at level {lv} deadlocks "
+                                f"({evaluations} designs): give the FIFOs more room in the space")
     for i, r in enumerate(history, 1):
         r["evaluation"] = i
-    final = levels["verify"]
     dims = list(grid_dims(scene, best.point.subdivision, space.shape))
     refs = {}
-    for name, make in REFERENCE_DESIGNS.items():
-        r = ev.run(Point(best.point.subdivision, make()), final)
-        refs[name] = {"cycles": r.cycles, "cost": r.cost, "utilisation": r.utilisation, "design": make().to_dict()}
+    made = {name: make() for name, make in REFERENCE_DESIGNS.items()}
+    got = pool.run(ev, [Point(best.point.subdivision, d) for d in made.values()], lv)
+    for (name, d), r in zip(made.items(), got):
+        refs[name] = {"cycles": r.cycles, "cost": r.cost, "utilisation": r.utilisation, "design": d.to_dict()}
     b = best.result
     report = {
         "scene": scene.name,
@@ -129,15 +143,15 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
         "search_resolution": list(low),
         "full_resolution_sample": sample if fraction > 1 else None,
         "nlopt_calls": problem.calls,
-        "algorithm": {"global": algorithm, "polish": polish, "max_evals": max_evals, "seed": seed},
+        "algorithm": {"global": algorithm, "polish": polish, "max_evals": max_evals, "seed": seed, "starts": starts},
+        "workers": pool.workers,
         "level": levels,
         "tolerance": tolerance,
         "costs": b.costs,
         "traces": {"made": ev.traces_made, "seconds": ev.trace_seconds},
         "seconds": time.perf_counter() - t0,
         "history": history,
-        "space": {"source": space.source, "variables": {v.name: list(v.values) for v in full_space.variables},
-                  "searched": {v.name: list(v.values) for v in space.variables},
+        "space": {"source": space.source, "variables": {v.name: list(v.values) for v in space.variables},
                   "unit_costs": unit_costs.to_dict()},
     }
     if objective == "pareto":
@@ -145,25 +159,6 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
                             "design": e.point.design.to_dict(), "cycles": e.cycles, "cost": e.cost} for e in front]
         report["budgets"] = [float(x) for x in sweep]
     return report
-
-
-def searched_space(space: Space, levels: dict) -> Space:
-    """The space the search runs over: all of it, except that when the search's
-    level has no memories (below 3) and the verification's has, the memory
-    sizes are held at the paper's 3MPPE's (the nearest the space offers): a
-    level blind to memories would take the smallest, whatever they cost at
-    level 3; the verification's polish then varies them."""
-    if levels["search"] >= 3 or levels["verify"] < 3:
-        return space
-    ref = paper_3mppe()
-    want = {f"cache.{s}": ref.cache[s] for s in ("IC", "SC")} | {f"resident.{s}": ref.resident[s] for s in ("IC", "SC")}
-    out = []
-    for v in space.variables:
-        if v.name in want and v.size > 1:
-            near = min(v.values, key=lambda x: (abs(x - want[v.name]), x))
-            v = Var(v.name, (near,))
-        out.append(v)
-    return Space(out, space.shape, space.cost, space.source)
 
 
 def ladder_designs(space: Space, seed: int, extra: int = 2) -> list:
@@ -186,112 +181,58 @@ def lowest_adequate(table, tolerance: float) -> int:
     return min(ok) if ok else table.rows[-1].level
 
 
-def choose_levels(scene, ev: SceneEvaluator, space: Space, level, tolerance: float, seed: int, say) -> dict:
-    """The search level and the verification level: as given (searching at no
-    more than level 1), or with "auto" by measuring the ladder on the trace of
-    the space's middle subdivision."""
+def _ladder_task(sev, dims, design, levels):
+    """One design of the ladder at every level on the trace of ``dims``: {level: (cycles or
+    None on deadlock, seconds, engine)}."""
+    from ..machine.errors import DeadlockError
+
+    tev, _ = sev.evaluator(dims)
+    cfg = machine_config(design, tev.leaves)
+    out = {}
+    for lv in levels:
+        try:
+            e = tev.evaluator(cfg).evaluate(cfg, lv)
+            out[lv] = (e.cycles, e.seconds, e.engine)
+        except DeadlockError:
+            out[lv] = (None, None, None)
+    return out
+
+
+def choose_levels(scene, ev: SceneEvaluator, space: Space, level, tolerance: float, seed: int, say,
+                  pool: Pool | None = None) -> dict:
+    """The level of the search and of everything after it: as given, or with "auto" the
+    lowest adequate one (``lowest_adequate``) of the ladder measured on the trace of the
+    space's middle subdivision, its designs evaluated in parallel on ``pool``'s workers.
+    (``verify`` is the same level: kept in the report for its readers.)"""
     if level != "auto":
         if level not in (0, 1, 2, 3):
             raise ValueError(f"level must be 0, 1, 2, 3 or 'auto', not {level!r}")
-        return {"asked": level, "search": min(level, SEARCH_LEVEL_MAX), "verify": level}
-    from ..fidelity import measure
+        return {"asked": level, "search": level, "verify": level}
+    from ..fidelity.ladder import tabulate
 
+    pool = pool or Pool(scene, 1)
     subs = space.subdivisions()
     sub = subs[len(subs) // 2]
-    tev, _ = ev.evaluator(grid_dims(scene, sub, space.shape))
-    configs = [machine_config(d, tev.leaves) for d in ladder_designs(space, seed)]
+    dims = grid_dims(scene, sub, space.shape)
+    designs = ladder_designs(space, seed)
     t0 = time.perf_counter()
-    table = measure(tev.trace, configs, levels=LADDER_LEVELS, sample=None, cost_model=tev.cost_model)
+    got = pool.map(_ladder_task, ev, [(dims, d, LADDER_LEVELS) for d in designs])
+    names = [f"design#{i}" for i in range(len(designs))]
+    cycles = {(n, lv): g[lv][0] for n, g in zip(names, got) for lv in LADDER_LEVELS}
+    seconds = {lv: [g[lv][1] for g in got if g[lv][1] is not None] for lv in LADDER_LEVELS}
+    engines = {lv: {g[lv][2] for g in got if g[lv][2] is not None} for lv in LADDER_LEVELS}
+    table = tabulate(names, list(LADDER_LEVELS), cycles, seconds, engines)
     chosen = lowest_adequate(table, tolerance)
-    say(f"ladder  {len(configs)} designs on {scene.name} at {ev.width}x{ev.height}, subdivision "
-        f"{'x'.join(map(str, grid_dims(scene, sub, space.shape)))}, {time.perf_counter() - t0:.1f} s: "
-        f"level {chosen} is the cheapest within {100 * tolerance:g}%")
-    return {"asked": "auto", "search": min(chosen, SEARCH_LEVEL_MAX), "verify": chosen,
+    say(f"ladder  {len(designs)} designs on {scene.name} at {ev.width}x{ev.height}, subdivision "
+        f"{'x'.join(map(str, dims))}, {time.perf_counter() - t0:.1f} s: "
+        f"level {chosen} is the lowest within {100 * tolerance:g}%; the search runs there")
+    return {"asked": "auto", "search": chosen, "verify": chosen,
             "ladder": [r.to_dict() for r in table.rows], "ladder_subdivision": list(sub),
             "ladder_seconds": time.perf_counter() - t0}
 
 
 class NoLiveDesignError(MprtError, RuntimeError):
-    """No design the verification checked runs to the end at its level."""
-
-
-def _verify(space: Space, top, verify: int, level: int, full: SceneEvaluator, low: SceneEvaluator, objective,
-            budget, polish_evals: int, say, per_mapping=()):
-    """The ``verify`` best designs of ``top`` (the search's ranking) re-evaluated
-    at the verification level at full resolution, and further down the ranking
-    (up to ``VERIFY_MORE`` more) while every one verified deadlocks there (the
-    levels below have no ring: a window safe on the ideal network can still
-    deadlock on it), beside ``per_mapping`` (the search's best of each stage
-    mapping, at its own subdivision) and the reference designs (the paper's
-    3MPPE, models M and S) at the best's subdivision where the space holds
-    them; then a lattice polish from the best one at that level on the
-    search's resolution (``polish_evals`` designs) over what the levels below
-    are blind to or trade against it (memories, and the copies and PEs that
-    share the budget with them), its two best re-evaluated at full resolution.
-    Returns the best and the history rows (phases verify and verify-polish)."""
-    t0 = time.perf_counter()
-    if objective == "pareto":
-        objective, budget = "time", None
-    vp = Problem(space, lambda pts: [full.run(p, level) for p in pts], objective, budget)
-
-    def check(e_from, what, where):
-        k = space.canonical(space.index_of(e_from.point))
-        fresh = k not in vp.memo
-        vp.evaluate_many([k])
-        if fresh:
-            e = vp.memo[k]
-            say(f"verify  {what} at level {level}: {e.cycles:,.0f} cycles ({where} level {e_from.result.level}: "
-                f"{e_from.cycles:,.0f}), cost {e.cost:.0f} kGE, {time.perf_counter() - t0:.1f} s")
-
-    def live():
-        b = vp.best()
-        return b is not None and b.cycles < DEADLOCK_CYCLES
-
-    n_top = min(verify, len(top))
-    for i, e in enumerate(top[:n_top], 1):
-        check(e, f"{i}/{n_top}", "searched at")
-    for e in per_mapping:
-        check(e, f"best {e.point.design.mapping}", "searched at")
-    # the paper's designs at the same subdivision, where the space holds them: the search's level cannot
-    # see the ring or the memories, so its best few may all be slower at this level than one of these
-    for name, make in REFERENCE_DESIGNS.items():
-        try:
-            k = space.canonical(space.index_of(Point(top[0].point.subdivision, make())))
-        except SpaceError:
-            continue
-        if k not in vp.memo:
-            vp.evaluate_many([k])
-            say(f"verify  {name} at level {level}: {vp.memo[k].cycles:,.0f} cycles, cost {vp.memo[k].cost:.0f} kGE, "
-                f"{time.perf_counter() - t0:.1f} s")
-    for i, e in enumerate(top[n_top:n_top + VERIFY_MORE], n_top + 1):
-        if live():
-            break
-        check(e, f"{i} (the ones above deadlock)", "searched at")
-    rows = [dict(r, phase="verify", resolution=[full.width, full.height]) for r in vp.history()]
-    best = vp.best()
-    if polish_evals > 0:
-        sub = best.point.subdivision
-        sp = space.with_subdivision(sub)
-        at = sp.index_of(best.point)
-        sp = Space([v if v.name.startswith(VERIFY_FREE) else Var(v.name, (v.values[at[i]],))
-                    for i, v in enumerate(sp.variables)], sp.shape, sp.cost, sp.source)
-        lp = Problem(sp, lambda pts: [low.run(p, level) for p in pts], objective, budget)
-        start = sp.canonical(sp.index_of(best.point))
-        lp.evaluate_many([start])
-        compass(lp, start, polish_evals)
-        say(f"verify  lattice polish at level {level}, {low.width}x{low.height}: {len(lp.memo)} designs, "
-            f"{time.perf_counter() - t0:.1f} s")
-        rows += [dict(r, phase="verify-polish", resolution=[low.width, low.height]) for r in lp.history()]
-        n = len(vp.order)
-        for e in sorted(lp.memo.values(), key=lp.rank)[:2]:
-            check(e, "polished", f"{low.width}x{low.height} at")
-        rows += [dict(r, phase="verify", resolution=[full.width, full.height]) for r in vp.history()[n:]]
-        best = vp.best()
-    if not live():
-        raise NoLiveDesignError(f"explore: every design verified at level {level} deadlocks ({len(vp.memo)} "
-                            f"checked at {full.width}x{full.height}): the search's level cannot see the ring; "
-                            f"give FIFOs more room in the space, or search at --level {level}")
-    return best, rows
+    """No design the explorer evaluated runs to the end at its level."""
 
 
 def settings(scene, width, height, threads) -> dict:
@@ -301,27 +242,43 @@ def settings(scene, width, height, threads) -> dict:
             "rules": "paper", "threads": threads, "mprt_version": version()}
 
 
-def _refine(problem, space, full, objective, budget, refine, refine_evals):
-    """The ``refine`` best subdivisions of the low-resolution search, each
-    with its best design there, re-evaluated and polished at full resolution;
-    returns the designs found there, best first."""
+def _refine(problem, space, full, objective, budget, refine, refine_evals, verify, pool, cost_of):
+    """The full-resolution phase, at the search's level: the ``verify`` best designs of the
+    low-resolution search and its best of each stage mapping evaluated at full resolution in
+    one batch; then, from the best design there of each of the ``refine`` best subdivisions,
+    a lattice polish (``refine_evals`` designs each).  Returns the best, the history rows
+    (phases ``full-check`` and ``full``) and the designs evaluated."""
+    lv = full.level
+    ranked = sorted(problem.memo.values(), key=problem.rank)
+    checks = list(ranked[:max(verify, 1)])
+    seen_maps = set()
+    for e in ranked:
+        if e.point.design.mapping not in seen_maps:
+            seen_maps.add(e.point.design.mapping)
+            if e not in checks:
+                checks.append(e)
+    vp = Problem(space, lambda pts: pool.run(full, pts, lv), objective, budget, cost_of=cost_of)
+    vp.evaluate_many([e.index for e in checks])
+    rows = [dict(r, phase="full-check") for r in vp.history()]
     subs = []
-    for e in sorted(problem.memo.values(), key=problem.rank):
+    for e in sorted(vp.memo.values(), key=vp.rank):
         if e.point.subdivision not in [s for s, _ in subs]:
-            subs.append((e.point.subdivision, e.point.design))
+            subs.append((e.point.subdivision, e))
         if len(subs) == refine:
             break
-    found, rows, n = [], [], 0
-    for sub, design in subs:
+    found = [(vp.rank(e), e) for e in vp.memo.values()]
+    n = len(vp.memo)
+    for sub, e in subs:
         sp = space.with_subdivision(sub)
-        fp = Problem(sp, full, objective, budget)
-        start = sp.canonical(sp.index_of(Point(sub, design)))
-        fp.evaluate_many([start])
+        fp = Problem(sp, lambda pts: pool.run(full, pts, lv), objective, budget, cost_of=cost_of)
+        start = sp.canonical(sp.index_of(e.point))
+        fp.add(e.point, e.result)
         compass(fp, start, refine_evals)
-        found += [(fp.rank(e), e) for e in fp.memo.values()]
-        rows += fp.history()
-        n += len(fp.memo)
-    return [e for _, e in sorted(found, key=lambda t: t[0][:2])], rows, n
+        new = [k for k in fp.order if k != start]
+        found += [(fp.rank(fp.memo[k]), fp.memo[k]) for k in new]
+        rows += [dict(r, phase="full") for r in fp.history() if r["evaluation"] > 1]
+        n += len(new)
+    return min(found, key=lambda t: t[0][:2])[1], rows, n
 
 
 def _plain_log_axis(axis) -> None:
@@ -354,7 +311,7 @@ def plot(report: dict, path) -> None:
     feas = np.array([r["feasible"] for r in h])
     live = np.array([r["cycles"] < DEADLOCK_CYCLES for r in h])
     feas &= live
-    full = np.array([r["phase"] == "full" for r in h])
+    full = np.array([r["phase"].startswith("full") for r in h])
     ver = np.array([r["phase"].startswith("verify") for r in h])
     best = np.minimum.accumulate(np.where(feas, cyc, np.inf))
 
@@ -401,7 +358,7 @@ def plot(report: dict, path) -> None:
     ax[2].set(ylim=(0, 1.05), ylabel="utilisation", title="answer (red) and the paper's 3MPPE (grey)")
     fig.suptitle(f"{report['scene']} {report['width']}x{report['height']}: objective {report['objective']}, "
                  f"{report['evaluations']} evaluations, "
-                 f"level {lv['search']} (search), {lv['verify']} (verify)")
+                 f"level {lv['search']}")
     fig.tight_layout()
     with replacing(path) as tmp:
         fig.savefig(tmp, dpi=100)

@@ -13,8 +13,13 @@ time is close to unimodal in n, fewer tests as voxels shrink, more steps and
 set-up, and flat near its minimum).  Each candidate's
 full-resolution time is predicted as its low-resolution cycles times the
 ratio of pixel counts; the machine replayed is the machine model's 3MPPE
-(``mprt.machine`` built-in ``3mppe``, at ``level``, default 1: its ideal-network
-form, replayed exactly) unless a Design or SystemConfig is given.
+(``mprt.machine`` built-in ``3mppe``) unless a Design or SystemConfig is given
+(``mprt prepass --model/--config``), at ``level``: 0 to 3, or "auto" (the
+CLI's default), the lowest level whose error against the machine's own level
+is within ``tolerance`` on the trace of the middle of the range
+(``fidelity.measure``, levels 0 up to the machine's own), as the explorer
+chooses its level.  Every evaluation goes through the fidelity ladder with
+engine "auto": the compiled replay where it is exact, SimPy elsewhere.
 """
 from __future__ import annotations
 
@@ -71,9 +76,9 @@ def default_range(scene, density=(1.0, 32.0), limit: int = 768) -> tuple[int, in
 
 
 def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 16,
-            design=None, shape: str = "proportional", rungs: int = 7, level: int = 1,
+            design=None, shape: str = "proportional", rungs: int = 7, level: int | str = 1,
             unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15, check: int = 0,
-            check_sample: str | None = None, past: int = 1, refine: str = "golden") -> dict:
+            check_sample: str | None = None, past: int = 1, refine: str = "golden", tolerance: float = 0.01) -> dict:
     """Predict the full-resolution cycles of candidate subdivisions from traces
     at width/fraction x height/fraction, and return the best.  ``candidates``:
     explicit subdivisions (n or (nx, ny, nz)), all evaluated; otherwise n is
@@ -94,12 +99,19 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         design = builtin("3mppe")
     elif isinstance(design, Design):
         design = machine_config(design)
+    if n_range is None and not candidates:
+        n_range = default_range(scene)
+    ladder_rows = None
+    if level == "auto":
+        level, ladder_rows = trusted_level(scene, w, h, design, shape, candidates, n_range, tolerance, threads)
+    elif level not in (0, 1, 2, 3):
+        raise ValueError(f"prepass: level must be 0, 1, 2, 3 or 'auto', not {level!r}")
     f = _Cands(scene, w, h, design, shape, unit_costs or UnitCosts(), threads, level)
     if candidates:
         for c in candidates:
             f(c)
     else:
-        lo, hi = (int(v) for v in (n_range or default_range(scene)))
+        lo, hi = (int(v) for v in n_range)
         if not 1 <= lo <= hi:
             raise ValueError(f"prepass: subdivision range {lo}..{hi} is empty")
         ladder = sorted({int(round(x)) for x in np.geomspace(lo, hi, min(rungs, hi - lo + 1))})
@@ -138,7 +150,29 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
                                 **({"sampled_cycles": checked[d]} if d in checked else {})) for d, c in cands],
             "check_sample": check_sample if check > 0 else None,
             "low_resolution": [w, h], "full_resolution": [width, height], "machine": f.design.name,
-            "level": level, "refine": refine if not candidates else None, "seconds": time.perf_counter() - t0}
+            "level": level, "ladder": ladder_rows, "refine": refine if not candidates else None,
+            "seconds": time.perf_counter() - t0}
+
+
+def trusted_level(scene, w: int, h: int, config, shape: str, candidates, n_range, tolerance: float,
+                  threads: int = 1) -> tuple:
+    """(level, ladder rows): the lowest level within ``tolerance`` of the machine's own level
+    (``native_level``) for ``config`` on the w x h trace of the middle candidate (or of the
+    geometric middle of ``n_range``)."""
+    from ..fidelity import measure, native_level
+    from .explorer import lowest_adequate
+
+    if candidates:
+        mid = sorted(grid_dims(scene, c, shape) for c in candidates)[len(candidates) // 2]
+    else:
+        lo, hi = (int(v) for v in n_range)
+        mid = grid_dims(scene, (int(round(math.sqrt(lo * hi))),), shape)
+    _, tr = scene.grid(mid).trace(w, h, threads=threads)
+    top = native_level(config)
+    if top == 1:
+        return 1, None
+    table = measure(tr, [config], levels=tuple(range(top + 1)), sample=None)
+    return lowest_adequate(table, tolerance), [r.to_dict() for r in table.rows]
 
 
 def _parabola(f, a: int, m: int, b: int) -> None:

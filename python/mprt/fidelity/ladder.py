@@ -133,6 +133,14 @@ def measure(source, configs, levels=LEVELS, sample: str | None = "stratified:16:
                 engines[lv].add(e.engine)
             except DeadlockError:
                 cycles[name, lv] = None
+    return tabulate(names, levels, cycles, seconds, engines, fraction, sample)
+
+
+def tabulate(names, levels, cycles: dict, seconds: dict, engines: dict, sampled: float = 1.0,
+             sample: str | None = None) -> Table:
+    """The Table of configurations ``names`` evaluated at ``levels`` (sorted): ``cycles`` by
+    (name, level), None for a deadlock; ``seconds`` and ``engines`` by level, lists and sets
+    over the configurations (for measurements made elsewhere, e.g. in parallel)."""
     top = levels[-1]
     rows = []
     for k, lv in enumerate(levels):
@@ -141,7 +149,7 @@ def measure(source, configs, levels=LEVELS, sample: str | None = "stratified:16:
         et = [_err(cycles[n, lv], cycles[n, top]) for n in names]
         rows.append(Row(lv, float(np.median(seconds[lv])) if seconds[lv] else math.inf, float(np.median(en)),
                         float(max(en)), float(np.median(et)), float(max(et)), sorted(engines[lv])))
-    return Table(rows, cycles, fraction, sample)
+    return Table(rows, cycles, sampled, sample)
 
 
 def choose(table: Table, tolerance: float) -> int:

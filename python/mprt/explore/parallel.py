@@ -1,0 +1,135 @@
+"""Evaluations that do not depend on each other, on the machine's cores.
+
+``Pool(scene, workers)`` runs batches of points (a polish neighbourhood, the
+references, the full-resolution checks), the ladder's designs and the global
+phase's starts in worker processes.  The workers are forked from the explorer
+after the scene is loaded (a Scene holds C objects and does not pickle), so
+they share it; each worker keeps its own ``SceneEvaluator`` per set of
+evaluator settings (resolution, sample, unit costs, ...) and traces the grids
+it is asked about itself.  Tracing, costing and replaying are deterministic,
+and every result depends only on its point, its level and those settings, so
+the answer is the same for any number of workers (a test compares 1 and 2).
+
+A batch goes to the pool only when one of its evaluations runs on SimPy (the
+engine ``fidelity.engine_for`` picks with "auto"): a compiled evaluation takes
+milliseconds, less than sending it to a worker that may first have to trace
+the grid.  The global phase's starts, each a search of its own, always go.
+``workers`` <= 1 runs everything in this process, in the same order.
+"""
+from __future__ import annotations
+
+import multiprocessing
+import os
+from concurrent.futures import ProcessPoolExecutor
+
+_SHARED: dict = {}          # set before the fork: the scene every worker evaluates
+_HELD: dict = {}            # in a worker: SceneEvaluator by its settings
+
+
+def default_workers() -> int:
+    """One worker per core."""
+    return max(os.cpu_count() or 1, 1)
+
+
+def _evaluator(settings: dict):
+    from .evaluate import SceneEvaluator
+
+    key = repr(sorted((k, v) for k, v in settings.items() if k != "level"))   # run() is told the level
+    if key not in _HELD:
+        while len(_HELD) >= 2:                     # the search's resolution and the full one
+            _HELD.pop(next(iter(_HELD)))
+        _HELD[key] = SceneEvaluator(_SHARED["scene"], **settings)
+    return _HELD[key]
+
+
+def _run_points(settings: dict, points, level) -> list:
+    ev = _evaluator(settings)
+    return [ev.run(p, level) for p in points]
+
+
+def _call(fn, settings: dict, args):
+    return fn(_evaluator(settings), *args)
+
+
+def uses_simpy(points, level: int, leaves: int = 1) -> bool:
+    """Whether any of the points is evaluated on SimPy at the level (engine "auto")."""
+    from ..fidelity import engine_for
+    from .evaluate import machine_config
+    from .space import Design
+
+    if level == 0:
+        return False
+    for p in points:
+        cfg = machine_config(p.design, leaves) if isinstance(p.design, Design) else p.design
+        if engine_for(cfg, level) == "simpy":
+            return True
+    return False
+
+
+def _order(ev, points) -> list:
+    """Points grouped by grid, then by processors (each trace made and costed once)."""
+    from .evaluate import grid_dims
+    from .space import Design
+
+    def key(i):
+        p = points[i]
+        return (grid_dims(ev.scene, p.subdivision, ev.shape), p.design.key() if isinstance(p.design, Design) else "")
+    return sorted(range(len(points)), key=key)
+
+
+class Pool:
+    """Worker processes for one scene (``workers`` <= 1: none, everything here)."""
+
+    def __init__(self, scene, workers: int | None = None):
+        self.scene = scene
+        self.workers = default_workers() if workers is None else max(int(workers), 1)
+        self._pool = None
+
+    def _executor(self) -> ProcessPoolExecutor:
+        if self._pool is None:
+            _SHARED["scene"] = self.scene
+            ctx = multiprocessing.get_context("fork")
+            self._pool = ProcessPoolExecutor(self.workers, mp_context=ctx)
+        return self._pool
+
+    def run(self, ev, points, level: int | None = None) -> list:
+        """``ev.run(p, level)`` for each point, in order (``ev`` a SceneEvaluator)."""
+        points = list(points)
+        level = ev.level if level is None else level
+        order = _order(ev, points)
+        out = [None] * len(points)
+        if self.workers <= 1 or len(points) <= 1 or not uses_simpy(points, level):
+            for i in order:
+                out[i] = ev.run(points[i], level)
+            return out
+        # contiguous chunks of the grouped order: each worker sees few grids
+        n = min(self.workers, len(points))
+        chunks = [order[k * len(order) // n:(k + 1) * len(order) // n] for k in range(n)]
+        ex = self._executor()
+        futs = [ex.submit(_run_points, ev.settings(), [points[i] for i in c], level) for c in chunks]
+        for c, f in zip(chunks, futs):
+            for i, r in zip(c, f.result()):
+                out[i] = r
+        return out
+
+    def map(self, fn, ev, args_list) -> list:
+        """``fn(evaluator, *args)`` for each args, in order: in the workers (each on its own
+        evaluator with ``ev``'s settings) or, with one worker, here on ``ev`` itself.
+        ``fn`` must be a module-level function (it is pickled by name)."""
+        args_list = list(args_list)
+        if self.workers <= 1 or len(args_list) <= 1:
+            return [fn(ev, *a) for a in args_list]
+        ex = self._executor()
+        return [f.result() for f in [ex.submit(_call, fn, ev.settings(), a) for a in args_list]]
+
+    def close(self) -> None:
+        if self._pool is not None:
+            self._pool.shutdown(wait=True, cancel_futures=True)
+            self._pool = None
+            _SHARED.pop("scene", None)
+
+    def __enter__(self):
+        return self
+
+    def __exit__(self, *exc):
+        self.close()

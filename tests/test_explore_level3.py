@@ -1,0 +1,158 @@
+"""The explorer at the level its answer is judged by: the search at level 3 (memories free) against
+exhaustive enumeration there, the polish's trades, workers, and the prepass for a named machine."""
+import argparse
+import json
+from pathlib import Path
+
+import pytest
+
+import mprt
+from mprt.explore import load_space
+from mprt.explore.evaluate import TraceEvaluator
+from mprt.explore.hwcost import hardware_cost
+from mprt.explore.search import Problem, compass, exhaustive, search
+from mprt.fidelity import sample_trace
+
+DATA = Path(__file__).parent / "data"
+MEMORY = DATA / "explore" / "memory_space.toml"          # caches, FIFOs, copies: 60 designs
+SMALL = DATA / "explore" / "small_space.toml"
+GOLDEN = DATA / "golden"
+
+
+class _Memo:
+    """Evaluations of one trace, each design once per level (exhaustive enumeration and the
+    searches share them; every Problem still counts its own distinct designs)."""
+
+    def __init__(self, trace):
+        self.ev, self.got = TraceEvaluator(trace), {}
+
+    def __call__(self, level):
+        def f(pts):
+            return [self.got.setdefault((p.key(), level), self.ev.run(p.design, level)) for p in pts]
+        return f
+
+
+@pytest.fixture(scope="module")
+def runs():
+    """Runs of trees from three golden traces (``runs:K``: about 700 to 1000 visits each, so that
+    SimPy's level 3 enumerates the space in seconds)."""
+    return {name: _Memo(sample_trace(mprt.load_trace(GOLDEN / f"{name}-g9.npz"), spec).trace)
+            for name, spec in (("tetra", "runs:4:1"), ("balls", "runs:32:1"), ("mount", "runs:16:1"))}
+
+
+@pytest.mark.parametrize("scene", ["tetra", "balls", "mount"])
+def test_search_finds_exhaustive_optimum_at_level_3(runs, scene):
+    """The explorer's method (DIRECT-L, 20 global evaluations, the lattice polish with its trades,
+    costs known before evaluating) at level 3, over a space whose memory sizes, FIFOs and copies
+    are all free, finds the design exhaustive enumeration finds at level 3, in fewer evaluations;
+    and level 1 (blind to the memories) would have chosen a slower design there at least once."""
+    sp = load_space(MEMORY)
+    memo = runs[scene]
+    cost_of = lambda p: hardware_cost(p.design)  # noqa: E731
+    blind = 0
+    for budget in (None, 250.0, 350.0):
+        ex = Problem(sp, memo(3), "time", budget)
+        exhaustive(ex)
+        p = Problem(sp, memo(3), "time", budget, cost_of=cost_of)
+        r = search(p, "direct-l", "lattice", max_evals=20, seed=1)
+        print(f"{scene} budget {budget}: exhaustive {ex.best().cycles:,.0f} ({len(ex.memo)} designs), "
+              f"search {r.best.cycles:,.0f} ({r.evaluations}: {r.phases})")
+        assert r.best.cycles == ex.best().cycles and r.best.cost == ex.best().cost
+        assert r.evaluations < len(ex.memo)
+        if budget is not None:
+            assert r.best.cost <= budget
+        one = Problem(sp, memo(1), "time", budget)
+        exhaustive(one)
+        blind += memo(3)([one.best().point])[0].cycles > ex.best().cycles
+    assert blind > 0
+
+
+def test_trades_under_a_budget_reach_what_single_steps_cannot():
+    """From a design at the budget's edge, the better design one copy more and two caches
+    smaller is three indices away: the trades reach it; no design over the budget is evaluated."""
+    sp = load_space(MEMORY)
+    names = sp.names
+    pos = {n: names.index(n) for n in ("mapping", "replication.OS", "replication.IC", "cache.IC", "cache.SC")}
+    evaluated = []
+
+    class R:
+        def __init__(self, cycles, cost):
+            self.cycles, self.cost = cycles, cost
+
+    def f(pts):
+        out = []
+        for p in pts:
+            d = p.design
+            evaluated.append(hardware_cost(d))
+            # copies speed it up far more than caches
+            out.append(R(1e6 / (d.replication["OS"] * d.replication["IC"]) / (1 + 0.01 * (d.cache["IC"] + d.cache["SC"])),
+                         hardware_cost(d)))
+        return out
+
+    start = [0] * len(names)
+    start[pos["replication.OS"]], start[pos["cache.IC"]], start[pos["cache.SC"]] = 1, 1, 1
+    start = sp.canonical(start)
+    budget = hardware_cost(sp.point(start).design) + 1.0
+    p = Problem(sp, f, "time", budget, cost_of=lambda pt: hardware_cost(pt.design))
+    p.evaluate_many([start])
+    end = compass(p, start, 50, fixed=(pos["mapping"],))
+    d = sp.point(end).design
+    assert d.replication["IC"] == 2 and d.cache == {"IC": 0, "SC": 0}
+    assert max(evaluated) <= budget
+    # without the costs beforehand (no trades, only +1/-1 pairs) the polish stays where it began
+    q = Problem(sp, f, "time", budget)
+    q.evaluate_many([start])
+    assert compass(q, start, 50, fixed=(pos["mapping"],)) == start
+
+
+def test_one_and_two_workers_give_the_same_answer():
+    """The ladder's designs, the global phase's starts (one per mapping), polish neighbourhoods
+    and the references on two worker processes: every evaluation the same as in this process."""
+    from mprt.explore.explorer import explore
+    scene = mprt.Scene.spd("tetra", 1)
+    sp = load_space(SMALL)
+    got = [explore(scene, 16, 16, space=sp, budget=400, level="auto", max_evals=16, workers=w, starts="mapping")
+           for w in (1, 2)]
+    assert got[0]["workers"] == 1 and got[1]["workers"] == 2
+    assert got[0]["level"]["search"] == got[0]["level"]["verify"]
+    for key in ("best", "references", "history", "evaluations"):
+        assert got[0][key] == got[1][key], key
+    errors = [[(r["level"], r["error_median"], r["error_worst"]) for r in g["level"]["ladder"]] for g in got]
+    assert errors[0] == errors[1]
+
+
+def _run(*argv):
+    from mprt.explore.cli import add_parsers
+    p = argparse.ArgumentParser(prog="mprt")
+    add_parsers(p.add_subparsers(dest="cmd", required=True))
+    a = p.parse_args([str(x) for x in argv])
+    return a.func(a)
+
+
+def test_prepass_for_the_machine_named_at_the_level_trusted(tmp_path):
+    """--model/--config name the machine; --level auto takes the lowest level of its ladder within
+    the tolerance; --level N replays there; the predictions are that machine's cycles at that level."""
+    from mprt.explore.evaluate import grid_dims
+    from mprt.machine.config import builtin, load_config
+    scene = mprt.Scene.spd("tetra", 1)
+    out = tmp_path / "p.json"
+    assert _run("prepass", "tetra:1", "--res", "64x64", "--fraction", "4", "--candidates", "3,6", "--model",
+                "3mppe", "--json", out) == 0
+    r = json.loads(out.read_text())
+    ok = [row["level"] for row in r["ladder"] if row["error_top_worst"] <= 0.01]
+    assert r["machine"] == "3mppe" and r["level"] == (min(ok) if ok else 3)
+    cfg = tmp_path / "m.toml"
+    cfg.write_text('base = "3mppe"\nname = "mine"\npes = 1\n')
+    assert _run("prepass", "tetra:1", "--res", "64x64", "--fraction", "4", "--candidates", "3,6", "--config", cfg,
+                "--level", "3", "--json", out) == 0
+    r = json.loads(out.read_text())
+    assert r["machine"] == "mine" and r["level"] == 3 and r["ladder"] is None
+    mine = load_config(str(cfg))
+    for c in r["candidates"]:
+        tr = scene.grid(tuple(c["subdivision"])).trace(16, 16)[1]
+        assert c["predicted_cycles"] == TraceEvaluator(tr, counted=False).run_config(mine, 3).cycles * 16
+    assert [tuple(c["subdivision"]) for c in r["candidates"]] == sorted(grid_dims(scene, (n,), "proportional")
+                                                                         for n in (3, 6))
+    assert mine.pes != builtin("3mppe").pes           # the file's machine, not the default one
+    with pytest.raises(mprt.MprtError, match="--model or --config, not both"):
+        _run("prepass", "tetra:1", "--model", "M", "--config", cfg)
