@@ -43,6 +43,7 @@ INLINE void heap_push(mprt_replay *r, int64_t t, int64_t prio, int i)
     int c = r->nheap++;
     if (r->small) {
         r->heap_t[i] = t << SMALL_SHIFT | prio;
+        if (r->pmin >= 0 && r->heap_t[i] < r->heap_t[r->pmin]) r->pmin = i;
         return;
     }
     int64_t *ht = r->heap_t, *hp = r->heap_p;
@@ -398,7 +399,7 @@ static void freed(mprt_replay *r, node *dst)
         else
             advance(r, sibling(dst, (int)w));
     }
-    if (r->cfg.ring) mprt__ring_kick(r, dst->pe);     /* then the ring's headers may claim it */
+    if (r->cfg.ring) ring_freed(r, dst->pe);     /* then the ring's headers may claim it */
 }
 
 static void retire(mprt_replay *r, int pe)
@@ -522,12 +523,38 @@ void mprt__replay_loop(mprt_replay *r)
         }
         return;
     }
-    while (r->nheap && !r->oom) {      /* events past the processors' are the ring packets' */
-        int i = heap_pop(r, &r->now);
-        if (i < r->nproc)
+    while (!r->oom) {    /* the first processor event, unless a ring event comes before it */
+        int64_t t = INT64_MAX;
+        int i = -1;
+        if (r->nheap) {
+            if (r->small) {
+                int k;
+                if (r->pmin < 0)
+                    for (r->pmin = 0, k = 1; k < r->nproc; k++)
+                        r->pmin = r->heap_t[k] < r->heap_t[r->pmin] ? k : r->pmin;
+                i = r->pmin;
+                t = r->heap_t[i] >> SMALL_SHIFT;
+            } else {
+                i = 0;
+                t = r->heap_t[0];
+            }
+        }
+        if (r->rq_len && r->rq_t[r->rq_head] < t) {
+            r->now = r->rq_t[r->rq_head];
+            mprt__ring_event(r);
+        } else if (i >= 0) {
+            if (r->small) {
+                r->heap_t[i] = INT64_MAX;
+                r->nheap--;
+                r->pmin = -1;
+                r->now = t;
+            } else {
+                i = heap_pop(r, &r->now);
+            }
             handle(r, i);
-        else
-            mprt__ring_event(r, i - r->nproc);
+        } else {
+            break;
+        }
     }
 }
 
@@ -538,4 +565,3 @@ void mprt__replay_start_on(mprt_replay *r, node *nd, int k, int64_t x)
 
 void mprt__replay_send_freed(mprt_replay *r, node *src) { send_freed(r, src); }
 
-void mprt__replay_schedule(mprt_replay *r, int64_t t, int64_t prio, int i) { heap_push(r, t, prio, i); }

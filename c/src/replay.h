@@ -87,6 +87,7 @@ typedef struct {
     int64_t x;                   /* the visit it starts */
     int64_t flits;
     int src, dst, node, hops;    /* node: where its header is; hops: links it has crossed */
+    unsigned path;               /* those links (bit n: link n) */
     int phase;                   /* RING_HOP, RING_CLAIM (header at its destination), RING_BODY */
     int copy;                    /* the replica whose receive slot it claimed (a per-replica feed) */
     int event;                   /* pending: RING_ARRIVE (a hop ends) or RING_BODY_DONE */
@@ -95,13 +96,16 @@ typedef struct {
 /* The ring of one PE. */
 typedef struct {
     int K, C;                    /* nodes, buffer classes */
-    int link_busy[RING_MAX];
+    node *nd;                    /* the PE's stages: node n is nd[n] */
+    unsigned busy;               /* links held (bit n: link n) */
+    unsigned ready;              /* nodes whose send FIFO holds a packet not in the network */
     int64_t link_cycles[RING_MAX];
     int buf[RING_MAX][RING_MAX]; /* node, class: the packet holding it (its source), -1 free */
     int injected[RING_MAX];      /* node n's packet is in the network */
     int writer[RING_MAX];        /* node n's receive FIFO is being written by this packet, -1 none */
     int waiting[RING_MAX];       /* packets waiting for a grant, in the order they began to wait */
     int nwaiting;
+    int claiming;                /* waiting headers claiming their receive FIFO */
     int kicking, again;
     ring_packet pkt[RING_MAX];
 } ring_t;
@@ -128,6 +132,7 @@ struct mprt_replay {
     int32_t *heap_i;             /* ... and processor */
     int nheap;
     int small;                   /* at most SMALL_PROCS processors: pending events by processor, no heap */
+    int pmin;                    /* ... with a ring: the first of them, -1 not known */
     /* the trace (buffers kept from run to run; cap_*: their capacities) */
     size_t nv, nr;
     vinfo *vi;                   /* per visit (wide) */
@@ -155,7 +160,10 @@ struct mprt_replay {
     int oom, ran, deadlocked;
     /* level 2: the ring */
     ring_t *rings;               /* per PE */
-    int64_t ring_seq;            /* ring events scheduled so far: among simultaneous ones, first come first */
+    int64_t *rq_t;               /* pending ring events in the order they run (time, then first
+                                  * scheduled first: after the processors' of the same time), */
+    int32_t *rq_s;               /* ... their packets (PE x RING_MAX + source node), */
+    size_t rq_head, rq_len, rq_mask;  /* ... a circular list of rq_mask + 1 entries */
     uint16_t *pflits;            /* per visit: flits of the packet that starts it (mprt_replay_set_flits) */
     uint8_t *child_kind;         /* per child[] entry: the ray's kind (kept by the load for set_flits) */
     size_t cap_pflits, cap_child_kind, nchild;
@@ -184,17 +192,25 @@ void mprt__replay_free_trace(mprt_replay *r);
 void mprt__replay_loop(mprt_replay *r);
 /* ... for the ring: start packet x on replica k of nd (k < 0: its lowest idle
  * processor; idle), offer a freed send slot of src to its blocked processors,
- * schedule event i (processor, or nproc + a ring packet) at (t, prio). */
+ */
 void mprt__replay_start_on(mprt_replay *r, node *nd, int k, int64_t x);
 void mprt__replay_send_freed(mprt_replay *r, node *src);
-void mprt__replay_schedule(mprt_replay *r, int64_t t, int64_t prio, int i);
 
 /* The ring (replay_ring.c): made for a run, a packet sent (0: the send FIFO is
- * full), the arbiter, a ring event (slot: PE x RING_MAX + source node). */
+ * full), the arbiter, the first pending ring event run (r->now its time). */
 int mprt__ring_build(mprt_replay *r);
 int mprt__ring_send(mprt_replay *r, node *src, int64_t x, int g);
 void mprt__ring_kick(mprt_replay *r, int pe);
-void mprt__ring_event(mprt_replay *r, int slot);
+/* A receive slot of a stage of PE pe freed: the arbiter, if a header waits to claim a
+ * receive FIFO.  Else it would grant nothing: after an arbitration nothing can proceed,
+ * and until the next one only a claim can become possible (room, a round-robin turn);
+ * links, buffers and send FIFOs change only in the ring's events and sends, which
+ * arbitrate. */
+INLINE void ring_freed(mprt_replay *r, int pe)
+{
+    if (r->rings[pe].claiming) mprt__ring_kick(r, pe);
+}
+void mprt__ring_event(mprt_replay *r);
 
 /* ---- queues and FIFOs (the replay's and the ring's) ---------------------------- */
 

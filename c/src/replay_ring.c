@@ -22,25 +22,32 @@
  *   pass after pass while a packet completed during one.
  * - Ring events run after the processors' events of the same cycle, among
  *   themselves in the order they were scheduled (SimPy's priority
- *   2 x processors + 1 and its event ids): priority 2 x nproc + 1 + a count.
+ *   2 x processors + 1 and its event ids): a list in time order beside the
+ *   processors' events (replay.c's loop takes the first of the two).
  *
  * Nothing is allocated per packet or per event. */
 #include "replay.h"
 
-INLINE node *ring_node(mprt_replay *r, int pe, int n) { return &r->nodes[pe * r->cfg.nstages + n]; }
-
 INLINE int ring_class(const ring_t *R, int hop) { return hop < R->C - 1 ? hop : R->C - 1; }
+
+INLINE int ring_next(const ring_t *R, int n) { return n + 1 == R->K ? 0 : n + 1; }
 
 int mprt__ring_build(mprt_replay *r)
 {
     int p, n, c;
+    size_t cap = 4;
+    while (cap < (size_t)r->cfg.pes * RING_MAX) cap *= 2;
     r->rings = calloc((size_t)r->cfg.pes, sizeof *r->rings);
-    if (!r->rings) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
-    r->ring_seq = 0;
+    r->rq_t = malloc(cap * sizeof *r->rq_t);
+    r->rq_s = malloc(cap * sizeof *r->rq_s);
+    if (!r->rings || !r->rq_t || !r->rq_s) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
+    r->rq_head = r->rq_len = 0;
+    r->rq_mask = cap - 1;
     for (p = 0; p < r->cfg.pes; p++) {
         ring_t *R = &r->rings[p];
         R->K = r->cfg.nstages;
         R->C = r->cfg.buffer_classes;
+        R->nd = &r->nodes[p * r->cfg.nstages];
         for (n = 0; n < RING_MAX; n++) {
             R->writer[n] = -1;
             for (c = 0; c < RING_MAX; c++) R->buf[n][c] = -1;
@@ -49,11 +56,20 @@ int mprt__ring_build(mprt_replay *r)
     return MPRT_OK;
 }
 
-/* Packet q of PE pe's ring has an event delay cycles from now. */
-static void ring_at(mprt_replay *r, int pe, int q, int64_t delay, int what)
+/* Packet q of PE pe's ring has an event delay (> 0) cycles from now: after the pending
+ * ones of its time or before, so the list stays in time order, simultaneous events in
+ * the order they were scheduled (one per packet: the list never overflows). */
+INLINE void ring_at(mprt_replay *r, int pe, int q, int64_t delay, int what)
 {
+    int64_t t = r->now + delay;
+    size_t m = r->rq_mask, i = r->rq_len++;
     r->rings[pe].pkt[q].event = what;
-    mprt__replay_schedule(r, r->now + delay, 2 * (int64_t)r->nproc + 1 + r->ring_seq++, r->nproc + pe * RING_MAX + q);
+    for (; i > 0 && r->rq_t[(r->rq_head + i - 1) & m] > t; i--) {
+        r->rq_t[(r->rq_head + i) & m] = r->rq_t[(r->rq_head + i - 1) & m];
+        r->rq_s[(r->rq_head + i) & m] = r->rq_s[(r->rq_head + i - 1) & m];
+    }
+    r->rq_t[(r->rq_head + i) & m] = t;
+    r->rq_s[(r->rq_head + i) & m] = pe * RING_MAX + q;
 }
 
 int mprt__ring_send(mprt_replay *r, node *src, int64_t x, int g)
@@ -62,7 +78,9 @@ int mprt__ring_send(mprt_replay *r, node *src, int64_t x, int g)
     int n = src->stage;
     if (!f_room(&src->sf)) return 0;
     f_put(r, &src->sf, x * 4 + g);
-    if (!R->injected[n] && R->buf[n][0] < 0) mprt__ring_kick(r, src->pe);   /* else it waits its turn */
+    if (R->injected[n]) return 1;       /* it waits its turn */
+    R->ready |= 1u << n;
+    if (R->buf[n][0] < 0) mprt__ring_kick(r, src->pe);
     return 1;
 }
 
@@ -95,9 +113,9 @@ static void complete(mprt_replay *r, int pe, int q)
 {
     ring_t *R = &r->rings[pe];
     ring_packet *k = &R->pkt[q];
-    node *d = ring_node(r, pe, k->dst), *s = ring_node(r, pe, k->src);
-    int i;
-    for (i = 0; i <= k->hops; i++) R->buf[(k->src + i) % R->K][ring_class(R, i)] = -1;
+    node *d = &R->nd[k->dst], *s = &R->nd[k->src];
+    int i, n = k->src;
+    for (i = 0; i <= k->hops; i++, n = ring_next(R, n)) R->buf[n][ring_class(R, i)] = -1;
     R->writer[k->dst] = -1;
     if (d->feed) {
         if (copy_idle(r, d, k->copy)) {
@@ -114,6 +132,7 @@ static void complete(mprt_replay *r, int pe, int q)
     }
     f_get(r, &s->sf);
     R->injected[k->src] = 0;
+    if (s->sf.q.len) R->ready |= 1u << k->src;
     mprt__replay_send_freed(r, s);      /* (may inject the node's next packet: k is not read after) */
     mprt__ring_kick(r, pe);
 }
@@ -124,18 +143,17 @@ static int step(mprt_replay *r, int pe, int q)
     ring_t *R = &r->rings[pe];
     ring_packet *k = &R->pkt[q];
     int64_t ft = r->cfg.flit_time, body;
-    int i, K = R->K;
     if (k->phase == RING_HOP) {
-        int n = k->node, m = (n + 1) % K, c = ring_class(R, k->hops + 1);
-        if (R->link_busy[n] || R->buf[m][c] >= 0) return 0;
-        R->link_busy[n] = 1;
+        int n = k->node, m = ring_next(R, n), c = ring_class(R, k->hops + 1);
+        if ((R->busy >> n & 1) || R->buf[m][c] >= 0) return 0;
+        R->busy |= 1u << n;
         R->link_cycles[n] += ft;
         R->buf[m][c] = q;
         ring_at(r, pe, q, ft, RING_ARRIVE);
         return 1;
     }
     if (k->phase == RING_CLAIM) {
-        node *d = ring_node(r, pe, k->dst);
+        node *d = &R->nd[k->dst];
         if (R->writer[k->dst] >= 0) return 0;
         if (d->feed) {
             int c = claim_copy(r, d);
@@ -149,6 +167,7 @@ static int step(mprt_replay *r, int pe, int q)
             f_reserve(r, &d->rf);
         }
         k->phase = RING_BODY;
+        R->claiming--;
     }
     /* the body: the rest of the packet over the whole path */
     body = k->flits - 1;
@@ -156,11 +175,11 @@ static int step(mprt_replay *r, int pe, int q)
         complete(r, pe, q);
         return 1;
     }
-    for (i = 0; i < k->hops; i++)
-        if (R->link_busy[(k->src + i) % K]) return 0;
-    for (i = 0; i < k->hops; i++) {
-        R->link_busy[(k->src + i) % K] = 1;
-        R->link_cycles[(k->src + i) % K] += body * ft;
+    if (R->busy & k->path) return 0;
+    R->busy |= k->path;
+    {
+        int i, n = k->src;
+        for (i = 0; i < k->hops; i++, n = ring_next(R, n)) R->link_cycles[n] += body * ft;
     }
     ring_at(r, pe, q, body * ft, RING_BODY_DONE);
     return 1;
@@ -176,22 +195,27 @@ void mprt__ring_kick(mprt_replay *r, int pe)
     }
     R->kicking = 1;
     do {
+        unsigned m;
         R->again = 0;
-        for (n = 0; n < R->K; n++) {
-            node *nd = ring_node(r, pe, n);
-            if (!R->injected[n] && nd->sf.q.len && R->buf[n][0] < 0) {
-                int64_t e = nd->sf.q.buf[nd->sf.q.head];
+        for (m = R->ready; m; m &= m - 1) {         /* node by node */
+            const queue *sf;
+            n = ctz64(m);
+            sf = &R->nd[n].sf.q;
+            if (R->buf[n][0] < 0) {
+                int64_t e = sf->buf[sf->head];
                 ring_packet *k = &R->pkt[n];
                 k->x = e >> 2;
                 k->dst = (int)(e & 3);
                 k->src = k->node = n;
                 k->hops = 0;
+                k->path = 0;
                 k->phase = RING_HOP;
                 k->copy = -1;
                 k->event = RING_NONE;
                 k->flits = r->pflits[k->x];
                 R->buf[n][0] = n;
                 R->injected[n] = 1;
+                R->ready &= ~(1u << n);
                 R->waiting[R->nwaiting++] = n;
             }
         }
@@ -206,25 +230,29 @@ void mprt__ring_kick(mprt_replay *r, int pe)
     R->kicking = 0;
 }
 
-void mprt__ring_event(mprt_replay *r, int slot)
+void mprt__ring_event(mprt_replay *r)
 {
-    int pe = slot / RING_MAX, q = slot % RING_MAX, i;
+    int slot = r->rq_s[r->rq_head], pe = slot / RING_MAX, q = slot % RING_MAX;
     ring_t *R = &r->rings[pe];
     ring_packet *k = &R->pkt[q];
+    r->rq_head = (r->rq_head + 1) & r->rq_mask;
+    r->rq_len--;
     if (k->event == RING_ARRIVE) {          /* the header crossed link n */
         int n = k->node;
-        R->link_busy[n] = 0;
-        k->node = (n + 1) % R->K;
+        R->busy &= ~(1u << n);
+        k->path |= 1u << n;
+        k->node = ring_next(R, n);
         k->hops++;
         k->phase = k->node == k->dst ? RING_CLAIM : RING_HOP;
+        R->claiming += k->phase == RING_CLAIM;
         k->event = RING_NONE;
         R->waiting[R->nwaiting++] = q;
         mprt__ring_kick(r, pe);
     } else {                                /* the body has streamed: the path is free */
-        for (i = 0; i < k->hops; i++) R->link_busy[(k->src + i) % R->K] = 0;
+        R->busy &= ~k->path;
         k->event = RING_NONE;
-        complete(r, pe, q);
-        mprt__ring_kick(r, pe);
+        complete(r, pe, q);                 /* and its arbitration (the model's second one then
+                                             * grants nothing: a pass only takes resources) */
     }
 }
 

@@ -25,7 +25,12 @@ void mprt__replay_free_run(mprt_replay *r)
     free(r->heap_p);
     free(r->heap_i);
     free(r->rings);
+    free(r->rq_t);
+    free(r->rq_s);
     r->rings = NULL;
+    r->rq_t = NULL;
+    r->rq_s = NULL;
+    r->rq_len = r->rq_head = r->rq_mask = 0;
     r->nodes = NULL;
     r->procs = NULL;
     r->pes = NULL;
@@ -42,22 +47,25 @@ static int build(mprt_replay *r)
     const mprt_replay_config *c = &r->cfg;
     int p, s, k, i = 0, n = 0;
     int per = 0;
-    size_t nev;
+    int64_t last;
     for (s = 0; s < c->nstages; s++) per += c->replicas[s];
     r->nproc = c->pes * per;
     r->nnode = c->pes * c->nstages;
     r->procs = calloc((size_t)r->nproc, sizeof *r->procs);
     r->nodes = calloc((size_t)r->nnode, sizeof *r->nodes);
     r->pes = calloc((size_t)c->pes, sizeof *r->pes);
-    /* pending events: one per processor, and one per packet on a ring */
-    nev = (size_t)r->nproc + (c->ring ? (size_t)c->pes * RING_MAX : 0);
-    r->heap_t = malloc(nev * sizeof *r->heap_t);
-    r->heap_p = malloc(nev * sizeof *r->heap_p);
-    r->heap_i = malloc(nev * sizeof *r->heap_i);
+    r->heap_t = malloc((size_t)r->nproc * sizeof *r->heap_t);
+    r->heap_p = malloc((size_t)r->nproc * sizeof *r->heap_p);
+    r->heap_i = malloc((size_t)r->nproc * sizeof *r->heap_i);
     if (!r->procs || !r->nodes || !r->pes || !r->heap_t || !r->heap_p || !r->heap_i)
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
-    /* every event falls within the visits' cycles and the primaries' making */
-    r->small = !c->ring && r->nproc <= SMALL_PROCS && r->total + c->gen_cycles * r->ntrees < (INT64_MAX >> SMALL_SHIFT) - 1;
+    /* every event falls within the visits' cycles, the primaries' making and (until the last
+     * event, something is always under way) the links' transfers: at most h + f - 1 flit
+     * times a packet (mprt_replay_run checked this sum) */
+    last = r->total + c->gen_cycles * r->ntrees;
+    if (c->ring) last += (int64_t)(r->nv + (size_t)r->ntrees) * (RING_MAX + r->max_flits) * c->flit_time;
+    r->small = r->nproc <= SMALL_PROCS && last < (INT64_MAX >> SMALL_SHIFT) - 1;
+    r->pmin = -1;
     for (i = 0; r->small && i < r->nproc; i++) r->heap_t[i] = INT64_MAX;
     i = 0;
     for (p = 0; p < c->pes; p++) {
