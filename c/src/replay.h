@@ -305,6 +305,78 @@ INLINE void f_fill(mprt_replay *r, fifo *f, int64_t x)
 #define SMALL_PROCS 8
 #define SMALL_SHIFT 5    /* priorities are below 2 x SMALL_PROCS + 2 <= 32 */
 
+/* ---- the processors' events (replay.c) ---------------------------------------- */
+
+/* The event heap: parallel arrays (time, priority, processor), written and
+ * read field by field. */
+INLINE int ev_before(int64_t t1, int64_t p1, int64_t t2, int64_t p2) { return t1 < t2 || (t1 == t2 && p1 < p2); }
+
+INLINE void heap_push(mprt_replay *r, int64_t t, int64_t prio, int i)
+{
+    int c = r->nheap++;
+    if (r->small) {
+        r->heap_t[i] = t << SMALL_SHIFT | prio;
+        if (r->pmin >= 0 && r->heap_t[i] < r->heap_t[r->pmin]) r->pmin = i;
+        return;
+    }
+    int64_t *ht = r->heap_t, *hp = r->heap_p;
+    int32_t *hi = r->heap_i;
+    while (c > 0) {
+        int p = (c - 1) / 2;
+        if (!ev_before(t, prio, ht[p], hp[p])) break;
+        ht[c] = ht[p];
+        hp[c] = hp[p];
+        hi[c] = hi[p];
+        c = p;
+    }
+    ht[c] = t;
+    hp[c] = prio;
+    hi[c] = i;
+}
+
+/* Take the first event: its processor (its time in *t). */
+INLINE int heap_pop(mprt_replay *r, int64_t *t)
+{
+    int64_t *ht = r->heap_t, *hp = r->heap_p;
+    int32_t *hi = r->heap_i;
+    int n = --r->nheap, c = 0, top;
+    int64_t lt, lp;
+    int32_t li;
+    if (r->small) {
+        int k, m = 0;
+        for (k = 1; k < r->nproc; k++) m = ht[k] < ht[m] ? k : m;
+        *t = ht[m] >> SMALL_SHIFT;
+        ht[m] = INT64_MAX;
+        return m;
+    }
+    top = hi[0];
+    lt = ht[n];
+    lp = hp[n];
+    li = hi[n];
+    *t = ht[0];
+    for (;;) {
+        int a = 2 * c + 1, m;
+        if (a >= n) break;
+        m = (a + 1 < n && ev_before(ht[a + 1], hp[a + 1], ht[a], hp[a])) ? a + 1 : a;
+        if (!ev_before(ht[m], hp[m], lt, lp)) break;
+        ht[c] = ht[m];
+        hp[c] = hp[m];
+        hi[c] = hi[m];
+        c = m;
+    }
+    if (n > 0) {
+        ht[c] = lt;
+        hp[c] = lp;
+        hi[c] = li;
+    }
+    return top;
+}
+
+INLINE const void *v_addr(const mprt_replay *r, int64_t j)
+{
+    return r->wide ? (const void *)&r->vi[j] : (const void *)&r->vp[j];
+}
+
 /* ---- idle processors and replicas ---- */
 
 static inline int ctz64(uint64_t x)
