@@ -200,11 +200,11 @@ def test_malformed_traces_fail_as_in_simpy():
         replay(good, builtin("M").replace(pes=3), costs=c)
 
 
-def test_ring_or_memories_are_refused_by_the_compiled_engine(traces):
-    with pytest.raises(ConfigError, match="ring network .level 2. and modelled memories .level 3."):
+def test_memories_are_refused_by_the_compiled_engine(traces):
+    with pytest.raises(ConfigError, match="has modelled memories .level 3.; the compiled engine replays ideal-memory"):
         replay(traces["balls-g4"], "3mppe")
     assert unsupported(builtin("M")) is None
-    assert "ring" in unsupported(builtin("3mppe").replace(ic_memory=None, sc_memory=None, icgm=None, scgm=None))
+    assert unsupported(builtin("3mppe").replace(ic_memory=None, sc_memory=None, icgm=None, scgm=None)) is None
 
 
 def test_one_load_runs_many_configurations(traces):
@@ -254,10 +254,11 @@ def test_levels_take_out_ring_and_memories():
     assert at_level(full, 1).ring is None and at_level(full, 1).ic_memory is None
     assert at_level(full, 2).ring == full.ring and at_level(full, 2).ic_memory is None
     assert at_level(full, 3) == full
-    assert engine_for(full, 1) == "compiled" and engine_for(full, 2) == "simpy" and engine_for(full, 0) == "analytical"
+    assert engine_for(full, 1) == "compiled" and engine_for(full, 2) == "compiled"
+    assert engine_for(full, 3) == "simpy" and engine_for(full, 0) == "analytical"
     assert engine_for(builtin("M"), 3) == "compiled"        # nothing above level 1 to model
-    with pytest.raises(ConfigError, match="level 2: configuration '3mppe' has a ring"):
-        engine_for(full, 2, "compiled")
+    with pytest.raises(ConfigError, match="level 3: configuration '3mppe' has modelled memories"):
+        engine_for(full, 3, "compiled")
     with pytest.raises(ConfigError, match="level 0 is analytical"):
         engine_for(full, 0, "simpy")
 

@@ -36,11 +36,14 @@ def test_engines_give_the_same_cycles(tmp_path):
     assert c["cycles"] == simulate(mprt.load_trace(BALLS), builtin("3mppe")).cycles
 
 
-def test_compiled_engine_refuses_the_ring_with_exit_2(tmp_path, capsys):
+def test_compiled_engine_refuses_memories_with_exit_2(tmp_path, capsys):
     rc, _ = run(tmp_path, BALLS, "--model", "3mppe", "--engine", "compiled")
     assert rc == 2
     err = capsys.readouterr().err
-    assert "invalid configuration: level 3: configuration '3mppe' has a ring network" in err
+    assert "invalid configuration: level 3: configuration '3mppe' has modelled memories" in err
+    _, a = run(tmp_path, BALLS, "--model", "3mppe", "--level", "2", "--engine", "simpy")
+    _, b = run(tmp_path, BALLS, "--model", "3mppe", "--level", "2", "--engine", "compiled")
+    assert (a["level"], b["level"], b["engine"]) == (2, 2, "compiled") and a["cycles"] == b["cycles"]
 
 
 def test_level0_and_auto(tmp_path, capsys):

@@ -444,14 +444,15 @@ int mprt_grid_trace_tile(mprt_grid *grid, const mprt_render_desc *desc, int tile
 int mprt_image_write_png(const char *path, int width, int height, const float *rgb);
 
 /* ---- Replay ----------------------------------------------------------------
- * A compiled replay of a trace on a machine of the fidelity ladder's level 1:
- * PEs of 1 to 3 stages (each a processor, or several replicas of one,
+ * A compiled replay of a trace on a machine of the fidelity ladder's levels 1
+ * and 2: PEs of 1 to 3 stages (each a processor, or several replicas of one,
  * running one or more of the subtasks OS, IC, SC), send and receive FIFOs
- * of any capacity, an ideal network (no latency, no bandwidth limit) and
- * an ideal memory (every access hits), DIS admitting primary rays under a
- * window.  It applies the same event rules as the SimPy machine model
- * (python/mprt/machine, README.md there) and returns the same cycle counts
- * to the cycle; python/mprt/fidelity binds it.
+ * of any capacity, an ideal network (no latency, no bandwidth limit) or the
+ * ring (links, flit buffers by class, wormhole paths), an ideal memory
+ * (every access hits), DIS admitting primary rays under a window.  It
+ * applies the same event rules as the SimPy machine model (python/mprt/machine,
+ * README.md there) and returns the same cycle counts to the cycle;
+ * python/mprt/fidelity binds it.
  *
  * In C:
  *
@@ -465,7 +466,8 @@ int mprt_image_write_png(const char *path, int width, int height, const float *r
  *     mprt_replay_destroy(r);
  *
  * Costs come from the caller (the cost model), one entry per visit:
- * process, receive and send cycles; a visit lasts their sum (at least 1). */
+ * process, receive and send cycles; a visit lasts their sum (at least 1).
+ * On the ring the packets' flits too (mprt_replay_set_flits). */
 
 /* How DIS deals primary rays (trees) to PEs: static blocks of consecutive
  * trees, interleaved (tree t to PE t mod pes), or one shared sequence each
@@ -494,6 +496,12 @@ typedef struct {
     int64_t window;                     /* live rays a PE's DIS admits up to, >= 1 */
     int64_t gen_cycles;                 /* cycles SC spends making a primary ray and sending
                                          * it to OS; 0: DIS hands primaries to OS directly */
+    /* level 2: the ring (python/mprt/machine/README.md, "The ring"): each PE's
+     * stages on a unidirectional ring, packets of the flits mprt_replay_set_flits
+     * gives, wormhole-routed; ring 0: the ideal network */
+    int ring;                           /* 1: the ring (needs nstages >= 2) */
+    int buffer_classes;                 /* header buffers per node, 1..nstages */
+    int64_t flit_time;                  /* cycles a link takes per flit, >= 1 */
 } mprt_replay_config;
 
 typedef struct mprt_replay mprt_replay;
@@ -520,6 +528,14 @@ int mprt_replay_set_config(mprt_replay *r, const mprt_replay_config *cfg);
  * malformed trace or cost fails with MPRT_ERR_INVALID_ARG naming it. */
 int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
                      size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send);
+
+/* The packets' sizes for the ring (level 2), for the loaded trace: flits[j]
+ * (nvisits entries) of the packet visit j sends on to its ray's next visit;
+ * kid_flits[kind] (nkinds entries, a kind per mprt_ray_kind) of a packet
+ * carrying a ray an SC visit made; inject_flits of a primary ray SC made.
+ * Flits 0..65535 (0 and 1: the header alone).  Needed before a run on a ring. */
+int mprt_replay_set_flits(mprt_replay *r, const int64_t *flits, size_t nvisits, const int64_t *kid_flits,
+                          size_t nkinds, int64_t inject_flits);
 
 /* Replay the loaded trace on the configuration.  log (may be NULL)
  * receives 4 int64 per event: cycle, 0 start / 1 end, processor, visit (~t:
@@ -559,6 +575,7 @@ typedef struct {
     int64_t send_occupancy, send_max, send_puts, send_area;
     int64_t local_queue;
     int64_t generated;
+    int64_t receive_reserved;   /* receive slots claimed by packets still on the ring */
 } mprt_replay_node;
 
 /* One PE: its DIS and rays, and its visits' costs by subtask (OS, IC, SC). */
@@ -596,6 +613,17 @@ int mprt_replay_get_tree_busy(const mprt_replay *r, int64_t *out, size_t cap);
  * order.  OUT: out (cap entries), n (the number waiting). */
 int mprt_replay_get_waiters(const mprt_replay *r, int pe, int stage, int which, int64_t *out, size_t cap,
                             size_t *n);
+/* The ring (a run with ring 1): each link's busy cycles (pes x nstages
+ * entries, link n of a PE from its stage n to stage n + 1), and PE pe's ring
+ * at the end: buffers (nstages x buffer_classes entries, node by node: the
+ * packet holding it as source stage x 4 + destination stage, -1 free) and the
+ * packets waiting for a grant in the order they began to wait, 4 entries each
+ * (source stage, destination stage, the node its header is at, phase: 0 the
+ * header waits for a link and buffer, 1 for the receive FIFO, 2 the body for
+ * the path).  OUT: links; buffers, waiting (cap entries each), nwaiting (packets). */
+int mprt_replay_get_links(const mprt_replay *r, int64_t *out, size_t cap);
+int mprt_replay_get_ring(const mprt_replay *r, int pe, int64_t *buffers, size_t cap_buffers, int64_t *waiting,
+                         size_t cap_waiting, size_t *nwaiting);
 
 #ifdef __cplusplus
 }

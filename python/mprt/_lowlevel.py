@@ -450,6 +450,14 @@ class Binding:
                                               len(visits), *(self._in("int64_t", a, len(visits)) for a in costs)),
                     self.lib.mprt_replay_errmsg, h)
 
+    def replay_set_flits(self, h, flits: np.ndarray, kid_flits, inject_flits: int) -> None:
+        """The packets' sizes for the ring: flits per visit (of the packet it sends on), per ray
+        kind of a ray SC made, and of a primary ray SC made (copied)."""
+        f = np.ascontiguousarray(flits, dtype=np.int64)
+        k = np.ascontiguousarray(kid_flits, dtype=np.int64)
+        self._check(self.lib.mprt_replay_set_flits(h, self._in("int64_t", f), f.size, self._in("int64_t", k), k.size,
+                                                   int(inject_flits)), self.lib.mprt_replay_errmsg, h)
+
     def replay_run(self, h, log: np.ndarray | None = None) -> bool:
         """Replay the loaded trace; ``log`` (int64, 8 * (visits + primary rays) entries)
         receives the events.  False when the machine deadlocked (its state stays readable
@@ -507,6 +515,23 @@ class Binding:
         out = np.zeros((trees, stages), dtype=np.int64)
         self._got(self.lib.mprt_replay_get_tree_busy(h, self._out("int64_t", out), out.size), "tree_busy")
         return out
+
+    def replay_get_links(self, h, pes: int, stages: int) -> np.ndarray:
+        """Each ring link's busy cycles (int64[pes, stages]: link n from stage n to n + 1)."""
+        out = np.zeros((pes, stages), dtype=np.int64)
+        self._got(self.lib.mprt_replay_get_links(h, self._out("int64_t", out), out.size), "links")
+        return out
+
+    def replay_get_ring(self, h, pe: int, stages: int, classes: int):
+        """PE pe's ring at the end: (buffers int64[stages, classes]: source x 4 + destination
+        stage of the packet holding each, -1 free; waiting packets int64[n, 4]: source,
+        destination, node, phase, in the order they began to wait)."""
+        n = self.ffi.new("size_t *")
+        buffers = np.zeros((stages, classes), dtype=np.int64)
+        waiting = np.zeros((4 * 3, ), dtype=np.int64)
+        self._got(self.lib.mprt_replay_get_ring(h, pe, self._out("int64_t", buffers), buffers.size,
+                                                self._out("int64_t", waiting), waiting.size, n), "ring")
+        return buffers, waiting[: 4 * n[0]].reshape(-1, 4)
 
     def replay_get_waiters(self, h, pe: int, stage: int, which: int) -> list:
         """Who waits for a slot in a stage's receive FIFO (which 0: sending stages, -1 the DIS)

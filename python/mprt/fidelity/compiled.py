@@ -1,17 +1,21 @@
 """The compiled engine: the C replay (``mprt_replay_*`` in mprt.h) of the
-machine model's ideal-network configurations, with the SimPy model's result.
+machine model's configurations without modelled memories (levels 1 and 2:
+the ideal network or the ring), with the SimPy model's result.
 
 ``replay(trace, config)`` takes what ``mprt.machine.simulate`` takes and
 returns the same ``SimResult`` (same cycles, same per-stage processing,
 communication and waiting, same FIFO, processor and PE figures), or raises
-the same ``DeadlockError``.  It supports every configuration without a ring
-(level 2) and without modelled memories (level 3): any stages, mapping,
-replicas and their feeds, FIFO capacities, PEs, DIS policy and window.  ``unsupported(config)``
-says why a configuration is not one of those.
+the same ``DeadlockError``.  It supports every configuration without modelled
+memories (level 3): any stages, mapping, replicas and their feeds, FIFO
+capacities, PEs, DIS policy and window, on the ideal network or the ring
+(flit time, buffer classes).  ``unsupported(config)`` says why a
+configuration is not one of those.
 
 The costs per visit are the cost model's (``visit_costs`` on the
 configuration's processors) or the arrays given, exactly as the SimPy model
-takes them.  The figures are assembled by the machine model's own
+takes them; on the ring also their ``flits`` and ``inject_flits``, and the
+flits of the packets carrying the rays SC makes (``packet_flits("SC", "OS",
+kind)``, the cost model's).  The figures are assembled by the machine model's own
 ``System._result`` and ``System._deadlock`` over views of the C replay's
 counters, so a result cannot differ from SimPy's in how it is summed.
 """
@@ -25,7 +29,7 @@ from .._lowlevel import binding
 from ..errors import InvalidArgument
 from ..machine.config import DIS_POLICIES, FEEDS, SUBTASKS, SystemConfig, builtin
 from ..machine.errors import ConfigError
-from ..trace import TraceError
+from ..trace import RAY_KINDS, TraceError
 from .views import SystemView
 
 _LIB = binding("double")
@@ -34,15 +38,10 @@ _DIS = {name: i for i, name in enumerate(DIS_POLICIES)}     # blocks, interleave
 
 def unsupported(config: SystemConfig) -> str | None:
     """Why the compiled engine cannot replay a configuration (None: it can)."""
-    parts = []
-    if config.ring is not None:
-        parts.append("a ring network (level 2)")
-    if config.ic_memory is not None or config.sc_memory is not None:
-        parts.append("modelled memories (level 3)")
-    if not parts:
+    if config.ic_memory is None and config.sc_memory is None:
         return None
-    return (f"configuration {config.name!r} has {' and '.join(parts)}; the compiled engine replays ideal-network, "
-            "ideal-memory machines only (use the SimPy engine, or --level 1)")
+    return (f"configuration {config.name!r} has modelled memories (level 3); the compiled engine replays "
+            "ideal-memory machines only, on the ideal network or the ring (use the SimPy engine, or --level 2)")
 
 
 def _cost_arrays(trace, costs):
@@ -64,7 +63,11 @@ def c_config(config: SystemConfig, gen_cycles: int) -> dict:
             "receive_fifo": [s.receive_fifo or 0 for s in config.stages] + pad,
             "send_fifo": [s.send_fifo or 0 for s in config.stages] + pad,
             "feed": [FEEDS.index(s.feed) for s in config.stages] + pad,
-            "pes": config.pes, "dis": _DIS[config.dis], "window": config.window, "gen_cycles": gen_cycles}
+            "pes": config.pes, "dis": _DIS[config.dis], "window": config.window, "gen_cycles": gen_cycles,
+            # level 2: the ring
+            "ring": int(config.ring is not None),
+            "buffer_classes": config.ring.buffer_classes if config.ring is not None else 1,
+            "flit_time": config.ring.flit_time if config.ring is not None else 1}
 
 
 def _log(view, log, events):
@@ -80,9 +83,11 @@ class Compiled:
 
     ``costs``: per-visit ``process``, ``receive``, ``send`` arrays (and
     ``inject_process``, ``inject_send`` for SC's making of primary rays), as
-    the cost model's ``visit_costs`` gives them."""
+    the cost model's ``visit_costs`` gives them; for the ring also ``flits``
+    (and ``inject_flits``), with ``packet_flits(src, dst, kind)`` sizing the
+    packets of the rays SC makes (default: the default cost model's)."""
 
-    def __init__(self, trace, costs):
+    def __init__(self, trace, costs, packet_flits=None):
         process, receive, send, self.gen_process, self.gen_send = _cost_arrays(trace, costs)
         self.trace = trace
         self.h = _LIB.replay_create({})
@@ -92,11 +97,27 @@ class Compiled:
             msg = str(e)
             raise (TraceError(msg) if msg.startswith("cannot replay this trace:") else ValueError(msg)) from None
         self.info = _LIB.replay_get_info(self.h)
+        self.flits = hasattr(costs, "flits")
+        if self.flits:      # the ring's packet sizes, as the SimPy model's Replay takes them
+            flits = np.asarray(costs.flits)
+            if flits.shape != (len(trace.visits),):
+                raise ValueError(f"costs.flits has shape {flits.shape}, the trace has {len(trace.visits)} visits")
+            if packet_flits is None:
+                from ..cost import CostModel
+
+                packet_flits = CostModel.default().packet_flits
+            kids = [packet_flits("SC", "OS", k) for k in range(len(RAY_KINDS))]
+            try:
+                _LIB.replay_set_flits(self.h, flits, kids, int(getattr(costs, "inject_flits", 0)))
+            except InvalidArgument as e:
+                raise ValueError(str(e)) from None
 
     def _configure(self, config: SystemConfig) -> None:
         why = unsupported(config)
         if why:
             raise ConfigError(why)
+        if config.ring is not None and not self.flits:
+            raise ValueError("costs.flits: the ring needs each visit's packet size (the costs have no flits)")
         where = f"{config.source}: " if config.source else ""
         try:
             _LIB.replay_set_config(self.h, c_config(config, self.gen_process + self.gen_send))
@@ -118,7 +139,16 @@ class Compiled:
                           _LIB.replay_get_procs(self.h, int(info["processors"])),
                           _LIB.replay_get_nodes(self.h, int(info["nodes"])), self.gen_process, self.gen_send,
                           int(info["visits"]), int(info["rays"]), int(info["max_leaves"]),
-                          lambda p, s, which: _LIB.replay_get_waiters(self.h, p, s, which))
+                          lambda p, s, which: _LIB.replay_get_waiters(self.h, p, s, which), self._ring(config))
+
+    def _ring(self, config: SystemConfig):
+        """The ring's figures of the last run (None: the ideal network): each link's busy
+        cycles per PE, and a PE's buffers and waiting packets (views.RingView's)."""
+        if config.ring is None:
+            return None
+        K, C = len(config.stages), config.ring.buffer_classes
+        return (_LIB.replay_get_links(self.h, config.pes, K),
+                lambda p: _LIB.replay_get_ring(self.h, p, K, C))
 
     def cycles(self, config: SystemConfig) -> int:
         """The run's cycles (nothing else assembled); DeadlockError if it deadlocks."""
@@ -169,18 +199,23 @@ def costs_for(trace, config: SystemConfig, cost_model=None):
     return cost_model.visit_costs(trace, config.processors())
 
 
-def replay(trace, config: SystemConfig | str = "M", cost_model=None, costs=None, record: bool = False):
-    """Replay a trace on an ideal-network configuration with the compiled
-    engine: what ``mprt.machine.simulate`` returns (``record``: with its event
-    log), or raises (DeadlockError, ConfigError for a configuration the
-    compiled engine does not support, see ``unsupported``)."""
+def replay(trace, config: SystemConfig | str = "M", cost_model=None, costs=None, packet_flits=None,
+           record: bool = False):
+    """Replay a trace on a configuration without modelled memories with the
+    compiled engine: what ``mprt.machine.simulate`` returns (``record``: with
+    its event log), or raises (DeadlockError, ConfigError for a configuration
+    the compiled engine does not support, see ``unsupported``).
+    ``packet_flits``: as ``simulate``'s (default: the cost model's)."""
     if isinstance(config, str):
         config = builtin(config)
     why = unsupported(config)
     if why:
         raise ConfigError(why)
     t0 = time.perf_counter()
-    res = Compiled(trace, costs if costs is not None else costs_for(trace, config, cost_model)).result(config, record)
+    if packet_flits is None and cost_model is not None:
+        packet_flits = cost_model.packet_flits
+    res = Compiled(trace, costs if costs is not None else costs_for(trace, config, cost_model),
+                   packet_flits).result(config, record)
     res.wall_seconds = time.perf_counter() - t0
     return res
 

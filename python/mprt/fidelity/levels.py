@@ -11,9 +11,9 @@ A configuration without a ring is the same machine at levels 1 and 2, and one
 without memories the same at 2 and 3; ``at_level`` gives the machine a level
 models, and a level above the configuration's own (``native_level``) changes
 nothing.  Engines: ``analytical`` (level 0), ``compiled`` (the C replay: every
-machine without ring and memories, so level 1 always, and levels 2 and 3 of
-such machines) and ``simpy`` (the machine model, any level from 1).  ``auto``
-takes the compiled replay wherever it is exact and SimPy elsewhere.
+machine without memories, so levels 1 and 2 always, and level 3 of such
+machines) and ``simpy`` (the machine model, any level from 1).  ``auto`` takes
+the compiled replay wherever it is exact and SimPy elsewhere.
 """
 from __future__ import annotations
 
@@ -123,7 +123,8 @@ class Evaluator:
             res = c["analytical"].result(cfg)
         elif eng == "compiled":
             if "compiled" not in c:
-                c["compiled"] = Compiled(self.trace, c["costs"])
+                c["compiled"] = Compiled(self.trace, c["costs"],      # the ring's packets as SimPy sizes them
+                                         None if self.cost_model is None else self.cost_model.packet_flits)
             # a timeline comes from the event log (64 bytes a visit), so only for traces of
             # up to TIMELINE_VISITS visits
             log = record or (timeline and len(self.trace.visits) <= TIMELINE_VISITS)
