@@ -51,7 +51,8 @@ def test_level0_and_auto(tmp_path, capsys):
     assert (z["level"], z["engine"]) == (0, "analytical")
     assert z["cycles"] == simulate(mprt.load_trace(BALLS), "S").cycles     # exact for one processor
     rc, a = run(tmp_path, BALLS, "--model", "3mppe", "--level", "auto", "--tolerance", "50%")
-    assert rc == 0 and a["level"] in (0, 1)     # every level is within 50% here: the faster of 0 and 1
+    # every level is within 50% here: the fastest of 0, 1 and 2 (compiled, with the ring), not SimPy's 3
+    assert rc == 0 and a["level"] in (0, 1, 2)
     rc, b = run(tmp_path, BALLS, "--model", "3mppe", "--level", "auto", "--tolerance", "0")
     assert rc == 0 and b["level"] in (2, 3)     # only the ring's level is exact
     assert "cheapest within 0%" in capsys.readouterr().out

@@ -38,6 +38,7 @@ typedef struct {
 typedef struct {
     queue q;
     int64_t cap;                 /* 0: unbounded */
+    int64_t lim;                 /* room while fewer packets: cap - reserved (INT64_MAX: unbounded) */
     uint64_t sojourn;            /* packets' cycles in it so far: sum of gets' cycles - puts' (mod 2^64) */
     int64_t last, max, puts;
     int64_t reserved;            /* slots claimed by packets still on the ring */
@@ -253,7 +254,14 @@ static inline void q_free(queue *q)
     memset(q, 0, sizeof *q);
 }
 
-INLINE int f_room(const fifo *f) { return f->cap == 0 || (int64_t)f->q.len + f->reserved < f->cap; }
+INLINE int f_room(const fifo *f) { return (int64_t)f->q.len < f->lim; }
+
+/* A FIFO of capacity cap (0: unbounded), empty. */
+INLINE void f_init(fifo *f, int64_t cap)
+{
+    f->cap = cap;
+    f->lim = cap ? cap : INT64_MAX;
+}
 
 /* The occupancy integrated over time is the packets' time in the FIFO: each
  * put subtracts its cycle, each get adds its cycle, and packets still in it
@@ -280,6 +288,7 @@ INLINE int64_t f_get(mprt_replay *r, fifo *f)
 INLINE void f_reserve(mprt_replay *r, fifo *f)
 {
     f->reserved++;
+    if (f->cap) f->lim--;
     f->sojourn -= (uint64_t)r->now;
     f->last = r->now;
     if ((int64_t)f->q.len + f->reserved > f->max) f->max = (int64_t)f->q.len + f->reserved;
@@ -288,6 +297,7 @@ INLINE void f_reserve(mprt_replay *r, fifo *f)
 INLINE void f_unreserve(mprt_replay *r, fifo *f)
 {
     f->reserved--;
+    if (f->cap) f->lim++;
     f->sojourn += (uint64_t)r->now;
     f->last = r->now;
 }
@@ -295,6 +305,7 @@ INLINE void f_unreserve(mprt_replay *r, fifo *f)
 INLINE void f_fill(mprt_replay *r, fifo *f, int64_t x)
 {
     f->reserved--;
+    if (f->cap) f->lim++;
     q_push(r, &f->q, x);
     f->puts++;
 }

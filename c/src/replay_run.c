@@ -82,8 +82,8 @@ static int build(mprt_replay *r)
         for (s = 0; s < c->nstages; s++, n++) {
             node *nd = &r->nodes[n];
             int words = (c->replicas[s] + 63) / 64;
-            nd->rf.cap = c->receive_fifo[s];
-            nd->sf.cap = c->send_fifo[s];
+            f_init(&nd->rf, c->receive_fifo[s]);
+            f_init(&nd->sf, c->send_fifo[s]);
             nd->stage = s;
             nd->pe = p;
             nd->first = i;
@@ -96,7 +96,7 @@ static int build(mprt_replay *r)
                 nd->rfs = calloc((size_t)nd->n, sizeof *nd->rfs);
                 nd->locals = calloc((size_t)nd->n, sizeof *nd->locals);
                 if (!nd->rfs || !nd->locals) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
-                for (k = 0; k < nd->n; k++) nd->rfs[k].cap = c->receive_fifo[s];
+                for (k = 0; k < nd->n; k++) f_init(&nd->rfs[k], c->receive_fifo[s]);
             }
             for (k = 0; k < c->replicas[s]; k++, i++) {
                 proc *q = &r->procs[i];

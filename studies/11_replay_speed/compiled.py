@@ -7,8 +7,8 @@ best of --repeat, and the two engines' cycles (which must be equal).
 
 The compiled replay's figures: `load` (once per costed trace: `Compiled(trace, costs)`),
 per design `run` (`.cycles(config)`: the replay alone) and `result` (`.result(config)`: the
-replay and the SimResult); SimPy's: `System(trace, config, costs=costs).run()`, all per
-design.  Costing the trace (shared by both) is not timed.  Prints a table; nothing written.
+replay and the SimResult), best of 10 per round; SimPy's: `System(trace, config,
+costs=costs).run()`, all per design, one per round.  Costing the trace (shared by both) is not timed.  Prints a table; nothing written.
 """
 from __future__ import annotations
 
@@ -59,15 +59,15 @@ def main(argv=None):
     cfg = at_level(builtin(a.model).replace(pes=a.pes), a.level)
     costs = CostModel.default().visit_costs(trace, cfg.processors())
     n = len(trace.visits)
-    comp, load = best(lambda: Compiled(trace, costs), 1)
+    comp, load = best(lambda: Compiled(trace, costs), a.repeat)
     rows = []
     simpy_s = run_s = result_s = float("inf")
     for _ in range(a.repeat):           # interleaved: both engines see the same load on the machine
         r_simpy, s = best(lambda: System(trace, cfg, costs=costs).run(), 1)
         simpy_s = min(simpy_s, s)
-        cyc, s = best(lambda: comp.cycles(cfg), 1)
+        cyc, s = best(lambda: comp.cycles(cfg), 10)      # (a compiled run is short: best of 10 a round)
         run_s = min(run_s, s)
-        r_comp, s = best(lambda: comp.result(cfg), 1)
+        r_comp, s = best(lambda: comp.result(cfg), 10)
         result_s = min(result_s, s)
     assert r_simpy.cycles == cyc == r_comp.cycles, (r_simpy.cycles, cyc, r_comp.cycles)
     rows.append(("simpy (per design)", simpy_s))
