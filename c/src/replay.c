@@ -239,6 +239,11 @@ INLINE void start(mprt_replay *r, int i, int64_t j)
             p->next = (int64_t)((w >> 34) << 10 | (w & 1023));
         }
         PREFETCH(v_addr(r, j + 4));
+        if (r->mem_on) {         /* level 3: the data it reads (replay_memory.c) */
+            int64_t s = mprt__replay_stall(r, i, j);
+            d += s;
+            p->stall += s;
+        }
     } else {
         d = r->cfg.gen_cycles;
         r->nodes[p->node].generated++;
@@ -631,6 +636,7 @@ void mprt__replay_free_run(mprt_replay *r)
         free(nd->locals);
         free(nd->idle);
     }
+    mprt__replay_memory_free_run(r);
     free(r->nodes);
     free(r->procs);
     free(r->pes);
@@ -665,7 +671,8 @@ static int build(mprt_replay *r)
     if (!r->procs || !r->nodes || !r->pes || !r->heap_t || !r->heap_p || !r->heap_i)
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
     /* every event falls within the visits' cycles and the primaries' making */
-    r->small = r->nproc <= SMALL_PROCS && r->total + c->gen_cycles * r->ntrees < (INT64_MAX >> SMALL_SHIFT) - 1;
+    r->small = r->nproc <= SMALL_PROCS &&
+               r->total + c->gen_cycles * r->ntrees + r->mem_bound < (INT64_MAX >> SMALL_SHIFT) - 1;
     for (i = 0; r->small && i < r->nproc; i++) r->heap_t[i] = INT64_MAX;
     i = 0;
     for (p = 0; p < c->pes; p++) {
@@ -732,7 +739,8 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
     r->now = r->retired = r->t_end = r->shared_next = 0;
     r->nlog = 0;
     r->oom = r->deadlocked = 0;
-    rc = build(r);
+    rc = mprt__replay_memory_build(r);
+    if (rc == MPRT_OK) rc = build(r);
     if (rc != MPRT_OK) {
         mprt__replay_free_run(r);
         return rc;

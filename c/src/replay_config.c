@@ -70,7 +70,7 @@ static int check_config(mprt_replay *r, const mprt_replay_config *c)
         return fail(r, MPRT_ERR_INVALID_ARG, "window: must be >= 1, not %lld", (long long)c->window);
     if (c->gen_cycles < 0)
         return fail(r, MPRT_ERR_INVALID_ARG, "gen_cycles: must be >= 0, not %lld", (long long)c->gen_cycles);
-    return MPRT_OK;
+    return mprt__replay_memory_check(r, c);
 }
 
 int mprt_replay_create(const mprt_replay_config *cfg, mprt_replay **out)
@@ -105,6 +105,7 @@ void mprt_replay_destroy(mprt_replay *r)
 {
     if (!r) return;
     mprt__replay_free_run(r);
+    mprt__replay_memory_free(r);
     mprt__replay_free_trace(r);
     free(r);
 }

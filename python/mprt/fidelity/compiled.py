@@ -5,9 +5,11 @@ machine model's ideal-network configurations, with the SimPy model's result.
 returns the same ``SimResult`` (same cycles, same per-stage processing,
 communication and waiting, same FIFO, processor and PE figures), or raises
 the same ``DeadlockError``.  It supports every configuration without a ring
-(level 2) and without modelled memories (level 3): any stages, mapping,
-replicas and their feeds, FIFO capacities, PEs, DIS policy and window.  ``unsupported(config)``
-says why a configuration is not one of those.
+(level 2): any stages, mapping, replicas and their feeds, FIFO capacities,
+PEs, DIS policy and window, and the memories of level 3 (caches, resident
+memories, ICGM and SCGM with their ports; the per-key data from
+``memdata.MemoryData``).  ``unsupported(config)`` says why a configuration is
+not one of those.
 
 The costs per visit are the cost model's (``visit_costs`` on the
 configuration's processors) or the arrays given, exactly as the SimPy model
@@ -26,6 +28,7 @@ from ..errors import InvalidArgument
 from ..machine.config import DIS_POLICIES, FEEDS, SUBTASKS, SystemConfig, builtin
 from ..machine.errors import ConfigError
 from ..trace import TraceError
+from .memdata import MemoryData
 from .views import SystemView
 
 _LIB = binding("double")
@@ -34,15 +37,10 @@ _DIS = {name: i for i, name in enumerate(DIS_POLICIES)}     # blocks, interleave
 
 def unsupported(config: SystemConfig) -> str | None:
     """Why the compiled engine cannot replay a configuration (None: it can)."""
-    parts = []
-    if config.ring is not None:
-        parts.append("a ring network (level 2)")
-    if config.ic_memory is not None or config.sc_memory is not None:
-        parts.append("modelled memories (level 3)")
-    if not parts:
+    if config.ring is None:
         return None
-    return (f"configuration {config.name!r} has {' and '.join(parts)}; the compiled engine replays ideal-network, "
-            "ideal-memory machines only (use the SimPy engine, or --level 1)")
+    return (f"configuration {config.name!r} has a ring network (level 2); the compiled engine replays "
+            "ideal-network machines only (use the SimPy engine, or --level 1)")
 
 
 def _cost_arrays(trace, costs):
@@ -64,7 +62,28 @@ def c_config(config: SystemConfig, gen_cycles: int) -> dict:
             "receive_fifo": [s.receive_fifo or 0 for s in config.stages] + pad,
             "send_fifo": [s.send_fifo or 0 for s in config.stages] + pad,
             "feed": [FEEDS.index(s.feed) for s in config.stages] + pad,
-            "pes": config.pes, "dis": _DIS[config.dis], "window": config.window, "gen_cycles": gen_cycles}
+            "pes": config.pes, "dis": _DIS[config.dis], "window": config.window, "gen_cycles": gen_cycles,
+            **memory_config(config)}
+
+
+def _line(mc) -> int:
+    """The line size a local memory reads in (its cache's, else the SimPy model's 32 bytes)."""
+    return mc.cache.line if mc.cache is not None else 32
+
+
+def memory_config(config: SystemConfig) -> dict:
+    """mprt_replay_config's level-3 fields (IC data, SC data)."""
+    f = {k: [0, 0] for k in ("memory", "cache_size", "cache_line", "cache_ways", "gm_latency", "gm_bandwidth",
+                            "gm_contention")}
+    for t, (mc, gm) in enumerate(((config.ic_memory, config.icgm), (config.sc_memory, config.scgm))):
+        if mc is None:
+            continue
+        f["memory"][t] = 1
+        f["cache_line"][t] = _line(mc)
+        if mc.cache is not None:
+            f["cache_size"][t], f["cache_ways"][t] = mc.cache.size, mc.cache.ways
+        f["gm_latency"][t], f["gm_bandwidth"][t], f["gm_contention"][t] = gm.latency, gm.bandwidth, int(gm.contention)
+    return f
 
 
 def _log(view, log, events):
@@ -76,15 +95,19 @@ def _log(view, log, events):
 
 class Compiled:
     """A costed trace loaded into the C replay (8 or 16 bytes per visit), ready to
-    run any ideal-network configuration whose processors the costs are for.
+    run any ideal-network configuration whose processors the costs are for
+    (``memory``: the trace's MemoryData, to share it between loads).
 
     ``costs``: per-visit ``process``, ``receive``, ``send`` arrays (and
     ``inject_process``, ``inject_send`` for SC's making of primary rays), as
     the cost model's ``visit_costs`` gives them."""
 
-    def __init__(self, trace, costs):
+    def __init__(self, trace, costs, memory: MemoryData | None = None):
         process, receive, send, self.gen_process, self.gen_send = _cost_arrays(trace, costs)
         self.trace = trace
+        self.memory = memory if memory is not None else MemoryData(trace)
+        self._sent = None            # the memory data the C replay holds: ((tag, resident, line) | None) x 2
+        self._residents = {}
         self.h = _LIB.replay_create({})
         try:
             _LIB.replay_load(self.h, np.asarray(trace.rays), np.asarray(trace.visits), process, receive, send)
@@ -102,6 +125,21 @@ class Compiled:
             _LIB.replay_set_config(self.h, c_config(config, self.gen_process + self.gen_send))
         except InvalidArgument as e:
             raise ConfigError(f"{where}{e}") from None
+        self._set_memory(config)
+
+    def _set_memory(self, config: SystemConfig) -> None:
+        """Hand the C replay the memory data the configuration reads (once per resident and
+        line size: cache sizes, ways, latencies and ports need none)."""
+        mems = (config.ic_memory, config.sc_memory)
+        if mems == (None, None):
+            return
+        want = tuple(None if mc is None else (tag, mc.resident, _line(mc)) for tag, mc in zip(("ic", "sc"), mems))
+        got = [None if w is None else self.memory.get(*w) for w in want]
+        self._residents = {w[0]: g[1] for w, g in zip(want, got) if w is not None}
+        if want != self._sent:
+            self._sent = None
+            _LIB.replay_set_memory(self.h, self.memory.keys, *(None if g is None else g[0] for g in got))
+            self._sent = want
 
     def _run(self, config, log=None) -> bool:
         self._configure(config)
@@ -113,12 +151,18 @@ class Compiled:
 
     def _view(self, config: SystemConfig) -> SystemView:
         info = _LIB.replay_get_info(self.h)
+        memory = None
+        if config.ic_memory is not None or config.sc_memory is not None:
+            figs, stall = _LIB.replay_get_memory(self.h, int(info["pes"]), int(info["processors"]))
+            res = {tag: (self._residents[tag].used, mc.resident, mc.cache is not None)
+                   for tag, mc in (("ic", config.ic_memory), ("sc", config.sc_memory)) if mc is not None}
+            memory = (figs, stall, res)
         return SystemView(self.trace, config, max(int(info["cycles"]), 0), info["retired"],
                           _LIB.replay_get_pes(self.h, int(info["pes"])),
                           _LIB.replay_get_procs(self.h, int(info["processors"])),
                           _LIB.replay_get_nodes(self.h, int(info["nodes"])), self.gen_process, self.gen_send,
                           int(info["visits"]), int(info["rays"]), int(info["max_leaves"]),
-                          lambda p, s, which: _LIB.replay_get_waiters(self.h, p, s, which))
+                          lambda p, s, which: _LIB.replay_get_waiters(self.h, p, s, which), memory)
 
     def cycles(self, config: SystemConfig) -> int:
         """The run's cycles (nothing else assembled); DeadlockError if it deadlocks."""
@@ -170,7 +214,7 @@ def costs_for(trace, config: SystemConfig, cost_model=None):
 
 
 def replay(trace, config: SystemConfig | str = "M", cost_model=None, costs=None, record: bool = False):
-    """Replay a trace on an ideal-network configuration with the compiled
+    """Replay a trace on an ideal-network configuration (memories included) with the compiled
     engine: what ``mprt.machine.simulate`` returns (``record``: with its event
     log), or raises (DeadlockError, ConfigError for a configuration the
     compiled engine does not support, see ``unsupported``)."""

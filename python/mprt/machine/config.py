@@ -27,6 +27,7 @@ DIS_POLICIES = ("blocks", "interleaved", "dynamic")
 # How a stage's copies get their packets: one shared receive FIFO (an idle copy takes the
 # next packet), or a receive FIFO per copy fed round-robin or by the shortest queue.
 FEEDS = ("shared", "round-robin", "shortest-queue")
+MAX_CACHE = 1 << 40     # bytes: the largest cache a configuration may have (both engines)
 
 
 @dataclass(frozen=True)
@@ -251,6 +252,8 @@ def _validate(cfg: SystemConfig) -> None:
                 _int(c.size, w, f"{tag}_memory.cache.size")
                 _int(c.line, w, f"{tag}_memory.cache.line")
                 _int(c.ways, w, f"{tag}_memory.cache.ways")
+                if c.size > MAX_CACHE:
+                    raise ConfigError(f"{w}{tag}_memory.cache.size: at most 2^40 bytes (1 TiB), not {c.size}")
                 if c.line > c.size:
                     raise ConfigError(f"{w}{tag}_memory.cache.line: the line ({c.line} bytes) is larger than "
                                       f"the cache ({c.size} bytes)")

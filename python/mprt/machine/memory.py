@@ -23,6 +23,8 @@ fits; an item that does not fit is skipped.
 """
 from __future__ import annotations
 
+from collections import defaultdict
+
 import numpy as np
 
 from ..trace import IC, SC
@@ -40,7 +42,7 @@ class Cache:
         self.line = cfg.line
         self.ways = cfg.ways
         self.nsets = cfg.size // (cfg.line * cfg.ways)
-        self.sets = [[] for _ in range(self.nsets)]
+        self.sets = defaultdict(list)     # set index -> lines, least recently used first (made when used)
         self.accesses = 0
         self.hits = 0
 
