@@ -200,10 +200,11 @@ def test_malformed_traces_fail_as_in_simpy():
         replay(good, builtin("M").replace(pes=3), costs=c)
 
 
-def test_ring_or_memories_are_refused_by_the_compiled_engine(traces):
-    with pytest.raises(ConfigError, match="ring network .level 2. and modelled memories .level 3."):
+def test_a_ring_is_refused_by_the_compiled_engine(traces):
+    with pytest.raises(ConfigError, match="has a ring network .level 2.; the compiled engine replays ideal-network"):
         replay(traces["balls-g4"], "3mppe")
     assert unsupported(builtin("M")) is None
+    assert unsupported(builtin("3mppe").replace(ring=None)) is None      # memories: level 3, compiled
     assert "ring" in unsupported(builtin("3mppe").replace(ic_memory=None, sc_memory=None, icgm=None, scgm=None))
 
 
