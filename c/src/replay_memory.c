@@ -303,26 +303,25 @@ int mprt__replay_memory_build(mprt_replay *r)
     return MPRT_OK;
 }
 
-/* Line x through the cache of PE pe: 1 on a hit.  It becomes its set's most recent. */
-static int cache_access(memory *m, int pe, int64_t x)
+/* Line x through a cache (tags, count: one PE's): 1 on a hit.  It becomes its set's most
+ * recent (front); a miss drops the set's least recent when the set is full. */
+static inline int cache_access(const memory *m, int64_t *tags, int64_t *count, int64_t x)
 {
-    int64_t s = m->pow2 ? (x & (m->nsets - 1)) : x % m->nsets, n, i;
-    int64_t *w = m->tags + ((size_t)pe * (size_t)m->nsets + (size_t)s) * (size_t)m->ways;
-    int64_t *cnt = m->count + (size_t)pe * (size_t)m->nsets + (size_t)s;
-    n = *cnt;
-    for (i = 0; i < n; i++)
-        if (w[i] == x) {
-            if (i) {
-                memmove(w + 1, w, (size_t)i * sizeof *w);
-                w[0] = x;
-            }
-            return 1;
-        }
+    int64_t s = m->pow2 ? (x & (m->nsets - 1)) : x % m->nsets, n = count[s], i;
+    int64_t *w = tags + s * m->ways;
+    if (n && w[0] == x) return 1;
+    for (i = 1; i < n; i++)
+        if (w[i] == x) break;
+    if (i < n) {
+        for (; i > 0; i--) w[i] = w[i - 1];
+        w[0] = x;
+        return 1;
+    }
     if (n < m->ways)
-        *cnt = n + 1;
+        count[s] = n + 1;
     else
         n = m->ways - 1;
-    memmove(w + 1, w, (size_t)n * sizeof *w);
+    for (i = n; i > 0; i--) w[i] = w[i - 1];
     w[0] = x;
     return 0;
 }
@@ -334,7 +333,9 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     int pe = r->procs[i].pe;
     memory *m;
     local_mem *lm;
-    int64_t k, a, b, now = r->now, done = now, *port;
+    int64_t k, a, b, now = r->now, done = now, port, xfer, lat, hits = 0, reads = 0, queued = 0;
+    int64_t *tags = NULL, *count = NULL;
+    const int64_t *lines;
     if (key == -1) return 0;
     m = &M->m[key >= 0 ? 0 : 1];
     if (!m->on) return 0;
@@ -344,23 +345,33 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     lm->fig.resident_hits += m->res[k];
     a = m->lstart[k];
     b = m->lstart[k + 1];
-    port = &m->port_free[m->nports == 1 ? 0 : pe];
-    for (; a < b; a++) {
-        int64_t x = m->lines[a], s;
-        if (m->cached) {
-            lm->fig.cache_accesses++;
-            if (cache_access(m, pe, x)) {
-                lm->fig.cache_hits++;
-                continue;
-            }
-        }
-        s = done > *port ? done : *port;     /* the port's first free cycle */
-        *port = s + m->xfer;
-        lm->fig.gm_accesses++;
-        lm->fig.gm_busy += m->xfer;
-        lm->fig.gm_queued += s - done;
-        done = s + m->xfer + m->latency;
+    if (a == b) return 0;
+    port = m->port_free[m->nports == 1 ? 0 : pe];
+    xfer = m->xfer;
+    lat = m->latency;
+    lines = m->lines;
+    if (m->cached) {
+        tags = m->tags + (size_t)pe * (size_t)m->nsets * (size_t)m->ways;
+        count = m->count + (size_t)pe * (size_t)m->nsets;
+        lm->fig.cache_accesses += b - a;
     }
+    for (; a < b; a++) {
+        int64_t s;
+        if (m->cached && cache_access(m, tags, count, lines[a])) {
+            hits++;
+            continue;
+        }
+        s = done > port ? done : port;      /* the port's first free cycle */
+        port = s + xfer;
+        queued += s - done;
+        reads++;
+        done = s + xfer + lat;
+    }
+    m->port_free[m->nports == 1 ? 0 : pe] = port;
+    lm->fig.cache_hits += hits;
+    lm->fig.gm_accesses += reads;
+    lm->fig.gm_busy += reads * xfer;
+    lm->fig.gm_queued += queued;
     lm->fig.stall += done - now;
     return done - now;
 }
