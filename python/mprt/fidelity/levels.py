@@ -11,9 +11,9 @@ A configuration without a ring is the same machine at levels 1 and 2, and one
 without memories the same at 2 and 3; ``at_level`` gives the machine a level
 models, and a level above the configuration's own (``native_level``) changes
 nothing.  Engines: ``analytical`` (level 0), ``compiled`` (the C replay: every
-machine without ring and memories, so level 1 always, and levels 2 and 3 of
-such machines) and ``simpy`` (the machine model, any level from 1).  ``auto``
-takes the compiled replay wherever it is exact and SimPy elsewhere.
+machine without a ring, memories included, so levels 1 and 3 of such machines
+and level 1 always) and ``simpy`` (the machine model, any level from 1).
+``auto`` takes the compiled replay wherever it is exact and SimPy elsewhere.
 """
 from __future__ import annotations
 
@@ -24,6 +24,7 @@ from ..machine.config import SystemConfig, builtin
 from ..machine.errors import ConfigError
 from .analytical import Analytical
 from .compiled import Compiled, costs_for, unsupported
+from .memdata import MemoryData
 
 LEVELS = (0, 1, 2, 3)
 ENGINES = ("auto", "analytical", "compiled", "simpy")
@@ -92,6 +93,7 @@ class Evaluator:
         self.cost_model = cost_model
         self.costs = costs
         self._costed = {}
+        self._memory = MemoryData(trace)     # level 3's per-key data, shared by every costing
 
     def _key(self, config):
         return tuple((t, repr(p)) for t, p in sorted(config.processors().items()))
@@ -120,7 +122,7 @@ class Evaluator:
             res = c["analytical"].result(cfg)
         elif eng == "compiled":
             if "compiled" not in c:
-                c["compiled"] = Compiled(self.trace, c["costs"])
+                c["compiled"] = Compiled(self.trace, c["costs"], self._memory)
             res = c["compiled"].result(cfg, record=record)
         else:
             from ..machine.system import System
