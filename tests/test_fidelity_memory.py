@@ -220,3 +220,59 @@ def test_memory_data_is_checked_by_the_c_replay(traces):
     bad = dict(c_config(builtin("3mppe").replace(ring=None), 0), cache_size=[1 << 60, 0])
     with pytest.raises(InvalidArgument, match=r"cache_size\[0\]: must be 0 .no cache. to 2\^40 bytes"):
         lib.replay_set_config(c.h, bad)
+
+
+# ---- the resident set (both engines) ---------------------------------------------------------
+
+def reference_resident(layout, size, tag):
+    """The resident set item by item, as the model defines it: items in decreasing order of
+    references (ties: lists before shapes, lower id first), each taken if it still fits."""
+    if tag == "ic":
+        lens = np.diff(layout.voxel_start)
+        cands = [(int(r), 0, i, 8 * int(n)) for i, (r, n) in enumerate(zip(layout.voxel_refs, lens)) if r > 0 and n > 0]
+        cands += [(int(r), 1, i, int(b)) for i, (r, b) in enumerate(zip(layout.prim_refs, layout.shape_bytes)) if r > 0]
+    else:
+        cands = [(int(r), 0, i, 32) for i, r in enumerate(layout.material_refs) if r > 0]
+    cands.sort(key=lambda c: (-c[0], c[1], c[2]))
+    used, chosen = 0, set()
+    for _, kind, i, nbytes in cands:
+        if used + nbytes <= size:
+            chosen.add((kind, i))
+            used += nbytes
+    return chosen, used
+
+
+@pytest.mark.parametrize("name", ["tree-g9", "rings-g4", "gears-g9"])
+def test_resident_set_is_the_greedy_choice_by_references(traces, name):
+    layout = DataLayout(traces[name])
+    for size in (0, 8, 100, 333, 1000, 4096, 20000, 1 << 40):
+        rm = layout.ic_resident(size)
+        chosen, used = reference_resident(layout, size, "ic")
+        got = {(0, int(i)) for i in np.flatnonzero(rm.items["list"])} | \
+              {(1, int(i)) for i in np.flatnonzero(rm.items["shape"])}
+        assert got == chosen and rm.used == used <= size, size
+        rm = layout.sc_resident(size)
+        chosen, used = reference_resident(layout, size, "sc")
+        assert {(0, int(i)) for i in np.flatnonzero(rm.items["material"])} == chosen and rm.used == used
+
+
+def test_greedy_takes_each_item_that_still_fits():
+    from mprt.machine.memory import _greedy
+
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        n = int(rng.integers(0, 200))
+        nbytes = rng.integers(0, rng.choice([4, 50, 1000]), n)
+        size = int(rng.integers(0, max(1, int(nbytes.sum()) + 5)))
+        want, rem = [], size
+        for b in nbytes.tolist():
+            want.append(b <= rem)
+            rem -= b if b <= rem else 0
+        assert _greedy(nbytes, size).tolist() == want
+    # a long tail of near misses, one per round (the one-by-one fallback after 64 rounds)
+    nbytes = np.array([x for k in range(100) for x in (1, 100 - k)])
+    want, rem = [], 100
+    for b in nbytes.tolist():
+        want.append(b <= rem)
+        rem -= b if b <= rem else 0
+    assert _greedy(nbytes, 100).tolist() == want and sum(want) == 100
