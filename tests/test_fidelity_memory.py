@@ -276,3 +276,23 @@ def test_greedy_takes_each_item_that_still_fits():
         want.append(b <= rem)
         rem -= b if b <= rem else 0
     assert _greedy(nbytes, 100).tolist() == want and sum(want) == 100
+
+
+def test_simulate_command_at_level_3_on_the_compiled_engine(tmp_path):
+    import json
+
+    from mprt.fidelity.cli import main
+
+    cfg = tmp_path / "noring.toml"
+    cfg.write_text('base = "3mppe"\nname = "noring"\nring = "none"\n[ic_memory]\nresident = 256\n'
+                   'cache = { size = 512, line = 16, ways = 2 }\n')
+    out = {}
+    for engine in ("compiled", "simpy"):
+        path = tmp_path / f"{engine}.json"
+        assert main(["simulate", GOLDEN[NAMES.index("balls-g9")], "--config", str(cfg), "--engine", engine,
+                     "--json", str(path)]) == 0
+        out[engine] = json.loads(path.read_text())
+    a, b = out["compiled"], out["simpy"]
+    assert (a["level"], a["engine"], b["engine"]) == (3, "compiled", "simpy")
+    assert a["cycles"] == b["cycles"] and a["memory"] == b["memory"] and a["stages"] == b["stages"]
+    assert a["memory"]["icgm"]["accesses"] > 0

@@ -29,18 +29,16 @@ def visit_keys(trace) -> np.ndarray:
     v = trace.visits
     mat = np.asarray(trace.prim_material, dtype=np.int64)
     out = np.full(len(v), -1, dtype=np.int32)
+    stage, voxel, prim = v["stage"], v["voxel_id"], v["prim"]      # field views: only these are read
     for a in range(0, len(v), SCAN):
-        c = np.asarray(v[a:a + SCAN])
-        st = c["stage"]
-        k = np.full(len(c), -1, dtype=np.int64)
-        ic = st == IC
-        k[ic] = c["voxel_id"][ic]
-        pr = c["prim"].astype(np.int64)
+        st = np.asarray(stage[a:a + SCAN])
+        pr = np.asarray(prim[a:a + SCAN]).astype(np.int64)
+        k = np.where(st == IC, np.asarray(voxel[a:a + SCAN]), -1)
         scm = (st == SC) & (pr >= 0)
         k[scm] = -2 - mat[pr[scm]]
         if len(k) and (k.max() >= 1 << 31 or k.min() < -(1 << 31)):
             raise ValueError("memory keys: a voxel or material id does not fit 32 bits")
-        out[a:a + len(c)] = k
+        out[a:a + len(k)] = k
     return out
 
 
