@@ -1,6 +1,7 @@
 """Level 3 (memories on the ideal network) in the compiled replay against SimPy, side by side.
 
     .venv/bin/python studies/14_level3_speed/run.py [TRACE.npz ...] [--pes 2] [--repeat 5] [--simpy-max N]
+        [--only 3mppe-ideal-net|3mppe-small]
 
 For each trace: the 3MPPE's memories with the ring taken out (and the same machine with
 small memories, so the golden scenes miss), SimPy's simulate() and the compiled replay's
@@ -30,7 +31,8 @@ def main():
     ap.add_argument("traces", nargs="*", default=["tests/data/golden/balls-g9.npz"])
     ap.add_argument("--pes", type=int, default=2)
     ap.add_argument("--repeat", type=int, default=5)
-    ap.add_argument("--simpy-max", type=int, default=5_000_000, help="skip SimPy above this many visits")
+    ap.add_argument("--simpy-max", type=int, default=50_000_000, help="skip SimPy above this many visits")
+    ap.add_argument("--only", help="only the configuration of this name")
     a = ap.parse_args()
     cm = CostModel.default()
     print(f"{'trace':28} {'config':16} {'visits':>10} {'cycles':>12} {'SimPy v/s':>11} {'whole v/s':>11} "
@@ -40,6 +42,8 @@ def main():
         n = len(t.visits)
         md = MemoryData(t)
         for cfg in configs(a.pes):
+            if a.only and cfg.name != a.only:
+                continue
             vc = cm.visit_costs(t, cfg.processors())
             if n <= a.simpy_max:
                 t0 = time.perf_counter()

@@ -105,7 +105,7 @@ class Compiled:
     def __init__(self, trace, costs, memory: MemoryData | None = None):
         process, receive, send, self.gen_process, self.gen_send = _cost_arrays(trace, costs)
         self.trace = trace
-        self.memory = memory if memory is not None else MemoryData(trace)
+        self.memory = memory if memory is not None else MemoryData.of(trace)
         self._sent = None            # the memory data the C replay holds: ((tag, resident, line) | None) x 2
         self._residents = {}
         self.h = _LIB.replay_create({})

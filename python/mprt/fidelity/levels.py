@@ -93,7 +93,7 @@ class Evaluator:
         self.cost_model = cost_model
         self.costs = costs
         self._costed = {}
-        self._memory = MemoryData(trace)     # level 3's per-key data, shared by every costing
+        self._memory = MemoryData.of(trace)  # level 3's per-key data, shared by every costing
 
     def _key(self, config):
         return tuple((t, repr(p)) for t, p in sorted(config.processors().items()))

@@ -14,6 +14,8 @@ asked for, so a search over cache sizes, ways, latencies or ports reuses it.
 """
 from __future__ import annotations
 
+import weakref
+
 import numpy as np
 
 from ..machine.memory import CELL_BYTES, MATERIAL_BYTES, DataLayout
@@ -103,7 +105,18 @@ def sc_data(layout: DataLayout, items: dict, line: int) -> dict:
 
 class MemoryData:
     """A trace's memory keys and layout, and per (memory, resident bytes, line bytes) the
-    data the C replay reads with the resident memory chosen (``ResidentMemory``)."""
+    data the C replay reads with the resident memory chosen (``ResidentMemory``).
+    ``MemoryData.of(trace)`` shares one per trace while anything holds it."""
+
+    _live = weakref.WeakValueDictionary()     # id(trace) -> MemoryData (which keeps its trace alive)
+
+    @classmethod
+    def of(cls, trace) -> "MemoryData":
+        md = cls._live.get(id(trace))
+        if md is None or md.trace is not trace:
+            md = cls(trace)
+            cls._live[id(trace)] = md
+        return md
 
     def __init__(self, trace):
         self.trace = trace
