@@ -19,6 +19,13 @@
  * PE whatever the configured size, and the result is the configured cache's. */
 #include "replay.h"
 
+/* A key's data, in one place (a visit reads all of it): its lines are
+ * lines[start .. next key's start). */
+typedef struct {
+    int64_t start;
+    int32_t items, res;
+} keyinfo;
+
 typedef struct {
     int64_t *tags;               /* nsets x ways line numbers, most recently used first */
     int64_t *count;              /* per set: lines held */
@@ -30,8 +37,8 @@ typedef struct {
     int has;
     size_t nkeys;
     int64_t line, span;          /* span: the largest line number + 1 */
-    int32_t *items, *res;
-    int64_t *lstart, *lines;
+    keyinfo *info;               /* per key + 1 */
+    int64_t *lines;
     int64_t reads;               /* the visits' lines in all (at most MAX_READS): bounds a run's reads */
     /* a run */
     int on, cached, pow2, nports;
@@ -96,12 +103,10 @@ int mprt__replay_memory_check(mprt_replay *r, const mprt_replay_config *c)
 
 static void free_data(memory *m)
 {
-    free(m->items);
-    free(m->res);
-    free(m->lstart);
+    free(m->info);
     free(m->lines);
-    m->items = m->res = NULL;
-    m->lstart = m->lines = NULL;
+    m->info = NULL;
+    m->lines = NULL;
     m->has = 0;
     m->nkeys = 0;
 }
@@ -147,17 +152,15 @@ static int copy_data(mprt_replay *r, memory *m, int t, const mprt_replay_memory_
                         (long long)d->lines[k]);
         if (d->lines[k] >= span) span = d->lines[k] + 1;
     }
-    m->items = malloc((n + 1) * sizeof *m->items);
-    m->res = malloc((n + 1) * sizeof *m->res);
-    m->lstart = malloc((n + 1) * sizeof *m->lstart);
+    m->info = malloc((n + 1) * sizeof *m->info);
     m->lines = malloc((nl + 1) * sizeof *m->lines);
-    if (!m->items || !m->res || !m->lstart || !m->lines)
+    if (!m->info || !m->lines)
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the %s memory data", NAME[t]);
-    if (n) {
-        memcpy(m->items, d->items, n * sizeof *m->items);
-        memcpy(m->res, d->resident, n * sizeof *m->res);
+    for (k = 0; k <= n; k++) {
+        m->info[k].start = d->line_start[k];
+        m->info[k].items = k < n ? d->items[k] : 0;
+        m->info[k].res = k < n ? d->resident[k] : 0;
     }
-    memcpy(m->lstart, d->line_start, (n + 1) * sizeof *m->lstart);
     if (nl) memcpy(m->lines, d->lines, nl * sizeof *m->lines);
     m->nkeys = n;
     m->line = d->line;
@@ -201,7 +204,7 @@ int mprt_replay_set_memory(mprt_replay *r, const int32_t *key, size_t nvisits, c
                       j, NAME[k >= 0 ? 0 : 1], (long long)i, m->nkeys);
             break;
         }
-        m->reads += m->lstart[i + 1] - m->lstart[i];
+        m->reads += m->info[i + 1].start - m->info[i].start;
         if (m->reads > MAX_READS) m->reads = MAX_READS;
     }
     M->nv = nvisits;
@@ -341,10 +344,10 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     if (!m->on) return 0;
     k = key >= 0 ? key : -2 - (int64_t)key;
     lm = &m->loc[pe];
-    lm->fig.resident_accesses += m->items[k];
-    lm->fig.resident_hits += m->res[k];
-    a = m->lstart[k];
-    b = m->lstart[k + 1];
+    lm->fig.resident_accesses += m->info[k].items;
+    lm->fig.resident_hits += m->info[k].res;
+    a = m->info[k].start;
+    b = m->info[k + 1].start;
     if (a == b) return 0;
     port = m->port_free[m->nports == 1 ? 0 : pe];
     xfer = m->xfer;

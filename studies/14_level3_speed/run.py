@@ -6,7 +6,8 @@
 For each trace: the 3MPPE's memories with the ring taken out (and the same machine with
 small memories, so the golden scenes miss), SimPy's simulate() and the compiled replay's
 whole replay() (load, memory data, run, result) and, once loaded, one design's run
-(Compiled.cycles, best of --repeat), in visits per second; the cycles must agree.
+(Compiled.cycles, best of --repeat), in visits per second of wall time, and of CPU time
+(process time: what a loaded shared machine does not take away); the cycles must agree.
 """
 import argparse
 import time
@@ -35,8 +36,8 @@ def main():
     ap.add_argument("--only", help="only the configuration of this name")
     a = ap.parse_args()
     cm = CostModel.default()
-    print(f"{'trace':28} {'config':16} {'visits':>10} {'cycles':>12} {'SimPy v/s':>11} {'whole v/s':>11} "
-          f"{'run v/s':>12} {'run/SimPy':>9} {'data s':>7}")
+    print(f"{'trace':22} {'config':16} {'visits':>9} {'cycles':>10} {'SimPy v/s':>10} {'whole v/s':>10} "
+          f"{'run v/s':>11} {'run/SimPy':>9} | CPU: {'SimPy v/s':>10} {'run v/s':>11} {'run/SimPy':>9} {'data s':>7}")
     for path in a.traces:
         t = mprt.load_trace(path)
         n = len(t.visits)
@@ -46,11 +47,11 @@ def main():
                 continue
             vc = cm.visit_costs(t, cfg.processors())
             if n <= a.simpy_max:
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.process_time()
                 ref = simulate(t, cfg, costs=vc)
-                ts = time.perf_counter() - t0
+                ts, cs = time.perf_counter() - t0, time.process_time() - c0
             else:
-                ref, ts = None, float("nan")
+                ref, ts, cs = None, float("nan"), float("nan")
             t0 = time.perf_counter()
             whole = replay(t, cfg, costs=vc)
             tw = time.perf_counter() - t0
@@ -58,14 +59,16 @@ def main():
             t0 = time.perf_counter()
             c.cycles(cfg)                       # memory data made (cached in md) and handed over
             td = time.perf_counter() - t0
-            best = float("inf")
+            best = cbest = float("inf")
             for _ in range(a.repeat):
-                t0 = time.perf_counter()
+                t0, c0 = time.perf_counter(), time.process_time()
                 cyc = c.cycles(cfg)
                 best = min(best, time.perf_counter() - t0)
+                cbest = min(cbest, time.process_time() - c0)
             assert cyc == whole.cycles and (ref is None or ref.cycles == cyc), (cyc, whole.cycles)
-            print(f"{path.split('/')[-1]:28} {cfg.name:16} {n:10d} {cyc:12d} {n / ts:11.0f} {n / tw:11.0f} "
-                  f"{n / best:12.0f} {ts / best:9.0f} {td:7.2f}")
+            print(f"{path.split('/')[-1]:22} {cfg.name:16} {n:9d} {cyc:10d} {n / ts:10.0f} {n / tw:10.0f} "
+                  f"{n / best:11.0f} {ts / best:9.0f} |      {n / cs:10.0f} {n / cbest:11.0f} {cs / cbest:9.0f} "
+                  f"{td:7.2f}")
 
 
 if __name__ == "__main__":
