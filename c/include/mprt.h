@@ -436,8 +436,9 @@ int mprt_image_write_png(const char *path, int width, int height, const float *r
  * PEs of 1 to 3 stages (each a processor, or several replicas of one,
  * running one or more of the subtasks OS, IC, SC), send and receive FIFOs
  * of any capacity, an ideal network (no latency, no bandwidth limit) and
- * an ideal memory (every access hits), DIS admitting primary rays under a
- * window.  It applies the same event rules as the SimPy machine model
+ * an ideal memory (every access hits) or, at level 3, the IC and SC
+ * memories (mprt_replay_set_memory below), DIS admitting primary rays
+ * under a window.  It applies the same event rules as the SimPy machine model
  * (python/mprt/machine, README.md there) and returns the same cycle counts
  * to the cycle; python/mprt/fidelity binds it.
  *
