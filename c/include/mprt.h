@@ -444,15 +444,16 @@ int mprt_grid_trace_tile(mprt_grid *grid, const mprt_render_desc *desc, int tile
 int mprt_image_write_png(const char *path, int width, int height, const float *rgb);
 
 /* ---- Replay ----------------------------------------------------------------
- * A compiled replay of a trace on a machine of the fidelity ladder's levels 1
- * and 2: PEs of 1 to 3 stages (each a processor, or several replicas of one,
+ * A compiled replay of a trace on any machine of the fidelity ladder's levels
+ * 1 to 3: PEs of 1 to 3 stages (each a processor, or several replicas of one,
  * running one or more of the subtasks OS, IC, SC), send and receive FIFOs
  * of any capacity, an ideal network (no latency, no bandwidth limit) or the
  * ring (links, flit buffers by class, wormhole paths), an ideal memory
- * (every access hits), DIS admitting primary rays under a window.  It
- * applies the same event rules as the SimPy machine model (python/mprt/machine,
- * README.md there) and returns the same cycle counts to the cycle;
- * python/mprt/fidelity binds it.
+ * (every access hits) or, at level 3, the IC and SC memories
+ * (mprt_replay_set_memory below), DIS admitting primary rays under a window.
+ * It applies the same event rules as the SimPy machine model
+ * (python/mprt/machine, README.md there) and returns the same cycle counts
+ * to the cycle; python/mprt/fidelity binds it.
  *
  * In C:
  *
@@ -502,6 +503,15 @@ typedef struct {
     int ring;                           /* 1: the ring (needs nstages >= 2) */
     int buffer_classes;                 /* header buffers per node, 1..nstages */
     int64_t flit_time;                  /* cycles a link takes per flit, >= 1 */
+    /* level 3: the memories.  Index 0: the IC data (voxel lists, shapes) behind ICGM; 1: the
+     * SC data (materials) behind SCGM.  A modelled memory needs mprt_replay_set_memory's data. */
+    int memory[2];                      /* 1: modelled (a local memory per PE); 0: every access hits */
+    int64_t cache_size[2];              /* bytes, at most MPRT_REPLAY_MAX_CACHE; 0: no cache */
+    int64_t cache_line[2];              /* bytes, a power of two (no cache: the unit of a read) */
+    int64_t cache_ways[2];              /* lines per set (with a cache: size / (line x ways) sets) */
+    int64_t gm_latency[2];              /* cycles from a miss's transfer to its data */
+    int64_t gm_bandwidth[2];            /* bytes per cycle, >= 1 */
+    int gm_contention[2];               /* 1: one port shared by all PEs; 0: one per PE */
 } mprt_replay_config;
 
 typedef struct mprt_replay mprt_replay;
@@ -624,6 +634,53 @@ int mprt_replay_get_waiters(const mprt_replay *r, int pe, int stage, int which, 
 int mprt_replay_get_links(const mprt_replay *r, int64_t *out, size_t cap);
 int mprt_replay_get_ring(const mprt_replay *r, int pe, int64_t *buffers, size_t cap_buffers, int64_t *waiting,
                          size_t cap_waiting, size_t *nwaiting);
+
+/* ---- level 3: the memories (replay_memory.c) ----
+ *
+ * Each visit reads the data of one key (IC: a voxel's list and its primitives'
+ * shapes; SC: a material): some items from resident memory (no cost), the
+ * rest as lines through the PE's cache (LRU, set-associative; a stage's
+ * replicas share it), each miss read from the global memory one after the
+ * other, when the visit starts: the port's first free cycle (ports serve in
+ * the order visits start), the line's transfer (line / bandwidth, rounded
+ * up), then the latency.  The resident set is chosen by the caller. */
+#define MPRT_REPLAY_MAX_CACHE 1099511627776   /* 2^40 bytes */
+/* A run refuses (before it starts) caches whose arrays over all PEs would hold
+ * more entries (pes x sets x ways, the sets and ways limited to the lines the
+ * memory data can fill). */
+#define MPRT_REPLAY_MAX_CACHE_ENTRIES 268435456   /* 2^28 */
+
+/* One memory's data: per key, items read (resident ones among them) and the
+ * lines read outside resident memory, keys' lines in CSR form. */
+typedef struct {
+    size_t nkeys;
+    int64_t line;                       /* bytes per line the lines were numbered with */
+    const int32_t *items;               /* per key: items read */
+    const int32_t *resident;            /* per key: items found in resident memory */
+    const int64_t *line_start;          /* per key + 1: its lines are lines[line_start[k] .. line_start[k+1]) */
+    const int64_t *lines;               /* line numbers (address / line), >= 0; line_start[nkeys] entries */
+} mprt_replay_memory_data;
+
+/* Give the loaded trace its memory data (copied; kept for later runs until the
+ * next load or call): key[j] per visit (nvisits = the trace's): >= 0 a key of
+ * ic (an IC visit's voxel), <= -2 key -2 - key[j] of sc (an SC visit's
+ * material), -1 none.  ic or sc may be NULL (no key of it). */
+int mprt_replay_set_memory(mprt_replay *r, const int32_t *key, size_t nvisits, const mprt_replay_memory_data *ic,
+                           const mprt_replay_memory_data *sc);
+
+/* One PE's figures for one memory after a run. */
+typedef struct {
+    int64_t stall;                      /* memory stall cycles of its visits */
+    int64_t cache_accesses, cache_hits;
+    int64_t resident_accesses, resident_hits;   /* items */
+    int64_t gm_accesses, gm_busy, gm_queued;    /* its reads: transfer cycles, cycles waited for the port */
+} mprt_replay_memory;
+
+/* Per PE and memory (out: pes x 2 entries, PE-major; zeros for a memory not
+ * modelled) and per processor (stall: processors entries, may be NULL): the
+ * memory figures of the last run. */
+int mprt_replay_get_memory(const mprt_replay *r, mprt_replay_memory *out, size_t cap, int64_t *stall,
+                           size_t stall_cap);
 
 #ifdef __cplusplus
 }

@@ -77,6 +77,11 @@ INLINE void start(mprt_replay *r, int i, int64_t j)
             p->next = (int64_t)((w >> 34) << 10 | (w & 1023));
         }
         PREFETCH(v_addr(r, j + 4));
+        if (r->mem_on) {         /* level 3: the data it reads (replay_memory.c) */
+            int64_t s = mprt__replay_stall(r, i, j);
+            d += s;
+            p->stall += s;
+        }
     } else {
         d = r->cfg.gen_cycles;
         r->nodes[p->node].generated++;

@@ -67,6 +67,7 @@ typedef struct {
     int64_t pa, pb;              /* blocked with made rays: child[pa .. pb) still to send */
     int pg, single;
     int state, node, k, pe;
+    int64_t stall;               /* level 3: memory stall cycles (in busy) */
 } proc;
 
 typedef struct {
@@ -170,6 +171,10 @@ struct mprt_replay {
     size_t cap_pflits, cap_child_kind, nchild;
     int64_t max_flits;
     int flits_set;
+    /* level 3: the memories (replay_memory.c) */
+    struct mprt__mem *mem;       /* the data of mprt_replay_set_memory, and a run's caches and ports */
+    int mem_on;                  /* this run models a memory: start() adds stalls */
+    int64_t mem_bound;           /* the most cycles this run's stalls can add */
 };
 
 /* Set r's message (printf-style) and return status. */
@@ -186,6 +191,16 @@ int mprt__replay_reserve(void **p, size_t *cap, size_t n, size_t size);
     mprt__replay_reserve((void **)&(r)->field, &(r)->capfield, (n), sizeof *(r)->field)
 
 /* Free what a run built (replay_run.c), and the loaded trace (replay_load.c). */
+/* Level 3 (replay_memory.c): check the config's memory fields; make a run's caches and
+ * ports (after the checks of mprt_replay_run; sets mem_on, mem_bound); the stall of visit
+ * j starting now on processor i; free a run's caches, and the data. */
+int mprt__replay_memory_check(mprt_replay *r, const mprt_replay_config *c);
+int mprt__replay_memory_build(mprt_replay *r);
+int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j);
+void mprt__replay_memory_free_run(mprt_replay *r);
+void mprt__replay_memory_free(mprt_replay *r);
+
+
 void mprt__replay_free_run(mprt_replay *r);
 void mprt__replay_free_trace(mprt_replay *r);
 

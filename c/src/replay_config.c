@@ -82,7 +82,7 @@ static int check_config(mprt_replay *r, const mprt_replay_config *c)
             return fail(r, MPRT_ERR_INVALID_ARG, "ring.buffer_classes: must be 1..%d (one per hop plus the source's) "
                         "with %d stages, not %d", c->nstages, c->nstages, c->buffer_classes);
     }
-    return MPRT_OK;
+    return mprt__replay_memory_check(r, c);
 }
 
 int mprt_replay_create(const mprt_replay_config *cfg, mprt_replay **out)
@@ -117,6 +117,7 @@ void mprt_replay_destroy(mprt_replay *r)
 {
     if (!r) return;
     mprt__replay_free_run(r);
+    mprt__replay_memory_free(r);
     mprt__replay_free_trace(r);
     free(r);
 }

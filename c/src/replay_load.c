@@ -211,6 +211,7 @@ int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, c
     int rc;
     if (!r) return MPRT_ERR_INVALID_ARG;
     mprt__replay_free_run(r);
+    mprt__replay_memory_free(r);     /* the memory data was the last trace's */
     r->errmsg[0] = '\0';
     r->loaded = 0;
     r->flits_set = 0;

@@ -18,6 +18,7 @@ void mprt__replay_free_run(mprt_replay *r)
         free(nd->locals);
         free(nd->idle);
     }
+    mprt__replay_memory_free_run(r);
     free(r->nodes);
     free(r->procs);
     free(r->pes);
@@ -59,10 +60,10 @@ static int build(mprt_replay *r)
     r->heap_i = malloc((size_t)r->nproc * sizeof *r->heap_i);
     if (!r->procs || !r->nodes || !r->pes || !r->heap_t || !r->heap_p || !r->heap_i)
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
-    /* every event falls within the visits' cycles, the primaries' making and (until the last
-     * event, something is always under way) the links' transfers: at most h + f - 1 flit
-     * times a packet (mprt_replay_run checked this sum) */
-    last = r->total + c->gen_cycles * r->ntrees;
+    /* every event falls within the visits' cycles, the primaries' making, the memory stalls
+     * (mem_bound) and (until the last event, something is always under way) the links'
+     * transfers: at most h + f - 1 flit times a packet (mprt_replay_run checked this sum) */
+    last = r->total + c->gen_cycles * r->ntrees + r->mem_bound;
     if (c->ring) last += (int64_t)(r->nv + (size_t)r->ntrees) * (RING_MAX + r->max_flits) * c->flit_time;
     r->small = r->nproc <= SMALL_PROCS && last < (INT64_MAX >> SMALL_SHIFT) - 1;
     r->pmin = -1;
@@ -128,17 +129,19 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
         return fail(r, MPRT_ERR_INVALID_ARG, "gen_cycles: with the visits' cycles, more than 2^62 cycles in all");
     if (r->cfg.ring && !r->flits_set)
         return fail(r, MPRT_ERR_STATE, "ring: no packet sizes for this trace (mprt_replay_set_flits)");
-    if (r->cfg.ring && r->cfg.flit_time > (INT64_MAX / 4 - r->total - (g > 0 ? g * r->ntrees : 0)) /
-                                               ((int64_t)(r->nv + (size_t)r->ntrees) * (RING_MAX + r->max_flits) + 1))
-        return fail(r, MPRT_ERR_INVALID_ARG, "flit_time: %lld cycles per flit could make the run last more than 2^61 "
-                    "cycles", (long long)r->cfg.flit_time);
     if (log && log_cap < 8 * (r->nv + (size_t)r->ntrees))
         return fail(r, MPRT_ERR_INVALID_ARG, "log: room for %zu entries needed, %zu given",
                     8 * (r->nv + (size_t)r->ntrees), log_cap);
     r->now = r->retired = r->t_end = r->shared_next = 0;
     r->nlog = 0;
     r->oom = r->deadlocked = 0;
-    rc = build(r);
+    rc = mprt__replay_memory_build(r);    /* sets mem_bound, the most cycles stalls can add */
+    if (rc == MPRT_OK && r->cfg.ring &&
+        r->cfg.flit_time > (INT64_MAX / 4 - r->total - (g > 0 ? g * r->ntrees : 0) - r->mem_bound) /
+                               ((int64_t)(r->nv + (size_t)r->ntrees) * (RING_MAX + r->max_flits) + 1))
+        rc = fail(r, MPRT_ERR_INVALID_ARG, "flit_time: %lld cycles per flit could make the run last more than 2^61 "
+                  "cycles", (long long)r->cfg.flit_time);
+    if (rc == MPRT_OK) rc = build(r);
     if (rc == MPRT_OK && r->cfg.ring) rc = mprt__ring_build(r);
     if (rc != MPRT_OK) {
         mprt__replay_free_run(r);

@@ -89,6 +89,8 @@ _CTYPE_DTYPES = {"double": np.dtype(np.float64), "float": np.dtype(np.float32), 
                  "int64_t": np.dtype(np.int64), "uint32_t": np.dtype(np.uint32), "mprt_trace_ray": RAY_DTYPE,
                  "mprt_trace_visit": VISIT_DTYPE, "mprt_replay_proc": REPLAY_PROC_DTYPE,
                  "mprt_replay_node": REPLAY_NODE_DTYPE, "mprt_replay_pe": REPLAY_PE_DTYPE}
+REPLAY_MEMORY_DTYPE = _record_dtype(_FFI, "mprt_replay_memory")
+_CTYPE_DTYPES["mprt_replay_memory"] = REPLAY_MEMORY_DTYPE
 for _ctype, _dt in (("mprt_trace_ray", RAY_DTYPE), ("mprt_trace_visit", VISIT_DTYPE)):
     if _record_dtype(_mprt32.ffi, _ctype) != _dt:
         raise ImportError(f"{_ctype} differs between the double and the single build")
@@ -542,6 +544,46 @@ class Binding:
         self._got(self.lib.mprt_replay_get_waiters(h, pe, stage, which, self._out("int64_t", out), out.size, n),
                   "waiters")
         return out[: n[0]].tolist()
+
+    # -- replay: level 3, the memories ---------------------------------------------------
+    def replay_set_memory(self, h, key: np.ndarray, ic: dict | None, sc: dict | None) -> None:
+        """Give the loaded trace its memory data (copied): ``key`` int32 per visit (>= 0 an IC
+        key, <= -2 SC key -2 - key, -1 none); ``ic``, ``sc``: None or dicts of ``line`` (bytes)
+        and per key ``items``, ``resident`` (int32), ``line_start`` (int64, keys + 1), ``lines``
+        (int64 line numbers)."""
+        ffi = self.ffi
+        keep = []
+
+        def data(d):
+            if d is None:
+                return ffi.NULL
+            c = ffi.new("mprt_replay_memory_data *")
+            arrs = {k: np.ascontiguousarray(d[k], dtype=t) for k, t in
+                    (("items", np.int32), ("resident", np.int32), ("line_start", np.int64), ("lines", np.int64))}
+            n = len(arrs["items"])
+            if len(arrs["resident"]) != n or len(arrs["line_start"]) != n + 1:
+                raise InvalidArgument("memory data: items, resident and line_start (keys + 1) differ in length")
+            if len(arrs["lines"]) < (int(arrs["line_start"][-1]) if n + 1 else 0):
+                raise InvalidArgument("memory data: fewer lines than line_start says")
+            keep.append(arrs)
+            c.nkeys, c.line = n, int(d["line"])
+            c.items, c.resident = self._in("int32_t", arrs["items"]), self._in("int32_t", arrs["resident"])
+            c.line_start, c.lines = self._in("int64_t", arrs["line_start"]), self._in("int64_t", arrs["lines"])
+            keep.append(c)
+            return c
+
+        k = np.ascontiguousarray(key, dtype=np.int32)
+        self._check(self.lib.mprt_replay_set_memory(h, self._in("int32_t", k), len(k), data(ic), data(sc)),
+                    self.lib.mprt_replay_errmsg, h)
+
+    def replay_get_memory(self, h, pes: int, processors: int):
+        """The last run's memory figures: (REPLAY_MEMORY_DTYPE[pes, 2] per PE and memory (IC, SC),
+        int64[processors] memory stall per processor)."""
+        out = np.zeros(2 * pes, dtype=REPLAY_MEMORY_DTYPE)
+        stall = np.zeros(max(processors, 1), dtype=np.int64)
+        self._got(self.lib.mprt_replay_get_memory(h, self._out("mprt_replay_memory", out), out.size,
+                                                  self._out("int64_t", stall), processors), "memory")
+        return out.reshape(pes, 2), stall[:processors]
 
     # -- images ------------------------------------------------------------------------
     def samples_to_image(self, rules: int, samples: np.ndarray) -> np.ndarray:

@@ -47,7 +47,7 @@ class _Named:
 class _StageView:
     state_of = Stage.state_of
 
-    def __init__(self, name, cfg, procs, node, receive, send):
+    def __init__(self, name, cfg, procs, node, receive, send, stall=None):
         self.name, self.cfg, self.n = name, cfg, len(procs)
         self.busy = procs["busy"].tolist()
         self.blocked = procs["blocked"].tolist()
@@ -55,7 +55,7 @@ class _StageView:
         self.state = procs["state"].tolist()
         self.cur = procs["visit"].tolist()
         self.pending = [range(p) for p in procs["pending"].tolist()]
-        self.stall = [0] * self.n
+        self.stall = [0] * self.n if stall is None else stall.tolist()
         self.generated = int(node["generated"])
         self.local = range(int(node["local_queue"]))
         self.receive, self.send = receive, send
@@ -114,6 +114,29 @@ def no_waiters(pe, stage, which):
     return []
 
 
+def _memories(pes, figs, stall, residents):
+    """``System.memories`` from the C replay's figures: figs[pe, memory] (REPLAY_MEMORY_DTYPE,
+    memory 0 IC, 1 SC); residents: tag -> (bytes used, bytes, has a cache)."""
+    out = {}
+    for t, tag in enumerate(("ic", "sc")):
+        if tag not in residents:
+            continue
+        used, size, cached = residents[tag]
+        f = figs[:, t]
+
+        def total(k, f=f):
+            return int(f[k].sum())
+        out[tag] = {"gm": SimpleNamespace(accesses=total("gm_accesses"), busy=total("gm_busy"),
+                                          queued=total("gm_queued")),
+                    "resident": SimpleNamespace(accesses=total("resident_accesses"), hits=total("resident_hits"),
+                                                used=used, size=size),
+                    "local": [SimpleNamespace(pe=p, stall_cycles=int(f["stall"][p]),
+                                              cache=SimpleNamespace(accesses=int(f["cache_accesses"][p]),
+                                                                    hits=int(f["cache_hits"][p])) if cached else None)
+                              for p in range(pes)]}
+    return out
+
+
 class SystemView:
     """A finished (or deadlocked) machine as ``System`` reports it.
 
@@ -128,10 +151,11 @@ class SystemView:
     _deadlock = System._deadlock
 
     def __init__(self, trace, config, end, retired, pes, procs, nodes, gen_process, gen_send, n_visits, n_rays,
-                 max_leaves, waiters=no_waiters, ring=None):
+                 max_leaves, waiters=no_waiters, ring=None, memory=None):
         self.trace, self.config, self.log = trace, config, None
         self.timeline = None
-        self.memories = {}
+        self.memories = {} if memory is None else _memories(config.pes, *memory)
+        stalls = None if memory is None else memory[1]
         self.gen_process, self.gen_send = gen_process, gen_send
         self.t_end = int(end)
         self.retired = int(retired)
@@ -152,7 +176,8 @@ class SystemView:
                                  self.t_end, rwait, int(nd["receive_reserved"]))
                 send = _FifoView(name + ".send", sc.send_fifo, int(nd["send_occupancy"]), int(nd["send_max"]),
                                  int(nd["send_puts"]), int(nd["send_area"]), self.t_end, waiters(p, s, 1))
-                stages.append(_StageView(name, sc, procs[first:first + sc.replicas], nd, recv, send))
+                stages.append(_StageView(name, sc, procs[first:first + sc.replicas], nd, recv, send,
+                                         None if stalls is None else stalls[first:first + sc.replicas]))
                 self.names += [(name, k) for k in range(sc.replicas)]
                 first += sc.replicas
                 n += 1
