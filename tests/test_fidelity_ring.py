@@ -105,6 +105,17 @@ def test_ring_deadlock_without_the_structured_pool(traces):
     assert b.cycles > 0
 
 
+def test_many_pes_equal_simpy(traces):
+    # more than 8 processors: the processors' events in a heap, and many packets' events in
+    # the ring's list at once
+    t = head(traces["rings-g9"], 300)
+    for pes, dis, window, ring in ((16, "dynamic", 4, RingConfig(1, 3)), (40, "blocks", 8, RingConfig(2, 2))):
+        cfg = at_level(builtin("3mppe"), 2).replace(pes=pes, dis=dis, window=window, ring=ring)
+        a, b = both(t, cfg, CM.visit_costs(t, cfg.processors()))
+        assert_same(a, b, pes)
+        assert len(b.links) == pes
+
+
 # ---- random configurations ------------------------------------------------------------------
 
 def ring_config(rng):

@@ -133,7 +133,8 @@ static void complete(mprt_replay *r, int pe, int q)
     f_get(r, &s->sf);
     R->injected[k->src] = 0;
     if (s->sf.q.len) R->ready |= 1u << k->src;
-    mprt__replay_send_freed(r, s);      /* (may inject the node's next packet: k is not read after) */
+    if (s->swait.len) mprt__replay_send_freed(r, s);   /* (may inject the node's next packet: k is
+                                                          * not read after) */
     mprt__ring_kick(r, pe);
 }
 

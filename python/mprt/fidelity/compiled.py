@@ -251,8 +251,8 @@ def costs_for(trace, config: SystemConfig, cost_model=None):
     return cost_model.visit_costs(trace, config.processors())
 
 
-def replay(trace, config: SystemConfig | str = "M", cost_model=None, costs=None, packet_flits=None,
-           record: bool = False):
+def replay(trace, config: SystemConfig | str = "M", cost_model=None, costs=None, record: bool = False,
+           packet_flits=None):
     """Replay a trace on a configuration with the compiled engine (any level: the
     ring, the memories): what ``mprt.machine.simulate`` returns (``record``: with
     its event log), or raises (DeadlockError, ConfigError for a configuration
