@@ -101,7 +101,8 @@ asan:
 	$(MAKE) B=build/asan OPT="-O1 -g" EXTRA="$(SAN)" \
 	    EXTRA_LD="-fsanitize=address,undefined" ctest
 
-# The compiled replay's differential tests (against SimPy, levels 1 and 3) with the C library
+# The compiled replay's differential tests (against SimPy, levels 1 to 3, the ring and the
+# memories alone and together) with the C library
 # under ASan and UBSan: the extension built into build/asan-py beside a copy of the package.
 asan-py: $(VENV)/.installed
 	rm -rf build/asan-py && mkdir -p build/asan-py && cp -r python/mprt build/asan-py/ && rm -f build/asan-py/mprt/*.so
@@ -109,7 +110,8 @@ asan-py: $(VENV)/.installed
 	    --build-lib build/asan-py --build-temp build/asan-py/tmp > build/asan-py/build.log 2>&1
 	cd tests && ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
 	    LD_PRELOAD="$$($(CC) -print-file-name=libasan.so) $$($(CC) -print-file-name=libubsan.so)" \
-	    PYTHONPATH=../build/asan-py ../$(PY) -m pytest -q -p no:cacheprovider test_fidelity_memory.py test_fidelity.py
+	    PYTHONPATH=../build/asan-py ../$(PY) -m pytest -q -p no:cacheprovider test_fidelity_full.py \
+	    test_fidelity_memory.py test_fidelity_ring.py test_fidelity.py
 
 # The fuzz target over NFF parse, write, grids, renders and intersection
 # (tests/fuzz/fuzz_nff.c), replayed on its seed corpus and on every input
