@@ -106,8 +106,11 @@ asan:
 # under ASan and UBSan: the extension built into build/asan-py beside a copy of the package.
 asan-py: $(VENV)/.installed
 	rm -rf build/asan-py && mkdir -p build/asan-py && cp -r python/mprt build/asan-py/ && rm -f build/asan-py/mprt/*.so
-	CFLAGS="$(SAN) -O1 -g" LDFLAGS="-fsanitize=address,undefined" $(PY) setup.py -q build_ext \
-	    --build-lib build/asan-py --build-temp build/asan-py/tmp > build/asan-py/build.log 2>&1
+	ln -s ../../c build/asan-py/c      # (cffi compiles in its tmpdir, with paths relative to the root)
+	CFLAGS="$(SAN) -O1 -g" LDFLAGS="-fsanitize=address,undefined" $(PY) -c \
+	    "import sys; sys.path.insert(0, 'python/mprt'); import _build; \
+	    [f.compile(tmpdir='build/asan-py', verbose=True) for f in (_build.ffi, _build.ffi32)]" \
+	    > build/asan-py/build.log 2>&1
 	cd tests && ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
 	    LD_PRELOAD="$$($(CC) -print-file-name=libasan.so) $$($(CC) -print-file-name=libubsan.so)" \
 	    PYTHONPATH=../build/asan-py ../$(PY) -m pytest -q -p no:cacheprovider test_fidelity_full.py \
