@@ -123,7 +123,7 @@ asan-py: $(VENV)/.installed
 SAN = -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
 # The second target, tests/fuzz/fuzz_machine.c, builds machine configurations and
 # ray-tree traces (well formed, then damaged) from its input and replays them on
-# the compiled replay; its corpus and failures are tests/fuzz/corpus_machine and
+# the compiled replay, at levels 1 to 3 (the ring, the memories, both); its corpus and failures are tests/fuzz/corpus_machine and
 # tests/fuzz/crashes_machine.
 FUZZ_SRC = tests/fuzz/fuzz_nff.c
 fuzz-replay:
