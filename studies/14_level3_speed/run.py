@@ -67,7 +67,7 @@ def main(argv=None) -> int:
             vc = cm.visit_costs(t, cfg.processors())
             ref, ts, cs = timed(lambda: simulate(t, cfg, costs=vc)) if n <= a.simpy_max else (None, 0.0, 0.0)
             whole, tw, _ = timed(lambda: replay(t, cfg, costs=vc))
-            c = Compiled(t, vc, md)
+            c = Compiled(t, vc, memory=md)
             _, td, _ = timed(lambda: c.cycles(cfg))      # memory data made (kept in md) and handed over
             best = cbest = float("inf")
             for _ in range(1 if a.quick else a.repeat):
