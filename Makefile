@@ -18,8 +18,8 @@ SRC := $(wildcard c/src/*.c)
 HDR := c/include/mprt.h $(wildcard c/src/*.h)
 TESTS := $(patsubst tests/c/%.c,$(B)/%,$(wildcard tests/c/test_*.c))
 
-.PHONY: all test ctest pytest demo bench asan tsan single clean install fuzz fuzz-replay fuzz-python baselines \
-	baselines-update
+.PHONY: all test ctest pytest demo bench asan asan-py tsan single clean install fuzz fuzz-replay fuzz-python \
+	baselines baselines-update
 
 all: $(B)/libmprt.a $(TESTS)
 
@@ -101,6 +101,21 @@ asan:
 	$(MAKE) B=build/asan OPT="-O1 -g" EXTRA="$(SAN)" \
 	    EXTRA_LD="-fsanitize=address,undefined" ctest
 
+# The compiled replay's differential tests (against SimPy, levels 1 to 3, the ring and the
+# memories alone and together) with the C library
+# under ASan and UBSan: the extension built into build/asan-py beside a copy of the package.
+asan-py: $(VENV)/.installed
+	rm -rf build/asan-py && mkdir -p build/asan-py && cp -r python/mprt build/asan-py/ && rm -f build/asan-py/mprt/*.so
+	ln -s ../../c build/asan-py/c      # (cffi compiles in its tmpdir, with paths relative to the root)
+	CFLAGS="$(SAN) -O1 -g" LDFLAGS="-fsanitize=address,undefined" $(PY) -c \
+	    "import sys; sys.path.insert(0, 'python/mprt'); import _build; \
+	    [f.compile(tmpdir='build/asan-py', verbose=True) for f in (_build.ffi, _build.ffi32)]" \
+	    > build/asan-py/build.log 2>&1
+	cd tests && ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
+	    LD_PRELOAD="$$($(CC) -print-file-name=libasan.so) $$($(CC) -print-file-name=libubsan.so)" \
+	    PYTHONPATH=../build/asan-py ../$(PY) -m pytest -q -p no:cacheprovider test_fidelity_full.py \
+	    test_fidelity_memory.py test_fidelity_ring.py test_fidelity.py
+
 # The fuzz target over NFF parse, write, grids, renders and intersection
 # (tests/fuzz/fuzz_nff.c), replayed on its seed corpus and on every input
 # that ever failed, with gcc and the sanitizers of make asan (part of make
@@ -108,7 +123,7 @@ asan:
 SAN = -fsanitize=address,undefined -fno-omit-frame-pointer -fno-sanitize-recover=all
 # The second target, tests/fuzz/fuzz_machine.c, builds machine configurations and
 # ray-tree traces (well formed, then damaged) from its input and replays them on
-# the compiled replay; its corpus and failures are tests/fuzz/corpus_machine and
+# the compiled replay, at levels 1 to 3 (the ring, the memories, both); its corpus and failures are tests/fuzz/corpus_machine and
 # tests/fuzz/crashes_machine.
 FUZZ_SRC = tests/fuzz/fuzz_nff.c
 fuzz-replay:

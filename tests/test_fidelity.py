@@ -200,11 +200,12 @@ def test_malformed_traces_fail_as_in_simpy():
         replay(good, builtin("M").replace(pes=3), costs=c)
 
 
-def test_ring_or_memories_are_refused_by_the_compiled_engine(traces):
-    with pytest.raises(ConfigError, match="ring network .level 2. and modelled memories .level 3."):
-        replay(traces["balls-g4"], "3mppe")
-    assert unsupported(builtin("M")) is None
-    assert "ring" in unsupported(builtin("3mppe").replace(ic_memory=None, sc_memory=None, icgm=None, scgm=None))
+def test_the_compiled_engine_accepts_every_machine_the_simpy_model_models():
+    full = load_config(FULL)
+    for cfg in [builtin(n) for n in ("M", "S", "3mppe")] + [full]:
+        assert unsupported(cfg) is None, cfg.name
+        for level in (1, 2, 3):
+            assert engine_for(cfg, level) == "compiled"
 
 
 def test_one_load_runs_many_configurations(traces):
@@ -254,10 +255,9 @@ def test_levels_take_out_ring_and_memories():
     assert at_level(full, 1).ring is None and at_level(full, 1).ic_memory is None
     assert at_level(full, 2).ring == full.ring and at_level(full, 2).ic_memory is None
     assert at_level(full, 3) == full
-    assert engine_for(full, 1) == "compiled" and engine_for(full, 2) == "simpy" and engine_for(full, 0) == "analytical"
+    assert [engine_for(full, lv) for lv in (1, 2, 3)] == ["compiled"] * 3
+    assert engine_for(full, 3, "simpy") == "simpy" and engine_for(full, 0) == "analytical"
     assert engine_for(builtin("M"), 3) == "compiled"        # nothing above level 1 to model
-    with pytest.raises(ConfigError, match="level 2: configuration '3mppe' has a ring"):
-        engine_for(full, 2, "compiled")
     with pytest.raises(ConfigError, match="level 0 is analytical"):
         engine_for(full, 0, "simpy")
 
@@ -269,7 +269,7 @@ def test_evaluate_levels_on_both_engines_agree(traces):
     assert one.engine == "compiled"
     assert one.cycles == evaluate(t, full, 1, engine="simpy").cycles == simulate(t, at_level(full, 1)).cycles
     three = evaluate(t, full)
-    assert three.level == 3 and three.engine == "simpy" and three.cycles == simulate(t, full).cycles
+    assert three.level == 3 and three.engine == "compiled" and three.cycles == simulate(t, full).cycles
     # M has no ring nor memories: levels 1 to 3 are the same machine
     assert len({evaluate(t, "M", lv).cycles for lv in (1, 2, 3)}) == 1
 

@@ -512,12 +512,14 @@ int mprt_cost_visits(const mprt_cost_table *table, const mprt_trace_ray *rays, c
                      size_t errlen);
 
 /* ---- Replay ----------------------------------------------------------------
- * A compiled replay of a trace on a machine of the fidelity ladder's level 1:
- * PEs of 1 to 3 stages (each a processor, or several replicas of one,
+ * A compiled replay of a trace on any machine of the fidelity ladder's levels
+ * 1 to 3: PEs of 1 to 3 stages (each a processor, or several replicas of one,
  * running one or more of the subtasks OS, IC, SC), send and receive FIFOs
- * of any capacity, an ideal network (no latency, no bandwidth limit) and
- * an ideal memory (every access hits), DIS admitting primary rays under a
- * window.  It applies the same event rules as the SimPy machine model
+ * of any capacity, an ideal network (no latency, no bandwidth limit) or the
+ * ring (links, flit buffers by class, wormhole paths), an ideal memory
+ * (every access hits) or, at level 3, the IC and SC memories
+ * (mprt_replay_set_memory below), DIS admitting primary rays under a window.
+ * It applies the same event rules as the SimPy machine model
  * (python/mprt/machine, README.md there) and returns the same cycle counts
  * to the cycle; python/mprt/fidelity binds it.
  *
@@ -533,7 +535,8 @@ int mprt_cost_visits(const mprt_cost_table *table, const mprt_trace_ray *rays, c
  *     mprt_replay_destroy(r);
  *
  * Costs come from the caller (the cost model), one entry per visit:
- * process, receive and send cycles; a visit lasts their sum (at least 1). */
+ * process, receive and send cycles; a visit lasts their sum (at least 1).
+ * On the ring the packets' flits too (mprt_replay_set_flits). */
 
 /* How DIS deals primary rays (trees) to PEs: static blocks of consecutive
  * trees, interleaved (tree t to PE t mod pes), or one shared sequence each
@@ -562,6 +565,21 @@ typedef struct {
     int64_t window;                     /* live rays a PE's DIS admits up to, >= 1 */
     int64_t gen_cycles;                 /* cycles SC spends making a primary ray and sending
                                          * it to OS; 0: DIS hands primaries to OS directly */
+    /* level 2: the ring (python/mprt/machine/README.md, "The ring"): each PE's
+     * stages on a unidirectional ring, packets of the flits mprt_replay_set_flits
+     * gives, wormhole-routed; ring 0: the ideal network */
+    int ring;                           /* 1: the ring (needs nstages >= 2) */
+    int buffer_classes;                 /* header buffers per node, 1..nstages */
+    int64_t flit_time;                  /* cycles a link takes per flit, >= 1 */
+    /* level 3: the memories.  Index 0: the IC data (voxel lists, shapes) behind ICGM; 1: the
+     * SC data (materials) behind SCGM.  A modelled memory needs mprt_replay_set_memory's data. */
+    int memory[2];                      /* 1: modelled (a local memory per PE); 0: every access hits */
+    int64_t cache_size[2];              /* bytes, at most MPRT_REPLAY_MAX_CACHE; 0: no cache */
+    int64_t cache_line[2];              /* bytes, a power of two (no cache: the unit of a read) */
+    int64_t cache_ways[2];              /* lines per set (with a cache: size / (line x ways) sets) */
+    int64_t gm_latency[2];              /* cycles from a miss's transfer to its data */
+    int64_t gm_bandwidth[2];            /* bytes per cycle, >= 1 */
+    int gm_contention[2];               /* 1: one port shared by all PEs; 0: one per PE */
 } mprt_replay_config;
 
 typedef struct mprt_replay mprt_replay;
@@ -588,6 +606,14 @@ int mprt_replay_set_config(mprt_replay *r, const mprt_replay_config *cfg);
  * malformed trace or cost fails with MPRT_ERR_INVALID_ARG naming it. */
 int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
                      size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send);
+
+/* The packets' sizes for the ring (level 2), for the loaded trace: flits[j]
+ * (nvisits entries) of the packet visit j sends on to its ray's next visit;
+ * kid_flits[kind] (nkinds entries, a kind per mprt_ray_kind) of a packet
+ * carrying a ray an SC visit made; inject_flits of a primary ray SC made.
+ * Flits 0..65535 (0 and 1: the header alone).  Needed before a run on a ring. */
+int mprt_replay_set_flits(mprt_replay *r, const int64_t *flits, size_t nvisits, const int64_t *kid_flits,
+                          size_t nkinds, int64_t inject_flits);
 
 /* Replay the loaded trace on the configuration.  log (may be NULL)
  * receives 4 int64 per event: cycle, 0 start / 1 end, processor, visit (~t:
@@ -627,6 +653,7 @@ typedef struct {
     int64_t send_occupancy, send_max, send_puts, send_area;
     int64_t local_queue;
     int64_t generated;
+    int64_t receive_reserved;   /* receive slots claimed by packets still on the ring */
 } mprt_replay_node;
 
 /* One PE: its DIS and rays, and its visits' costs by subtask (OS, IC, SC). */
@@ -664,6 +691,64 @@ int mprt_replay_get_tree_busy(const mprt_replay *r, int64_t *out, size_t cap);
  * order.  OUT: out (cap entries), n (the number waiting). */
 int mprt_replay_get_waiters(const mprt_replay *r, int pe, int stage, int which, int64_t *out, size_t cap,
                             size_t *n);
+/* The ring (a run with ring 1): each link's busy cycles (pes x nstages
+ * entries, link n of a PE from its stage n to stage n + 1), and PE pe's ring
+ * at the end: buffers (nstages x buffer_classes entries, node by node: the
+ * packet holding it as source stage x 4 + destination stage, -1 free) and the
+ * packets waiting for a grant in the order they began to wait, 4 entries each
+ * (source stage, destination stage, the node its header is at, phase: 0 the
+ * header waits for a link and buffer, 1 for the receive FIFO, 2 the body for
+ * the path).  OUT: links; buffers, waiting (cap entries each), nwaiting (packets). */
+int mprt_replay_get_links(const mprt_replay *r, int64_t *out, size_t cap);
+int mprt_replay_get_ring(const mprt_replay *r, int pe, int64_t *buffers, size_t cap_buffers, int64_t *waiting,
+                         size_t cap_waiting, size_t *nwaiting);
+
+/* ---- level 3: the memories (replay_memory.c) ----
+ *
+ * Each visit reads the data of one key (IC: a voxel's list and its primitives'
+ * shapes; SC: a material): some items from resident memory (no cost), the
+ * rest as lines through the PE's cache (LRU, set-associative; a stage's
+ * replicas share it), each miss read from the global memory one after the
+ * other, when the visit starts: the port's first free cycle (ports serve in
+ * the order visits start), the line's transfer (line / bandwidth, rounded
+ * up), then the latency.  The resident set is chosen by the caller. */
+#define MPRT_REPLAY_MAX_CACHE 1099511627776   /* 2^40 bytes */
+/* A run refuses (before it starts) caches whose arrays over all PEs would hold
+ * more entries (pes x sets x ways, the sets and ways limited to the lines the
+ * memory data can fill). */
+#define MPRT_REPLAY_MAX_CACHE_ENTRIES 268435456   /* 2^28 */
+
+/* One memory's data: per key, items read (resident ones among them) and the
+ * lines read outside resident memory, keys' lines in CSR form. */
+typedef struct {
+    size_t nkeys;
+    int64_t line;                       /* bytes per line the lines were numbered with */
+    const int32_t *items;               /* per key: items read */
+    const int32_t *resident;            /* per key: items found in resident memory */
+    const int64_t *line_start;          /* per key + 1: its lines are lines[line_start[k] .. line_start[k+1]) */
+    const int64_t *lines;               /* line numbers (address / line), >= 0; line_start[nkeys] entries */
+} mprt_replay_memory_data;
+
+/* Give the loaded trace its memory data (copied; kept for later runs until the
+ * next load or call): key[j] per visit (nvisits = the trace's): >= 0 a key of
+ * ic (an IC visit's voxel), <= -2 key -2 - key[j] of sc (an SC visit's
+ * material), -1 none.  ic or sc may be NULL (no key of it). */
+int mprt_replay_set_memory(mprt_replay *r, const int32_t *key, size_t nvisits, const mprt_replay_memory_data *ic,
+                           const mprt_replay_memory_data *sc);
+
+/* One PE's figures for one memory after a run. */
+typedef struct {
+    int64_t stall;                      /* memory stall cycles of its visits */
+    int64_t cache_accesses, cache_hits;
+    int64_t resident_accesses, resident_hits;   /* items */
+    int64_t gm_accesses, gm_busy, gm_queued;    /* its reads: transfer cycles, cycles waited for the port */
+} mprt_replay_memory;
+
+/* Per PE and memory (out: pes x 2 entries, PE-major; zeros for a memory not
+ * modelled) and per processor (stall: processors entries, may be NULL): the
+ * memory figures of the last run. */
+int mprt_replay_get_memory(const mprt_replay *r, mprt_replay_memory *out, size_t cap, int64_t *stall,
+                           size_t stall_cap);
 
 #ifdef __cplusplus
 }

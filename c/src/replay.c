@@ -32,144 +32,6 @@
  * it ends with rays still in the machine, that is a deadlock. */
 #include "replay.h"
 
-/* ---- queues ---------------------------------------------------------------- */
-
-static int q_grow(queue *q)
-{
-    size_t ncap = q->cap ? 2 * q->cap : 8, i;
-    int64_t *b;
-    if (ncap > SIZE_MAX / (2 * sizeof *b)) return -1;
-    b = malloc(ncap * sizeof *b);
-    if (!b) return -1;
-    for (i = 0; i < q->len; i++) b[i] = q->buf[(q->head + i) & (q->cap - 1)];
-    free(q->buf);
-    q->buf = b;
-    q->cap = ncap;
-    q->head = 0;
-    return 0;
-}
-
-INLINE void q_push(mprt_replay *r, queue *q, int64_t x)
-{
-    if (q->len == q->cap && q_grow(q)) {
-        r->oom = 1;
-        return;
-    }
-    q->buf[(q->head + q->len) & (q->cap - 1)] = x;
-    q->len++;
-}
-
-INLINE int64_t q_pop(queue *q)
-{
-    int64_t x = q->buf[q->head];
-    q->head = (q->head + 1) & (q->cap - 1);
-    q->len--;
-    return x;
-}
-
-static void q_free(queue *q)
-{
-    free(q->buf);
-    memset(q, 0, sizeof *q);
-}
-
-INLINE int f_room(const fifo *f) { return f->cap == 0 || (int64_t)f->q.len < f->cap; }
-
-/* The occupancy integrated over time is the packets' time in the FIFO: each
- * put subtracts its cycle, each get adds its cycle, and packets still in it
- * count to the end (f_area). */
-INLINE void f_put(mprt_replay *r, fifo *f, int64_t x)
-{
-    f->sojourn -= (uint64_t)r->now;
-    f->last = r->now;
-    q_push(r, &f->q, x);
-    f->puts++;
-    if ((int64_t)f->q.len > f->max) f->max = (int64_t)f->q.len;
-}
-
-INLINE int64_t f_get(mprt_replay *r, fifo *f)
-{
-    f->sojourn += (uint64_t)r->now;
-    f->last = r->now;
-    return q_pop(&f->q);
-}
-/* ---- events ---------------------------------------------------------------- */
-
-/* The event heap: parallel arrays (time, priority, processor), written and
- * read field by field. */
-INLINE int ev_before(int64_t t1, int64_t p1, int64_t t2, int64_t p2) { return t1 < t2 || (t1 == t2 && p1 < p2); }
-
-/* With few processors (and times that leave room) the pending events sit by
- * processor as one key, time << SMALL_SHIFT | priority (INT64_MAX: none; a
- * processor has at most one), and the first is found by a scan. */
-#define SMALL_PROCS 8
-#define SMALL_SHIFT 5    /* priorities are below 2 x SMALL_PROCS + 2 <= 32 */
-
-INLINE void heap_push(mprt_replay *r, int64_t t, int64_t prio, int i)
-{
-    int c = r->nheap++;
-    if (r->small) {
-        r->heap_t[i] = t << SMALL_SHIFT | prio;
-        return;
-    }
-    int64_t *ht = r->heap_t, *hp = r->heap_p;
-    int32_t *hi = r->heap_i;
-    while (c > 0) {
-        int p = (c - 1) / 2;
-        if (!ev_before(t, prio, ht[p], hp[p])) break;
-        ht[c] = ht[p];
-        hp[c] = hp[p];
-        hi[c] = hi[p];
-        c = p;
-    }
-    ht[c] = t;
-    hp[c] = prio;
-    hi[c] = i;
-}
-
-/* Take the first event: its processor (its time in *t). */
-INLINE int heap_pop(mprt_replay *r, int64_t *t)
-{
-    int64_t *ht = r->heap_t, *hp = r->heap_p;
-    int32_t *hi = r->heap_i;
-    int n = --r->nheap, c = 0, top;
-    int64_t lt, lp;
-    int32_t li;
-    if (r->small) {
-        int k, m = 0;
-        for (k = 1; k < r->nproc; k++) m = ht[k] < ht[m] ? k : m;
-        *t = ht[m] >> SMALL_SHIFT;
-        ht[m] = INT64_MAX;
-        return m;
-    }
-    top = hi[0];
-    lt = ht[n];
-    lp = hp[n];
-    li = hi[n];
-    *t = ht[0];
-    for (;;) {
-        int a = 2 * c + 1, m;
-        if (a >= n) break;
-        m = (a + 1 < n && ev_before(ht[a + 1], hp[a + 1], ht[a], hp[a])) ? a + 1 : a;
-        if (!ev_before(ht[m], hp[m], lt, lp)) break;
-        ht[c] = ht[m];
-        hp[c] = hp[m];
-        hi[c] = hi[m];
-        c = m;
-    }
-    if (n > 0) {
-        ht[c] = lt;
-        hp[c] = lp;
-        hi[c] = li;
-    }
-    return top;
-}
-
-INLINE const void *v_addr(const mprt_replay *r, int64_t j)
-{
-    return r->wide ? (const void *)&r->vi[j] : (const void *)&r->vp[j];
-}
-
 /* ---- the machine ------------------------------------------------------------- */
 
 #ifndef TREE_PREFETCH
@@ -183,30 +45,6 @@ INLINE const void *v_addr(const mprt_replay *r, int64_t j)
 #define PREFETCH(p) ((void)(p))
 #endif
 
-static int ctz64(uint64_t x)
-{
-#if defined(__GNUC__)
-    return __builtin_ctzll(x);
-#else
-    int n = 0;
-    while (!(x & 1)) {
-        x >>= 1;
-        n++;
-    }
-    return n;
-#endif
-}
-
-/* The lowest idle processor of a stage (there is one), now taken. */
-INLINE int take_idle(node *nd)
-{
-    int w = 0, k;
-    while (!nd->idle[w]) w++;
-    k = 64 * w + ctz64(nd->idle[w]);
-    nd->idle[w] &= nd->idle[w] - 1;
-    nd->nidle--;
-    return nd->first + k;
-}
 
 INLINE node *node_of(mprt_replay *r, int pe, int stage) { return &r->nodes[pe * r->cfg.nstages + stage]; }
 
@@ -239,6 +77,11 @@ INLINE void start(mprt_replay *r, int i, int64_t j)
             p->next = (int64_t)((w >> 34) << 10 | (w & 1023));
         }
         PREFETCH(v_addr(r, j + 4));
+        if (r->mem_on) {         /* level 3: the data it reads (replay_memory.c) */
+            int64_t s = mprt__replay_stall(r, i, j);
+            d += s;
+            p->stall += s;
+        }
     } else {
         d = r->cfg.gen_cycles;
         r->nodes[p->node].generated++;
@@ -253,17 +96,6 @@ INLINE void start(mprt_replay *r, int i, int64_t j)
 }
 
 /* ---- a per-replica feed (round-robin, shortest queue) ---- */
-
-INLINE int copy_idle(const mprt_replay *r, const node *nd, int k)
-{
-    return r->procs[nd->first + k].state == MPRT_PROC_IDLE;
-}
-
-/* Replica k's packets: its receive FIFO and local queue, and the one it holds unless idle. */
-INLINE int64_t queued(const mprt_replay *r, const node *nd, int k)
-{
-    return (int64_t)nd->rfs[k].q.len + (int64_t)nd->locals[k].len + !copy_idle(r, nd, k);
-}
 
 /* The replica the next packet for nd goes to, -1: none has room (an idle
  * replica or a free slot; need_room 0: any replica).  Round-robin: turn mod
@@ -287,14 +119,6 @@ static NOINLINE int assign(mprt_replay *r, node *nd, int take, int need_room)
         }
     }
     return best;
-}
-
-/* Replica k of nd (idle) is taken. */
-INLINE int take_copy(node *nd, int k)
-{
-    nd->idle[k / 64] &= ~((uint64_t)1 << (k % 64));
-    nd->nidle--;
-    return nd->first + k;
 }
 
 /* Packet x assigned to replica k of nd: started now if k is idle, else to the tail of
@@ -330,10 +154,13 @@ INLINE void accept(mprt_replay *r, node *nd, int64_t x)
         f_put(r, &nd->rf, x);
 }
 
+/* Packet x from src to stage g over the network (the ring's, or the ideal one
+ * below); 0: src's send FIFO is full. */
 INLINE int net_send(mprt_replay *r, node *src, int64_t x, int g)
 {
     node *dst = sibling(src, g);
     PREFETCH(v_addr(r, x));
+    if (r->cfg.ring) return mprt__ring_send(r, src, x, g);
     if (src->sf.q.len == 0) {
         if (dst->feed) {
             if (node_room(r, dst)) {
@@ -505,6 +332,7 @@ static void freed(mprt_replay *r, node *dst)
         else
             advance(r, sibling(dst, (int)w));
     }
+    if (r->cfg.ring) ring_freed(r, dst->pe);     /* then the ring's headers may claim it */
 }
 
 static void retire(mprt_replay *r, int pe)
@@ -615,160 +443,58 @@ static void handle(mprt_replay *r, int i)
     }
 }
 
-void mprt__replay_free_run(mprt_replay *r)
-{
-    int n, k;
-    for (n = 0; r->nodes && n < r->nnode; n++) {
-        node *nd = &r->nodes[n];
-        q_free(&nd->rf.q);
-        q_free(&nd->sf.q);
-        q_free(&nd->local);
-        q_free(&nd->rwait);
-        q_free(&nd->swait);
-        for (k = 0; nd->rfs && k < nd->n; k++) q_free(&nd->rfs[k].q);
-        for (k = 0; nd->locals && k < nd->n; k++) q_free(&nd->locals[k]);
-        free(nd->rfs);
-        free(nd->locals);
-        free(nd->idle);
-    }
-    free(r->nodes);
-    free(r->procs);
-    free(r->pes);
-    free(r->heap_t);
-    free(r->heap_p);
-    free(r->heap_i);
-    r->nodes = NULL;
-    r->procs = NULL;
-    r->pes = NULL;
-    r->heap_t = r->heap_p = NULL;
-    r->heap_i = NULL;
-    r->nnode = r->nproc = r->nheap = 0;
-    r->ran = 0;
-}
+/* ---- the run's events, and the ring's hooks --------------------------------------- */
 
-/* ---- running -------------------------------------------------------------------- */
-
-static int build(mprt_replay *r)
+void mprt__replay_loop(mprt_replay *r)
 {
-    const mprt_replay_config *c = &r->cfg;
-    int p, s, k, i = 0, n = 0;
-    int per = 0;
-    for (s = 0; s < c->nstages; s++) per += c->replicas[s];
-    r->nproc = c->pes * per;
-    r->nnode = c->pes * c->nstages;
-    r->procs = calloc((size_t)r->nproc, sizeof *r->procs);
-    r->nodes = calloc((size_t)r->nnode, sizeof *r->nodes);
-    r->pes = calloc((size_t)c->pes, sizeof *r->pes);
-    r->heap_t = malloc((size_t)r->nproc * sizeof *r->heap_t);
-    r->heap_p = malloc((size_t)r->nproc * sizeof *r->heap_p);
-    r->heap_i = malloc((size_t)r->nproc * sizeof *r->heap_i);
-    if (!r->procs || !r->nodes || !r->pes || !r->heap_t || !r->heap_p || !r->heap_i)
-        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
-    /* every event falls within the visits' cycles and the primaries' making */
-    r->small = r->nproc <= SMALL_PROCS && r->total + c->gen_cycles * r->ntrees < (INT64_MAX >> SMALL_SHIFT) - 1;
-    for (i = 0; r->small && i < r->nproc; i++) r->heap_t[i] = INT64_MAX;
-    i = 0;
-    for (p = 0; p < c->pes; p++) {
-        pe_t *e = &r->pes[p];
-        if (c->dis == MPRT_DIS_BLOCKS) {
-            e->next = p * r->ntrees / c->pes;
-            e->stop = (p + 1) * r->ntrees / c->pes;
-            e->step = 1;
-        } else {
-            e->next = p;
-            e->stop = r->ntrees;
-            e->step = c->pes;
-        }
-        for (s = 0; s < c->nstages; s++, n++) {
-            node *nd = &r->nodes[n];
-            int words = (c->replicas[s] + 63) / 64;
-            nd->rf.cap = c->receive_fifo[s];
-            nd->sf.cap = c->send_fifo[s];
-            nd->stage = s;
-            nd->pe = p;
-            nd->first = i;
-            nd->n = c->replicas[s];
-            nd->nidle = c->replicas[s];
-            nd->idle = calloc((size_t)words, sizeof *nd->idle);
-            if (!nd->idle) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
-            nd->feed = c->replicas[s] > 1 ? c->feed[s] : 0;   /* one replica: every feed is the shared one */
-            if (nd->feed) {
-                nd->rfs = calloc((size_t)nd->n, sizeof *nd->rfs);
-                nd->locals = calloc((size_t)nd->n, sizeof *nd->locals);
-                if (!nd->rfs || !nd->locals) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
-                for (k = 0; k < nd->n; k++) nd->rfs[k].cap = c->receive_fifo[s];
-            }
-            for (k = 0; k < c->replicas[s]; k++, i++) {
-                proc *q = &r->procs[i];
-                nd->idle[k / 64] |= (uint64_t)1 << (k % 64);
-                q->node = n;
-                q->k = k;
-                q->pe = p;
-                q->cur = -1;
-                q->state = MPRT_PROC_IDLE;
-            }
-        }
-    }
-    return MPRT_OK;
-}
-
-int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
-{
-    int rc, p, k;
-    int64_t t, g;
-    if (!r) return MPRT_ERR_INVALID_ARG;
-    mprt__replay_free_run(r);
-    r->errmsg[0] = '\0';
-    if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
-    g = r->cfg.gen_cycles;
-    if (r->cfg.pes > r->ntrees)
-        return fail(r, MPRT_ERR_INVALID_ARG, "pes: %d PEs but the trace has only %lld primary rays (one per pixel "
-                    "sample)", r->cfg.pes, (long long)r->ntrees);
-    if (g > 0 && r->ntrees > (INT64_MAX / 2 - r->total) / g)
-        return fail(r, MPRT_ERR_INVALID_ARG, "gen_cycles: with the visits' cycles, more than 2^62 cycles in all");
-    if (log && log_cap < 8 * (r->nv + (size_t)r->ntrees))
-        return fail(r, MPRT_ERR_INVALID_ARG, "log: room for %zu entries needed, %zu given",
-                    8 * (r->nv + (size_t)r->ntrees), log_cap);
-    r->now = r->retired = r->t_end = r->shared_next = 0;
-    r->nlog = 0;
-    r->oom = r->deadlocked = 0;
-    rc = build(r);
-    if (rc != MPRT_OK) {
-        mprt__replay_free_run(r);
-        return rc;
-    }
-    r->busy_recorded = r->record_busy;
-    if (r->record_busy) {
-        size_t nb = (size_t)r->ntrees * (size_t)r->cfg.nstages;
-        if (RESERVE(r, tree_busy, cap_tree_busy, nb + 1)) {
-            mprt__replay_free_run(r);
-            return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the busy record");
-        }
-        for (t = 0; t < (int64_t)nb; t++) r->tree_busy[t] = -1;
-    }
-    for (t = 0; t < r->ntrees; t++) {
-        r->tree_pe[t] = -1;
-        r->tree_admit[t] = -1;
-    }
-    r->log = log;
-    r->ran = 1;
+    int p;
     for (p = 0; p < r->cfg.pes && !r->oom; p++) dis_admit(r, p);
-    while (r->nheap && !r->oom) {
-        int i = heap_pop(r, &r->now);
-        handle(r, i);
+    if (!r->cfg.ring) {
+        while (r->nheap && !r->oom) {
+            int i = heap_pop(r, &r->now);
+            handle(r, i);
+        }
+        return;
     }
-    r->log = NULL;
-    if (r->oom) {
-        mprt__replay_free_run(r);
-        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory during the replay");
+    while (!r->oom) {    /* the first processor event, unless a ring event comes before it */
+        int64_t t = INT64_MAX;
+        int i = -1;
+        if (r->nheap) {
+            if (r->small) {
+                int k;
+                if (r->pmin < 0)
+                    for (r->pmin = 0, k = 1; k < r->nproc; k++)
+                        r->pmin = r->heap_t[k] < r->heap_t[r->pmin] ? k : r->pmin;
+                i = r->pmin;
+                t = r->heap_t[i] >> SMALL_SHIFT;
+            } else {
+                i = 0;
+                t = r->heap_t[0];
+            }
+        }
+        if (r->rq_len && r->rq_t[r->rq_head] < t) {
+            r->now = r->rq_t[r->rq_head];
+            mprt__ring_event(r);
+        } else if (i >= 0) {
+            if (r->small) {
+                r->heap_t[i] = INT64_MAX;
+                r->nheap--;
+                r->pmin = -1;
+                r->now = t;
+            } else {
+                i = heap_pop(r, &r->now);
+            }
+            handle(r, i);
+        } else {
+            break;
+        }
     }
-    for (t = 0; t < r->ntrees; t++)
-        if (r->tree_pe[t] >= 0)
-            for (k = 0; k < 9; k++) r->pes[r->tree_pe[t]].cost[k] += r->tree_cost[9 * t + k];
-    if (r->retired != (int64_t)r->nr) {
-        r->deadlocked = 1;
-        return fail(r, MPRT_ERR_STATE, "deadlock: the machine stopped with %lld of %zu rays still in it",
-                    (long long)((int64_t)r->nr - r->retired), r->nr);
-    }
-    return MPRT_OK;
 }
+
+void mprt__replay_start_on(mprt_replay *r, node *nd, int k, int64_t x)
+{
+    start(r, k < 0 ? take_idle(nd) : take_copy(nd, k), x);
+}
+
+void mprt__replay_send_freed(mprt_replay *r, node *src) { send_freed(r, src); }
+

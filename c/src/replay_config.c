@@ -70,7 +70,19 @@ static int check_config(mprt_replay *r, const mprt_replay_config *c)
         return fail(r, MPRT_ERR_INVALID_ARG, "window: must be >= 1, not %lld", (long long)c->window);
     if (c->gen_cycles < 0)
         return fail(r, MPRT_ERR_INVALID_ARG, "gen_cycles: must be >= 0, not %lld", (long long)c->gen_cycles);
-    return MPRT_OK;
+    if (c->ring != 0 && c->ring != 1)
+        return fail(r, MPRT_ERR_INVALID_ARG, "ring: must be 0 (the ideal network) or 1 (the ring), not %d", c->ring);
+    if (c->ring) {
+        if (c->nstages < 2)
+            return fail(r, MPRT_ERR_INVALID_ARG, "ring: a ring needs at least 2 stages (one stage has no network)");
+        if (c->flit_time < 1)
+            return fail(r, MPRT_ERR_INVALID_ARG, "ring.flit_time: must be at least 1, not %lld",
+                        (long long)c->flit_time);
+        if (c->buffer_classes < 1 || c->buffer_classes > c->nstages)
+            return fail(r, MPRT_ERR_INVALID_ARG, "ring.buffer_classes: must be 1..%d (one per hop plus the source's) "
+                        "with %d stages, not %d", c->nstages, c->nstages, c->buffer_classes);
+    }
+    return mprt__replay_memory_check(r, c);
 }
 
 int mprt_replay_create(const mprt_replay_config *cfg, mprt_replay **out)
@@ -105,6 +117,7 @@ void mprt_replay_destroy(mprt_replay *r)
 {
     if (!r) return;
     mprt__replay_free_run(r);
+    mprt__replay_memory_free(r);
     mprt__replay_free_trace(r);
     free(r);
 }

@@ -53,10 +53,15 @@ static int prepare_rays(mprt_replay *r, const mprt_trace_ray *rays, size_t nr)
     r->ntrees = t + 1;
     /* cs[p + 2] counts p's children; after the sums cs[p + 1] is where they go */
     for (i = 2; i < nr + 2; i++) cs[i] += cs[i - 1];
-    if (RESERVE(r, child, cap_child, (size_t)cs[nr + 1] + 1))
+    r->nchild = (size_t)cs[nr + 1];
+    if (RESERVE(r, child, cap_child, r->nchild + 1) || RESERVE(r, child_kind, cap_child_kind, r->nchild + 1))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", nr);
     for (i = 0; i < nr; i++)
-        if (rays[i].kind != MPRT_RAY_PRIMARY) r->child[cs[rays[i].parent + 1]++] = (int64_t)i;
+        if (rays[i].kind != MPRT_RAY_PRIMARY) {
+            int64_t c = cs[rays[i].parent + 1]++;
+            r->child[c] = (int64_t)i;
+            r->child_kind[c] = rays[i].kind;     /* for the ring's packet sizes (mprt_replay_set_flits) */
+        }
     /* now cs[p] .. cs[p + 1] are p's children; the most leaves of any tree */
     r->max_leaves = 0;
     for (i = 0; i <= nr; i++) {
@@ -176,6 +181,12 @@ void mprt__replay_free_trace(mprt_replay *r)
     r->tree_admit = NULL;
     free(r->tree_busy);
     r->tree_busy = NULL;
+    free(r->pflits);
+    free(r->child_kind);
+    r->pflits = NULL;
+    r->child_kind = NULL;
+    r->cap_pflits = r->cap_child_kind = r->nchild = 0;
+    r->flits_set = 0;
     r->cap_tree_busy = 0;
     r->vi = NULL;
     r->ray_first = r->child_start = r->tree_of = r->child = r->tree_first = r->tree_cost = NULL;
@@ -200,8 +211,10 @@ int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, c
     int rc;
     if (!r) return MPRT_ERR_INVALID_ARG;
     mprt__replay_free_run(r);
+    mprt__replay_memory_free(r);     /* the memory data was the last trace's */
     r->errmsg[0] = '\0';
     r->loaded = 0;
+    r->flits_set = 0;
     r->ntrees = r->max_leaves = r->total = 0;
     if ((nrays && !rays) || (nvisits && !visits)) return fail(r, MPRT_ERR_INVALID_ARG, "rays or visits: missing");
     r->nv = nvisits;

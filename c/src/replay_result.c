@@ -5,7 +5,7 @@
 static int64_t f_area(const fifo *f, int64_t end)
 {
     int64_t t = end > f->last ? end : f->last;
-    return (int64_t)(f->sojourn + (uint64_t)f->q.len * (uint64_t)t);
+    return (int64_t)(f->sojourn + ((uint64_t)f->q.len + (uint64_t)f->reserved) * (uint64_t)t);
 }
 
 /* ---- results ---------------------------------------------------------------------- */
@@ -80,6 +80,8 @@ int mprt_replay_get_nodes(const mprt_replay *r, mprt_replay_node *out, size_t ca
         o->send_puts = nd->sf.puts;
         o->send_area = f_area(&nd->sf, end);
         o->generated = nd->generated;
+        o->receive_reserved = nd->rf.reserved;
+        for (k = 0; nd->feed && k < nd->n; k++) o->receive_reserved += nd->rfs[k].reserved;
     }
     return MPRT_OK;
 }

@@ -84,12 +84,14 @@ VISIT_DTYPE = _record_dtype(_FFI, "mprt_trace_visit")
 REPLAY_PROC_DTYPE = _record_dtype(_FFI, "mprt_replay_proc")
 REPLAY_NODE_DTYPE = _record_dtype(_FFI, "mprt_replay_node")
 REPLAY_PE_DTYPE = _record_dtype(_FFI, "mprt_replay_pe")
+REPLAY_MEMORY_DTYPE = _record_dtype(_FFI, "mprt_replay_memory")
 # What each C element type of a buffer argument is in numpy (Binding._buffer checks it).
 _CTYPE_DTYPES = {"double": np.dtype(np.float64), "float": np.dtype(np.float32), "int32_t": np.dtype(np.int32),
                  "int": np.dtype(f"i{_FFI.sizeof('int')}"),
                  "int64_t": np.dtype(np.int64), "uint32_t": np.dtype(np.uint32), "mprt_trace_ray": RAY_DTYPE,
                  "mprt_trace_visit": VISIT_DTYPE, "mprt_replay_proc": REPLAY_PROC_DTYPE,
-                 "mprt_replay_node": REPLAY_NODE_DTYPE, "mprt_replay_pe": REPLAY_PE_DTYPE}
+                 "mprt_replay_node": REPLAY_NODE_DTYPE, "mprt_replay_pe": REPLAY_PE_DTYPE,
+                 "mprt_replay_memory": REPLAY_MEMORY_DTYPE}
 for _ctype, _dt in (("mprt_trace_ray", RAY_DTYPE), ("mprt_trace_visit", VISIT_DTYPE)):
     if _record_dtype(_mprt32.ffi, _ctype) != _dt:
         raise ImportError(f"{_ctype} differs between the double and the single build")
@@ -467,6 +469,14 @@ class Binding:
                                               len(visits), *(self._in("int64_t", a, len(visits)) for a in costs)),
                     self.lib.mprt_replay_errmsg, h)
 
+    def replay_set_flits(self, h, flits: np.ndarray, kid_flits, inject_flits: int) -> None:
+        """The packets' sizes for the ring: flits per visit (of the packet it sends on), per ray
+        kind of a ray SC made, and of a primary ray SC made (copied)."""
+        f = np.ascontiguousarray(flits, dtype=np.int64)
+        k = np.ascontiguousarray(kid_flits, dtype=np.int64)
+        self._check(self.lib.mprt_replay_set_flits(h, self._in("int64_t", f), f.size, self._in("int64_t", k), k.size,
+                                                   int(inject_flits)), self.lib.mprt_replay_errmsg, h)
+
     def replay_run(self, h, log: np.ndarray | None = None) -> bool:
         """Replay the loaded trace; ``log`` (int64, 8 * (visits + primary rays) entries)
         receives the events.  False when the machine deadlocked (its state stays readable
@@ -524,6 +534,23 @@ class Binding:
         out = np.zeros((trees, stages), dtype=np.int64)
         self._got(self.lib.mprt_replay_get_tree_busy(h, self._out("int64_t", out), out.size), "tree_busy")
         return out
+
+    def replay_get_links(self, h, pes: int, stages: int) -> np.ndarray:
+        """Each ring link's busy cycles (int64[pes, stages]: link n from stage n to n + 1)."""
+        out = np.zeros((pes, stages), dtype=np.int64)
+        self._got(self.lib.mprt_replay_get_links(h, self._out("int64_t", out), out.size), "links")
+        return out
+
+    def replay_get_ring(self, h, pe: int, stages: int, classes: int):
+        """PE pe's ring at the end: (buffers int64[stages, classes]: source x 4 + destination
+        stage of the packet holding each, -1 free; waiting packets int64[n, 4]: source,
+        destination, node, phase, in the order they began to wait)."""
+        n = self.ffi.new("size_t *")
+        buffers = np.zeros((stages, classes), dtype=np.int64)
+        waiting = np.zeros((4 * 3, ), dtype=np.int64)
+        self._got(self.lib.mprt_replay_get_ring(h, pe, self._out("int64_t", buffers), buffers.size,
+                                                self._out("int64_t", waiting), waiting.size, n), "ring")
+        return buffers, waiting[: 4 * n[0]].reshape(-1, 4)
 
     def replay_get_waiters(self, h, pe: int, stage: int, which: int) -> list:
         """Who waits for a slot in a stage's receive FIFO (which 0: sending stages, -1 the DIS)
@@ -588,6 +615,46 @@ class Binding:
                                                    len(rays), self._in("int32_t", pk, len(pk)), len(pk),
                                                    self._in("mprt_trace_visit", visits, n), n, int(prev_ray),
                                                    int(prev_outcome), *outs, int(threads), msg, len(msg)), msg)
+
+    # -- replay: level 3, the memories ---------------------------------------------------
+    def replay_set_memory(self, h, key: np.ndarray, ic: dict | None, sc: dict | None) -> None:
+        """Give the loaded trace its memory data (copied): ``key`` int32 per visit (>= 0 an IC
+        key, <= -2 SC key -2 - key, -1 none); ``ic``, ``sc``: None or dicts of ``line`` (bytes)
+        and per key ``items``, ``resident`` (int32), ``line_start`` (int64, keys + 1), ``lines``
+        (int64 line numbers)."""
+        ffi = self.ffi
+        keep = []
+
+        def data(d):
+            if d is None:
+                return ffi.NULL
+            c = ffi.new("mprt_replay_memory_data *")
+            arrs = {k: np.ascontiguousarray(d[k], dtype=t) for k, t in
+                    (("items", np.int32), ("resident", np.int32), ("line_start", np.int64), ("lines", np.int64))}
+            n = len(arrs["items"])
+            if len(arrs["resident"]) != n or len(arrs["line_start"]) != n + 1:
+                raise InvalidArgument("memory data: items, resident and line_start (keys + 1) differ in length")
+            if len(arrs["lines"]) < (int(arrs["line_start"][-1]) if n + 1 else 0):
+                raise InvalidArgument("memory data: fewer lines than line_start says")
+            keep.append(arrs)
+            c.nkeys, c.line = n, int(d["line"])
+            c.items, c.resident = self._in("int32_t", arrs["items"]), self._in("int32_t", arrs["resident"])
+            c.line_start, c.lines = self._in("int64_t", arrs["line_start"]), self._in("int64_t", arrs["lines"])
+            keep.append(c)
+            return c
+
+        k = np.ascontiguousarray(key, dtype=np.int32)
+        self._check(self.lib.mprt_replay_set_memory(h, self._in("int32_t", k), len(k), data(ic), data(sc)),
+                    self.lib.mprt_replay_errmsg, h)
+
+    def replay_get_memory(self, h, pes: int, processors: int):
+        """The last run's memory figures: (REPLAY_MEMORY_DTYPE[pes, 2] per PE and memory (IC, SC),
+        int64[processors] memory stall per processor)."""
+        out = np.zeros(2 * pes, dtype=REPLAY_MEMORY_DTYPE)
+        stall = np.zeros(max(processors, 1), dtype=np.int64)
+        self._got(self.lib.mprt_replay_get_memory(h, self._out("mprt_replay_memory", out), out.size,
+                                                  self._out("int64_t", stall), processors), "memory")
+        return out.reshape(pes, 2), stall[:processors]
 
     # -- images ------------------------------------------------------------------------
     def samples_to_image(self, rules: int, samples: np.ndarray) -> np.ndarray:

@@ -6,13 +6,17 @@
  * ..., SC, SC visits making the children), then, when the input asks for it,
  * damaged: a record's ray, stage, kind, parent or made count overwritten with
  * an input byte, a cost made negative or huge, the arrays cut short.  The
- * configuration takes every field from the input, in and out of range.
+ * configuration takes every field from the input, in and out of range.  Bytes
+ * after those (none in older inputs: then level 1) may add the ring (buffer
+ * classes, flit time, packet sizes) and the memories (caches, lines, ways,
+ * latency, bandwidth, ports, and per-key data of a few lines), so levels 2
+ * and 3 and both together are fuzzed too.
  *
  * Besides crashes, hangs and sanitizer reports, it aborts when
  *   - a call fails without a message, or a well-formed trace is refused;
  *   - a finished run has not retired every ray, or its cycles are below the
- *     longest visit or (one stage, one processor, one PE) differ from the sum
- *     of all visits' cycles (model S never waits);
+ *     longest visit or (one stage, one processor, one PE, no memories) differ
+ *     from the sum of all visits' cycles (model S never waits);
  *   - a second run of the same configuration gives other cycles (determinism),
  *     or a deadlock is reported by one run and not the other.
  *
@@ -142,6 +146,76 @@ static void config(mprt_replay_config *c, bytes *b)
     }
 }
 
+/* The memory data of levels 3 from the input: 3 keys of 0 to 3 lines each, line numbers up
+ * to 63 (or far, now and then), items and resident items; visits read key (byte % 4) - 1. */
+typedef struct {
+    int32_t key[MAX_VISITS], items[3], res[3];
+    int64_t start[4], lines[9];
+} memdata;
+
+static void levels_2_and_3(mprt_replay_config *c, const trace *t, size_t nv, bytes *b, mprt_replay *r,
+                           memdata *m, int64_t *flits)
+{
+    unsigned what = next(b), k, i;
+    int64_t kid[4];
+    mprt_replay_memory_data d;
+    if (what & 1) {                                   /* the ring */
+        c->ring = c->nstages >= 2 || next(b) == 0xff;
+        c->buffer_classes = 1 + (int)(next(b) % (unsigned)(c->nstages > 0 && c->nstages < 4 ? c->nstages : 1));
+        c->flit_time = 1 + (int64_t)(next(b) % 3);
+        for (i = 0; i < nv; i++) flits[i] = (int64_t)(next(b) % 6);
+        for (k = 0; k < 4; k++) kid[k] = (int64_t)(next(b) % 4);
+        if (mprt_replay_set_flits(r, flits, nv, kid, 4, (int64_t)(next(b) % 3)) != MPRT_OK &&
+            !mprt_replay_errmsg(r)[0])
+            FAIL("set_flits failed without a message");
+    }
+    if (what & 6) {                                   /* the memories: IC (2), SC (4) */
+        m->start[0] = 0;
+        for (k = 0; k < 3; k++) {
+            unsigned n = next(b) % 4;
+            m->items[k] = (int32_t)(next(b) % 5);
+            m->res[k] = (int32_t)(next(b) % 3);
+            if (m->res[k] > m->items[k] && next(b) != 0xfc) m->res[k] = m->items[k];   /* else: refused */
+            m->start[k + 1] = m->start[k] + n;
+            for (i = 0; i < n; i++)
+                m->lines[m->start[k] + i] = next(b) == 0xfe ? (int64_t)1 << 30 : (int64_t)(next(b) % 64);
+        }
+        for (i = 0; i < nv; i++) {
+            unsigned x = next(b) % 5;
+            m->key[i] = x == 0 ? -1 : x <= 2 ? (int32_t)(x - 1) : -(int32_t)(x - 1);   /* -2, -3: SC keys */
+        }
+        for (k = 0; k < 2; k++) {
+            if (!(what & (2u << k))) continue;
+            c->memory[k] = 1;
+            c->cache_line[k] = (int64_t)1 << (next(b) % 4);
+            c->cache_ways[k] = 1 + (int64_t)(next(b) % 3);
+            c->cache_size[k] = c->cache_line[k] * c->cache_ways[k] * (int64_t)(next(b) % 5);   /* 0: none */
+            if (next(b) == 0xfd) c->cache_size[k] = MPRT_REPLAY_MAX_CACHE;                       /* huge */
+            c->gm_latency[k] = (int64_t)(next(b) % 9);
+            c->gm_bandwidth[k] = 1 + (int64_t)(next(b) % 8);
+            c->gm_contention[k] = (int)(next(b) & 1);
+        }
+        d.nkeys = 3;
+        d.line = c->cache_line[0] ? c->cache_line[0] : 1;
+        d.items = m->items;
+        d.resident = m->res;
+        d.line_start = m->start;
+        d.lines = m->lines;
+        {
+            mprt_replay_memory_data e = d;
+            e.line = c->cache_line[1] ? c->cache_line[1] : 1;
+            if (mprt_replay_set_memory(r, m->key, nv, (what & 2) ? &d : NULL, (what & 4) ? &e : NULL) != MPRT_OK) {
+                if (!mprt_replay_errmsg(r)[0]) FAIL("set_memory failed without a message");
+#ifdef FUZZ_STATS
+                fprintf(stderr, "set_memory: %s\n", mprt_replay_errmsg(r));
+#endif
+            }
+        }
+    }
+    (void)t;
+    if (mprt_replay_set_config(r, c) != MPRT_OK && !mprt_replay_errmsg(r)[0]) FAIL("set_config failed without a message");
+}
+
 /* Damage one record or cost (returns 1 when something was damaged). */
 static int damage(trace *t, bytes *b)
 {
@@ -179,6 +253,8 @@ static int64_t run_once(mprt_replay *r, int *deadlocked)
 int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
 {
     static trace t;
+    static memdata md;
+    static int64_t flits[MAX_VISITS];
     bytes b = {data, size, 0};
     mprt_replay_config c;
     mprt_replay *r = NULL;
@@ -215,7 +291,12 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
         mprt_replay_destroy(r);
         return 0;
     }
+    levels_2_and_3(&c, &t, nv, &b, r, &md, flits);
     c1 = run_once(r, &d1);
+#ifdef FUZZ_STATS
+    fprintf(stderr, "stats ring %d memory %d %d cycles %lld deadlock %d: %s\n", c.ring, c.memory[0], c.memory[1],
+            (long long)c1, d1, mprt_replay_errmsg(r));
+#endif
     c2 = run_once(r, &d2);
     if (c1 != c2 || d1 != d2) FAIL("two runs differ: %lld (deadlock %d) and %lld (deadlock %d)", (long long)c1, d1,
                                    (long long)c2, d2);
@@ -227,7 +308,8 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
             longest = v > longest ? v : longest;
         }
         if (c1 < longest) FAIL("%lld cycles, below the longest visit's %lld", (long long)c1, (long long)longest);
-        if (c.nstages == 1 && c.replicas[0] == 1 && c.pes == 1 && c.gen_cycles == 0 && c1 != total)
+        if (c.nstages == 1 && c.replicas[0] == 1 && c.pes == 1 && c.gen_cycles == 0 && !c.memory[0] &&
+            !c.memory[1] && c1 != total)
             FAIL("one processor took %lld cycles for visits of %lld", (long long)c1, (long long)total);
     }
     mprt_replay_destroy(r);

@@ -6,7 +6,7 @@ in packets of the largest ray packet), the ring when there is more than one
 processor, and IC and SC memories of the design's resident and cache sizes over
 ICGM and SCGM shared by the PEs.  The fidelity ladder models that machine at a
 level: 0 analytical, 1 the compiled exact replay of it without ring and
-memories, 2 with its ring (SimPy), 3 as written (SimPy); see
+memories, 2 with its ring, 3 as written (ring and memories), all compiled; see
 ``python/mprt/fidelity/README.md``.  ``TraceEvaluator`` keeps a trace's kernel
 counts (``CostModel.counted``) so that each new set of processors is priced in
 milliseconds, and a few ``fidelity.Evaluator``s, one per set of processors

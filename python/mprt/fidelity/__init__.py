@@ -2,8 +2,8 @@
 
     level 0  analytical: stage loads and critical paths of the costed trace (numpy)
     level 1  ideal network and memory, replayed exactly by the compiled replay (C)
-    level 2  the ring and finite FIFOs (SimPy; compiled where the machine has no ring)
-    level 3  caches, resident and global memories (SimPy; compiled where it has none)
+    level 2  the ring and finite FIFOs, replayed exactly by the compiled replay too
+    level 3  caches, resident and global memories, replayed exactly by the compiled replay too
 
     >>> import mprt
     >>> from mprt.fidelity import evaluate, measure, replay

@@ -1,17 +1,25 @@
 """The compiled engine: the C replay (``mprt_replay_*`` in mprt.h) of the
-machine model's ideal-network configurations, with the SimPy model's result.
+machine model's configurations at levels 1 to 3 (the ideal network or the
+ring, ideal memories or the modelled ones), with the SimPy model's result.
 
 ``replay(trace, config)`` takes what ``mprt.machine.simulate`` takes and
 returns the same ``SimResult`` (same cycles, same per-stage processing,
 communication and waiting, same FIFO, processor and PE figures), or raises
-the same ``DeadlockError``.  It supports every configuration without a ring
-(level 2) and without modelled memories (level 3): any stages, mapping,
-replicas and their feeds, FIFO capacities, PEs, DIS policy and window.  ``unsupported(config)``
-says why a configuration is not one of those.
+the same ``DeadlockError``.  It supports every configuration the SimPy model
+models: any stages, mapping, replicas and their feeds, FIFO capacities, PEs,
+DIS policy and window, on the ideal network or the ring (flit time, buffer
+classes), with ideal memories or the memories of level 3 (caches, resident
+memories, ICGM and SCGM with their ports; the per-key data from
+``memdata.MemoryData``).  ``unsupported(config)`` is None for all of them; a
+run refuses (ConfigError, before it starts) only caches whose arrays over all
+PEs would exceed 2^28 entries (pes x entries per PE: a PE's sets x ways,
+limited by the lines the trace's data can fill).
 
 The costs per visit are the cost model's (``visit_costs`` on the
 configuration's processors) or the arrays given, exactly as the SimPy model
-takes them.  The figures are assembled by the machine model's own
+takes them; on the ring also their ``flits`` and ``inject_flits``, and the
+flits of the packets carrying the rays SC makes (``packet_flits("SC", "OS",
+kind)``, the cost model's).  The figures are assembled by the machine model's own
 ``System._result`` and ``System._deadlock`` over views of the C replay's
 counters, so a result cannot differ from SimPy's in how it is summed.
 """
@@ -25,7 +33,8 @@ from .._lowlevel import binding
 from ..errors import InvalidArgument
 from ..machine.config import DIS_POLICIES, FEEDS, SUBTASKS, SystemConfig, builtin
 from ..machine.errors import ConfigError
-from ..trace import TraceError
+from ..trace import RAY_KINDS, TraceError
+from .memdata import MemoryData
 from .views import SystemView
 
 _LIB = binding("double")
@@ -33,16 +42,11 @@ _DIS = {name: i for i, name in enumerate(DIS_POLICIES)}     # blocks, interleave
 
 
 def unsupported(config: SystemConfig) -> str | None:
-    """Why the compiled engine cannot replay a configuration (None: it can)."""
-    parts = []
-    if config.ring is not None:
-        parts.append("a ring network (level 2)")
-    if config.ic_memory is not None or config.sc_memory is not None:
-        parts.append("modelled memories (level 3)")
-    if not parts:
-        return None
-    return (f"configuration {config.name!r} has {' and '.join(parts)}; the compiled engine replays ideal-network, "
-            "ideal-memory machines only (use the SimPy engine, or --level 1)")
+    """Why the compiled engine cannot replay a configuration (None: it can).  It replays
+    every configuration the SimPy model models, so this is always None; the one thing a
+    run still refuses depends on the trace too (caches whose arrays over all PEs exceed
+    2^28 entries: a ConfigError from the run, before it starts)."""
+    return None
 
 
 def _cost_arrays(trace, costs):
@@ -64,7 +68,32 @@ def c_config(config: SystemConfig, gen_cycles: int) -> dict:
             "receive_fifo": [s.receive_fifo or 0 for s in config.stages] + pad,
             "send_fifo": [s.send_fifo or 0 for s in config.stages] + pad,
             "feed": [FEEDS.index(s.feed) for s in config.stages] + pad,
-            "pes": config.pes, "dis": _DIS[config.dis], "window": config.window, "gen_cycles": gen_cycles}
+            "pes": config.pes, "dis": _DIS[config.dis], "window": config.window, "gen_cycles": gen_cycles,
+            # level 2: the ring
+            "ring": int(config.ring is not None),
+            "buffer_classes": config.ring.buffer_classes if config.ring is not None else 1,
+            "flit_time": config.ring.flit_time if config.ring is not None else 1,
+            **memory_config(config)}
+
+
+def _line(mc) -> int:
+    """The line size a local memory reads in (its cache's, else the SimPy model's 32 bytes)."""
+    return mc.cache.line if mc.cache is not None else 32
+
+
+def memory_config(config: SystemConfig) -> dict:
+    """mprt_replay_config's level-3 fields (IC data, SC data)."""
+    f = {k: [0, 0] for k in ("memory", "cache_size", "cache_line", "cache_ways", "gm_latency", "gm_bandwidth",
+                            "gm_contention")}
+    for t, (mc, gm) in enumerate(((config.ic_memory, config.icgm), (config.sc_memory, config.scgm))):
+        if mc is None:
+            continue
+        f["memory"][t] = 1
+        f["cache_line"][t] = _line(mc)
+        if mc.cache is not None:
+            f["cache_size"][t], f["cache_ways"][t] = mc.cache.size, mc.cache.ways
+        f["gm_latency"][t], f["gm_bandwidth"][t], f["gm_contention"][t] = gm.latency, gm.bandwidth, int(gm.contention)
+    return f
 
 
 def _log(view, log, events):
@@ -76,15 +105,21 @@ def _log(view, log, events):
 
 class Compiled:
     """A costed trace loaded into the C replay (8 or 16 bytes per visit), ready to
-    run any ideal-network configuration whose processors the costs are for.
+    run any configuration whose processors the costs are for (``memory``: the
+    trace's MemoryData, to share it between loads).
 
     ``costs``: per-visit ``process``, ``receive``, ``send`` arrays (and
     ``inject_process``, ``inject_send`` for SC's making of primary rays), as
-    the cost model's ``visit_costs`` gives them."""
+    the cost model's ``visit_costs`` gives them; for the ring also ``flits``
+    (and ``inject_flits``), with ``packet_flits(src, dst, kind)`` sizing the
+    packets of the rays SC makes (default: the default cost model's)."""
 
-    def __init__(self, trace, costs):
+    def __init__(self, trace, costs, packet_flits=None, memory: MemoryData | None = None):
         process, receive, send, self.gen_process, self.gen_send = _cost_arrays(trace, costs)
         self.trace = trace
+        self.memory = memory if memory is not None else MemoryData.of(trace)
+        self._sent = None            # the memory data the C replay holds: ((tag, resident, line) | None) x 2
+        self._residents = {}
         self.h = _LIB.replay_create({})
         try:
             _LIB.replay_load(self.h, np.asarray(trace.rays), np.asarray(trace.visits), process, receive, send)
@@ -92,16 +127,47 @@ class Compiled:
             msg = str(e)
             raise (TraceError(msg) if msg.startswith("cannot replay this trace:") else ValueError(msg)) from None
         self.info = _LIB.replay_get_info(self.h)
+        self.flits = hasattr(costs, "flits")
+        if self.flits:      # the ring's packet sizes, as the SimPy model's Replay takes them
+            flits = np.asarray(costs.flits)
+            if flits.shape != (len(trace.visits),):
+                raise ValueError(f"costs.flits has shape {flits.shape}, the trace has {len(trace.visits)} visits")
+            if packet_flits is None:
+                from ..cost import CostModel
+
+                packet_flits = CostModel.default().packet_flits
+            kids = [packet_flits("SC", "OS", k) for k in range(len(RAY_KINDS))]
+            try:
+                _LIB.replay_set_flits(self.h, flits, kids, int(getattr(costs, "inject_flits", 0)))
+            except InvalidArgument as e:
+                raise ValueError(str(e)) from None
 
     def _configure(self, config: SystemConfig) -> None:
         why = unsupported(config)
         if why:
             raise ConfigError(why)
+        if config.ring is not None and not self.flits:
+            raise ValueError("costs.flits: the ring needs each visit's packet size (the costs have no flits)")
         where = f"{config.source}: " if config.source else ""
         try:
             _LIB.replay_set_config(self.h, c_config(config, self.gen_process + self.gen_send))
         except InvalidArgument as e:
             raise ConfigError(f"{where}{e}") from None
+        self._set_memory(config)
+
+    def _set_memory(self, config: SystemConfig) -> None:
+        """Hand the C replay the memory data the configuration reads (once per resident and
+        line size: cache sizes, ways, latencies and ports need none)."""
+        mems = (config.ic_memory, config.sc_memory)
+        if mems == (None, None):
+            return
+        want = tuple(None if mc is None else (tag, mc.resident, _line(mc)) for tag, mc in zip(("ic", "sc"), mems))
+        got = [None if w is None else self.memory.get(*w) for w in want]
+        self._residents = {w[0]: g[1] for w, g in zip(want, got) if w is not None}
+        if want != self._sent:
+            self._sent = None
+            _LIB.replay_set_memory(self.h, self.memory.keys, *(None if g is None else g[0] for g in got))
+            self._sent = want
 
     def _run(self, config, log=None) -> bool:
         self._configure(config)
@@ -113,12 +179,28 @@ class Compiled:
 
     def _view(self, config: SystemConfig) -> SystemView:
         info = _LIB.replay_get_info(self.h)
+        memory = None
+        if config.ic_memory is not None or config.sc_memory is not None:
+            figs, stall = _LIB.replay_get_memory(self.h, int(info["pes"]), int(info["processors"]))
+            res = {tag: (self._residents[tag].used, mc.resident, mc.cache is not None)
+                   for tag, mc in (("ic", config.ic_memory), ("sc", config.sc_memory)) if mc is not None}
+            memory = (figs, stall, res)
         return SystemView(self.trace, config, max(int(info["cycles"]), 0), info["retired"],
                           _LIB.replay_get_pes(self.h, int(info["pes"])),
                           _LIB.replay_get_procs(self.h, int(info["processors"])),
                           _LIB.replay_get_nodes(self.h, int(info["nodes"])), self.gen_process, self.gen_send,
                           int(info["visits"]), int(info["rays"]), int(info["max_leaves"]),
-                          lambda p, s, which: _LIB.replay_get_waiters(self.h, p, s, which))
+                          lambda p, s, which: _LIB.replay_get_waiters(self.h, p, s, which), self._ring(config),
+                          memory)
+
+    def _ring(self, config: SystemConfig):
+        """The ring's figures of the last run (None: the ideal network): each link's busy
+        cycles per PE, and a PE's buffers and waiting packets (views.RingView's)."""
+        if config.ring is None:
+            return None
+        K, C = len(config.stages), config.ring.buffer_classes
+        return (_LIB.replay_get_links(self.h, config.pes, K),
+                lambda p: _LIB.replay_get_ring(self.h, p, K, C))
 
     def cycles(self, config: SystemConfig) -> int:
         """The run's cycles (nothing else assembled); DeadlockError if it deadlocks."""
@@ -169,18 +251,23 @@ def costs_for(trace, config: SystemConfig, cost_model=None):
     return cost_model.visit_costs(trace, config.processors())
 
 
-def replay(trace, config: SystemConfig | str = "M", cost_model=None, costs=None, record: bool = False):
-    """Replay a trace on an ideal-network configuration with the compiled
-    engine: what ``mprt.machine.simulate`` returns (``record``: with its event
-    log), or raises (DeadlockError, ConfigError for a configuration the
-    compiled engine does not support, see ``unsupported``)."""
+def replay(trace, config: SystemConfig | str = "M", cost_model=None, costs=None, record: bool = False,
+           packet_flits=None):
+    """Replay a trace on a configuration with the compiled engine (any level: the
+    ring, the memories): what ``mprt.machine.simulate`` returns (``record``: with
+    its event log), or raises (DeadlockError, ConfigError for a configuration
+    the compiled engine refuses, see ``unsupported``).
+    ``packet_flits``: as ``simulate``'s (default: the cost model's)."""
     if isinstance(config, str):
         config = builtin(config)
     why = unsupported(config)
     if why:
         raise ConfigError(why)
     t0 = time.perf_counter()
-    res = Compiled(trace, costs if costs is not None else costs_for(trace, config, cost_model)).result(config, record)
+    if packet_flits is None and cost_model is not None:
+        packet_flits = cost_model.packet_flits
+    res = Compiled(trace, costs if costs is not None else costs_for(trace, config, cost_model),
+                   packet_flits).result(config, record)
     res.wall_seconds = time.perf_counter() - t0
     return res
 

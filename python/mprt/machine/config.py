@@ -27,6 +27,7 @@ DIS_POLICIES = ("blocks", "interleaved", "dynamic")
 # How a stage's copies get their packets: one shared receive FIFO (an idle copy takes the
 # next packet), or a receive FIFO per copy fed round-robin or by the shortest queue.
 FEEDS = ("shared", "round-robin", "shortest-queue")
+MAX_CACHE = 1 << 40     # bytes: the largest cache a configuration may have (both engines)
 
 
 @dataclass(frozen=True)
@@ -208,14 +209,13 @@ LIMITS = {
     "receive_fifo": 1 << 20,
     "flit_time": 1 << 16,       # cycles per flit
     "resident": 1 << 40,        # bytes
-    "size": 1 << 30,            # cache bytes
     "line": 1 << 12,            # cache line bytes
     "ways": 1 << 10,
     "latency": 1 << 20,         # global memory cycles
     "bandwidth": 1 << 20,       # bytes per cycle
 }
-MAX_CACHE_LINES = 1 << 22       # size / line: the cache's tags are kept in flat arrays
-MAX_MACHINE_LINES = 1 << 25     # cache lines of all PEs together (8 bytes of tag each)
+# (cache bytes: at most MAX_CACHE; the compiled replay sizes its caches by the data they can
+# hold and refuses, before a run, caches of more than 2^28 entries over all PEs)
 
 
 def _int(value, where, name, lo=1, allow_none=False):
@@ -275,14 +275,13 @@ def _validate(cfg: SystemConfig) -> None:
                 _int(c.size, w, f"{tag}_memory.cache.size")
                 _int(c.line, w, f"{tag}_memory.cache.line")
                 _int(c.ways, w, f"{tag}_memory.cache.ways")
+                if c.size > MAX_CACHE:
+                    raise ConfigError(f"{w}{tag}_memory.cache.size: at most 2^40 bytes (1 TiB), not {c.size}")
                 if c.line > c.size:
                     raise ConfigError(f"{w}{tag}_memory.cache.line: the line ({c.line} bytes) is larger than "
                                       f"the cache ({c.size} bytes)")
                 if c.line & (c.line - 1):
                     raise ConfigError(f"{w}{tag}_memory.cache.line: must be a power of two, not {c.line}")
-                if c.size // c.line > MAX_CACHE_LINES:
-                    raise ConfigError(f"{w}{tag}_memory.cache: {c.size // c.line} lines of {c.line} bytes; at most "
-                                      f"{MAX_CACHE_LINES} lines (use longer lines or a smaller cache)")
                 if c.size % (c.line * c.ways):
                     raise ConfigError(f"{w}{tag}_memory.cache.size: {c.size} bytes is not a whole number of "
                                       f"sets of {c.ways} ways x {c.line}-byte lines")
@@ -295,11 +294,6 @@ def _validate(cfg: SystemConfig) -> None:
             if not isinstance(gm.contention, bool):
                 raise ConfigError(f"{w}{tag}gm.contention: must be true or false, not {gm.contention!r}")
     _int(cfg.pes, w, "pes")
-    lines = sum(m.cache.size // m.cache.line for m in (cfg.ic_memory, cfg.sc_memory)
-                if m is not None and m.cache is not None)
-    if lines * cfg.pes > MAX_MACHINE_LINES:
-        raise ConfigError(f"{w}pes: {cfg.pes} PEs x {lines} cache lines each = {lines * cfg.pes} lines in all; at "
-                          f"most {MAX_MACHINE_LINES} (the caches are per PE: fewer PEs or smaller caches)")
     if cfg.dis not in DIS_POLICIES:
         raise ConfigError(f"{w}dis: unknown policy {cfg.dis!r} (known: {', '.join(DIS_POLICIES)})")
     _int(cfg.window, w, "window")

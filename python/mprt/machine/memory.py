@@ -23,6 +23,8 @@ fits; an item that does not fit is skipped.
 """
 from __future__ import annotations
 
+from collections import defaultdict
+
 import numpy as np
 
 from ..trace import IC, SC
@@ -40,7 +42,7 @@ class Cache:
         self.line = cfg.line
         self.ways = cfg.ways
         self.nsets = cfg.size // (cfg.line * cfg.ways)
-        self.sets = [[] for _ in range(self.nsets)]
+        self.sets = defaultdict(list)     # set index -> lines, least recently used first (made when used)
         self.accesses = 0
         self.hits = 0
 
@@ -97,17 +99,34 @@ class GlobalMemory:
         return start + xfer + self.latency
 
 
-def _choose(size, candidates):
-    """Greedy resident set: candidates (refs, order, kind, id, bytes) sorted."""
-    chosen = []
-    used = 0
-    for refs, _, kind, i, nbytes in candidates:
-        if refs <= 0:
+def _greedy(nbytes, size: int) -> np.ndarray:
+    """Which items, in the given order, are taken when each is taken if it still fits
+    (boolean array).  Vectorised: a prefix that fits is taken, the next item is not, and
+    items larger than what is left can never be; repeated on the rest."""
+    nbytes = np.asarray(nbytes, dtype=np.int64)
+    take = np.zeros(len(nbytes), dtype=bool)
+    idx = np.arange(len(nbytes))
+    b = nbytes
+    rem = int(size)
+    rounds = 0
+    while len(idx):
+        rounds += 1
+        if rounds > 64:                       # a long tail of near misses: one by one
+            for i, n in zip(idx.tolist(), b.tolist()):
+                if n <= rem:
+                    take[i] = True
+                    rem -= n
             break
-        if used + nbytes <= size:
-            chosen.append((kind, i))
-            used += nbytes
-    return chosen, used
+        cs = np.cumsum(b)
+        k = int(np.searchsorted(cs, rem, "right"))
+        take[idx[:k]] = True
+        if k == len(idx):
+            break
+        if k:
+            rem -= int(cs[k - 1])
+        keep = b[k + 1:] <= rem
+        idx, b = idx[k + 1:][keep], b[k + 1:][keep]
+    return take
 
 
 class DataLayout:
@@ -141,28 +160,31 @@ class DataLayout:
 
     def ic_resident(self, size: int) -> ResidentMemory:
         lens = np.diff(self.voxel_start)
-        cands = [(int(r), 0, "list", i, CELL_BYTES * int(n)) for i, (r, n) in enumerate(zip(self.voxel_refs, lens))
-                 if r > 0 and n > 0]
-        cands += [(int(r), 1, "shape", i, int(b)) for i, (r, b) in enumerate(zip(self.prim_refs, self.shape_bytes))
-                  if r > 0]
-        cands.sort(key=lambda c: (-c[0], c[1], c[3]))
-        chosen, used = _choose(size, cands)
+        vox = np.flatnonzero((self.voxel_refs > 0) & (lens > 0))
+        prim = np.flatnonzero(self.prim_refs > 0)
+        refs = np.concatenate([self.voxel_refs[vox], self.prim_refs[prim]])
+        kind = np.concatenate([np.zeros(len(vox), np.int64), np.ones(len(prim), np.int64)])
+        ids = np.concatenate([vox, prim])
+        nbytes = np.concatenate([CELL_BYTES * lens[vox], self.shape_bytes[prim]])
+        order = np.lexsort((ids, kind, -refs))        # most referenced first; lists first; lower id
+        take = np.zeros(len(order), bool)
+        take[order] = _greedy(nbytes[order], size)
         items = {"list": np.zeros(len(lens), bool), "shape": np.zeros(len(self.shape_bytes), bool)}
-        for kind, i in chosen:
-            items[kind][i] = True
+        items["list"][vox[take[:len(vox)]]] = True
+        items["shape"][prim[take[len(vox):]]] = True
         rm = ResidentMemory(size, items)
-        rm.used = used
+        rm.used = int(nbytes[take].sum())
         return rm
 
     def sc_resident(self, size: int) -> ResidentMemory:
-        cands = [(int(r), 0, "material", i, MATERIAL_BYTES) for i, r in enumerate(self.material_refs) if r > 0]
-        cands.sort(key=lambda c: (-c[0], c[3]))
-        chosen, used = _choose(size, cands)
+        mat = np.flatnonzero(self.material_refs > 0)
+        order = np.lexsort((mat, -self.material_refs[mat]))
+        take = np.zeros(len(mat), bool)
+        take[order] = _greedy(np.full(len(mat), MATERIAL_BYTES), size)
         items = {"material": np.zeros(len(self.material_refs), bool)}
-        for _, i in chosen:
-            items["material"][i] = True
+        items["material"][mat[take]] = True
         rm = ResidentMemory(size, items)
-        rm.used = used
+        rm.used = MATERIAL_BYTES * int(take.sum())
         return rm
 
 

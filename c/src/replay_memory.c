@@ -1,0 +1,401 @@
+/* replay_memory.c: level 3 of the compiled replay, the memories (see mprt.h and
+ * python/mprt/machine/memory.py, whose rules it follows step for step).
+ *
+ * Per memory (IC data behind ICGM, SC data behind SCGM) the caller gives, per
+ * key (a voxel, a material), the items a visit reads and how many of them are
+ * resident, and the lines it reads outside resident memory.  A run gives every
+ * PE a local memory per modelled memory: a cache (flat arrays, nsets x ways
+ * line numbers in LRU order, most recent first; no per-set allocation) and its
+ * figures; the global memory has one port, or one per PE.  When a visit starts
+ * (mprt__replay_stall) its lines go through the cache, and each miss is read
+ * after the previous one's data is back: from the port's first free cycle,
+ * for the line's transfer, plus the latency.  The stall is when the last data
+ * is back, less the start.
+ *
+ * A cache is never allocated larger than its data can fill: with more sets
+ * than lines (numbers 0..L-1) every line has a set of its own, as it has with
+ * L sets (line mod L = line); a set never holds more lines than map to it, so
+ * ways beyond that never evict.  So the arrays hold at most about 2L lines per
+ * PE whatever the configured size, and the result is the configured cache's. */
+#include "replay.h"
+
+/* A key's data, in one place (a visit reads all of it): its lines are
+ * lines[start .. next key's start). */
+typedef struct {
+    int64_t start;
+    int32_t items, res;
+} keyinfo;
+
+typedef struct {
+    int64_t *tags;               /* nsets x ways line numbers, most recently used first */
+    int64_t *count;              /* per set: lines held */
+    mprt_replay_memory fig;
+} local_mem;
+
+typedef struct {
+    /* the data (mprt_replay_set_memory) */
+    int has;
+    size_t nkeys;
+    int64_t line, span;          /* span: the largest line number + 1 */
+    keyinfo *info;               /* per key + 1 */
+    int64_t *lines;
+    int64_t reads;               /* the visits' lines in all (at most MAX_READS): bounds a run's reads */
+    /* a run */
+    int on, cached, pow2, nports;
+    int64_t nsets, ways, xfer, latency;
+    int64_t *port_free;
+    int64_t *tags, *count;
+    local_mem *loc;              /* per PE */
+} memory;
+
+struct mprt__mem {
+    int32_t *key;                /* per visit */
+    size_t nv;
+    memory m[2];
+};
+
+#define MAX_READS ((int64_t)1 << 62)
+#define MAX_LINE ((int64_t)1 << 40)
+
+static const char *NAME[2] = {"IC", "SC"};
+
+static int pow2(int64_t x) { return x > 0 && (x & (x - 1)) == 0; }
+
+/* ---- the configuration ---------------------------------------------------------- */
+
+int mprt__replay_memory_check(mprt_replay *r, const mprt_replay_config *c)
+{
+    int t;
+    for (t = 0; t < 2; t++) {
+        int64_t size = c->cache_size[t], line = c->cache_line[t], ways = c->cache_ways[t];
+        if (c->memory[t] != 0 && c->memory[t] != 1)
+            return fail(r, MPRT_ERR_INVALID_ARG, "memory[%d]: must be 0 or 1 (%s data modelled), not %d", t,
+                        NAME[t], c->memory[t]);
+        if (!c->memory[t]) continue;
+        if (line < 1 || line > MAX_LINE || !pow2(line))
+            return fail(r, MPRT_ERR_INVALID_ARG, "cache_line[%d]: must be a power of two up to 2^40 bytes, not %lld",
+                        t, (long long)line);
+        if (size < 0 || size > MPRT_REPLAY_MAX_CACHE)
+            return fail(r, MPRT_ERR_INVALID_ARG, "cache_size[%d]: must be 0 (no cache) to 2^40 bytes, not %lld", t,
+                        (long long)size);
+        if (size > 0) {
+            if (ways < 1 || ways > size / line)
+                return fail(r, MPRT_ERR_INVALID_ARG, "cache_ways[%d]: must be 1..%lld (cache_size / cache_line), "
+                            "not %lld", t, (long long)(size / line), (long long)ways);
+            if (size % (line * ways))
+                return fail(r, MPRT_ERR_INVALID_ARG, "cache_size[%d]: %lld bytes is not a whole number of sets of "
+                            "%lld ways x %lld-byte lines", t, (long long)size, (long long)ways, (long long)line);
+        }
+        if (c->gm_latency[t] < 0 || c->gm_latency[t] > MAX_READS)
+            return fail(r, MPRT_ERR_INVALID_ARG, "gm_latency[%d]: must be 0..2^62 cycles, not %lld", t,
+                        (long long)c->gm_latency[t]);
+        if (c->gm_bandwidth[t] < 1)
+            return fail(r, MPRT_ERR_INVALID_ARG, "gm_bandwidth[%d]: must be >= 1 byte per cycle, not %lld", t,
+                        (long long)c->gm_bandwidth[t]);
+        if (c->gm_contention[t] != 0 && c->gm_contention[t] != 1)
+            return fail(r, MPRT_ERR_INVALID_ARG, "gm_contention[%d]: must be 0 or 1, not %d", t,
+                        c->gm_contention[t]);
+    }
+    return MPRT_OK;
+}
+
+/* ---- the data --------------------------------------------------------------------- */
+
+static void free_data(memory *m)
+{
+    free(m->info);
+    free(m->lines);
+    m->info = NULL;
+    m->lines = NULL;
+    m->has = 0;
+    m->nkeys = 0;
+}
+
+void mprt__replay_memory_free(mprt_replay *r)
+{
+    struct mprt__mem *M = r->mem;
+    if (!M) return;
+    mprt__replay_memory_free_run(r);
+    free_data(&M->m[0]);
+    free_data(&M->m[1]);
+    free(M->key);
+    free(M);
+    r->mem = NULL;
+}
+
+/* Check and copy one memory's data. */
+static int copy_data(mprt_replay *r, memory *m, int t, const mprt_replay_memory_data *d)
+{
+    size_t k, n = d->nkeys, nl;
+    int64_t span = 0;
+    if (d->line < 1 || d->line > MAX_LINE || !pow2(d->line))
+        return fail(r, MPRT_ERR_INVALID_ARG, "memory data %s: line must be a power of two up to 2^40 bytes, "
+                    "not %lld", NAME[t], (long long)d->line);
+    if (n > ((size_t)1 << 40) || !d->line_start || (n && (!d->items || !d->resident)))
+        return fail(r, MPRT_ERR_INVALID_ARG, "memory data %s: missing arrays or too many keys", NAME[t]);
+    if (d->line_start[0] != 0)
+        return fail(r, MPRT_ERR_INVALID_ARG, "memory data %s: line_start[0] must be 0", NAME[t]);
+    for (k = 0; k < n; k++) {
+        if (d->line_start[k + 1] < d->line_start[k])
+            return fail(r, MPRT_ERR_INVALID_ARG, "memory data %s: line_start decreases at key %zu", NAME[t], k);
+        if (d->items[k] < 0 || d->resident[k] < 0 || d->resident[k] > d->items[k])
+            return fail(r, MPRT_ERR_INVALID_ARG, "memory data %s: key %zu reads %d items, %d resident", NAME[t], k,
+                        d->items[k], d->resident[k]);
+    }
+    if (d->line_start[n] > (int64_t)1 << 40)
+        return fail(r, MPRT_ERR_INVALID_ARG, "memory data %s: more than 2^40 lines", NAME[t]);
+    nl = (size_t)d->line_start[n];
+    if (nl && !d->lines) return fail(r, MPRT_ERR_INVALID_ARG, "memory data %s: lines missing", NAME[t]);
+    for (k = 0; k < nl; k++) {
+        if (d->lines[k] < 0 || d->lines[k] >= MAX_READS)
+            return fail(r, MPRT_ERR_INVALID_ARG, "memory data %s: line %zu is %lld (0..2^62 needed)", NAME[t], k,
+                        (long long)d->lines[k]);
+        if (d->lines[k] >= span) span = d->lines[k] + 1;
+    }
+    m->info = malloc((n + 1) * sizeof *m->info);
+    m->lines = malloc((nl + 1) * sizeof *m->lines);
+    if (!m->info || !m->lines)
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the %s memory data", NAME[t]);
+    for (k = 0; k <= n; k++) {
+        m->info[k].start = d->line_start[k];
+        m->info[k].items = k < n ? d->items[k] : 0;
+        m->info[k].res = k < n ? d->resident[k] : 0;
+    }
+    if (nl) memcpy(m->lines, d->lines, nl * sizeof *m->lines);
+    m->nkeys = n;
+    m->line = d->line;
+    m->span = span;
+    m->reads = 0;
+    m->has = 1;
+    return MPRT_OK;
+}
+
+int mprt_replay_set_memory(mprt_replay *r, const int32_t *key, size_t nvisits, const mprt_replay_memory_data *ic,
+                           const mprt_replay_memory_data *sc)
+{
+    const mprt_replay_memory_data *d[2];
+    struct mprt__mem *M;
+    size_t j;
+    int t, rc = MPRT_OK;
+    if (!r) return MPRT_ERR_INVALID_ARG;
+    r->errmsg[0] = '\0';
+    mprt__replay_memory_free(r);
+    mprt__replay_free_run(r);
+    if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
+    if (nvisits != r->nv)
+        return fail(r, MPRT_ERR_INVALID_ARG, "memory keys: %zu given, the trace has %zu visits", nvisits, r->nv);
+    if (nvisits && !key) return fail(r, MPRT_ERR_INVALID_ARG, "memory keys: missing");
+    M = r->mem = calloc(1, sizeof *M);
+    if (!M) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the memory data");
+    d[0] = ic;
+    d[1] = sc;
+    for (t = 0; t < 2 && rc == MPRT_OK; t++)
+        if (d[t]) rc = copy_data(r, &M->m[t], t, d[t]);
+    if (rc == MPRT_OK && !(M->key = malloc((nvisits + 1) * sizeof *M->key)))
+        rc = fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu memory keys", nvisits);
+    for (j = 0; j < nvisits && rc == MPRT_OK; j++) {
+        int32_t k = key[j];
+        memory *m = &M->m[k >= 0 ? 0 : 1];
+        int64_t i = k >= 0 ? k : -2 - (int64_t)k;
+        M->key[j] = k;
+        if (k == -1 || !m->has) continue;       /* (a memory without data cannot be modelled) */
+        if (i >= (int64_t)m->nkeys) {
+            rc = fail(r, MPRT_ERR_INVALID_ARG, "memory keys: visit %zu reads %s key %lld, not among the %zu given",
+                      j, NAME[k >= 0 ? 0 : 1], (long long)i, m->nkeys);
+            break;
+        }
+        m->reads += m->info[i + 1].start - m->info[i].start;
+        if (m->reads > MAX_READS) m->reads = MAX_READS;
+    }
+    M->nv = nvisits;
+    if (rc != MPRT_OK) mprt__replay_memory_free(r);
+    return rc;
+}
+
+/* ---- a run ------------------------------------------------------------------------- */
+
+void mprt__replay_memory_free_run(mprt_replay *r)
+{
+    int t;
+    r->mem_on = 0;
+    r->mem_bound = 0;
+    if (!r->mem) return;
+    for (t = 0; t < 2; t++) {
+        memory *m = &r->mem->m[t];
+        free(m->port_free);
+        free(m->tags);
+        free(m->count);
+        free(m->loc);
+        m->port_free = m->tags = m->count = NULL;
+        m->loc = NULL;
+        m->on = 0;
+    }
+}
+
+/* Sets and ways the arrays need for the configured cache (see the top). */
+static void cache_shape(memory *m, int64_t size, int64_t line, int64_t ways)
+{
+    int64_t nsets = size / (line * ways), span = m->span > 0 ? m->span : 1;
+    m->pow2 = 0;
+    if (nsets > span) {
+        nsets = span;
+    } else if (pow2(nsets)) {
+        m->pow2 = 1;
+    }
+    if (ways > (span + nsets - 1) / nsets) ways = (span + nsets - 1) / nsets;
+    m->nsets = nsets;
+    m->ways = ways;
+}
+
+static int build_one(mprt_replay *r, int t)
+{
+    const mprt_replay_config *c = &r->cfg;
+    memory *m = &r->mem->m[t];
+    size_t pes = (size_t)c->pes, cells;
+    int64_t per;
+    m->on = 1;
+    m->cached = c->cache_size[t] > 0;
+    m->xfer = (c->cache_line[t] + c->gm_bandwidth[t] - 1) / c->gm_bandwidth[t];
+    m->latency = c->gm_latency[t];
+    m->nports = c->gm_contention[t] ? 1 : c->pes;
+    m->port_free = calloc((size_t)m->nports, sizeof *m->port_free);
+    m->loc = calloc(pes, sizeof *m->loc);
+    if (!m->port_free || !m->loc) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the %s memory", NAME[t]);
+    if (!m->cached) return MPRT_OK;
+    cache_shape(m, c->cache_size[t], c->cache_line[t], c->cache_ways[t]);
+    per = m->nsets * m->ways;       /* at most about 2 x span (< 2^63) */
+    if (per < 0 || (uint64_t)per > (uint64_t)MPRT_REPLAY_MAX_CACHE_ENTRIES / pes)
+        return fail(r, MPRT_ERR_INVALID_ARG, "cache_size[%d]: the %s caches would hold %zu PEs x %lld entries per PE "
+                    "(sets x ways the data can fill), more than 2^28 in all", t, NAME[t], pes, (long long)per);
+    cells = (size_t)per * pes;
+    m->tags = malloc(cells * sizeof *m->tags);
+    m->count = calloc((size_t)m->nsets * pes, sizeof *m->count);
+    if (!m->tags || !m->count)
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "cache_size[%d]: out of memory for the %s caches of %zu PEs", t,
+                    NAME[t], pes);
+    return MPRT_OK;
+}
+
+int mprt__replay_memory_build(mprt_replay *r)
+{
+    const mprt_replay_config *c = &r->cfg;
+    int64_t room = INT64_MAX / 2 - r->total - c->gen_cycles * r->ntrees;
+    int t, rc;
+    mprt__replay_memory_free_run(r);
+    for (t = 0; t < 2; t++) {
+        memory *m;
+        int64_t each;
+        if (!c->memory[t]) continue;
+        if (!r->mem || !r->mem->m[t].has || r->mem->nv != r->nv)
+            return fail(r, MPRT_ERR_STATE, "memory[%d]: the %s memory is modelled but has no data "
+                        "(mprt_replay_set_memory)", t, NAME[t]);
+        m = &r->mem->m[t];
+        if (m->line != c->cache_line[t])
+            return fail(r, MPRT_ERR_INVALID_ARG, "cache_line[%d]: %lld bytes, but the %s memory data has lines of "
+                        "%lld", t, (long long)c->cache_line[t], NAME[t], (long long)m->line);
+        rc = build_one(r, t);
+        if (rc != MPRT_OK) return rc;
+        /* every read adds at most its transfer and the latency to the run's time */
+        each = m->xfer + m->latency;
+        if (m->reads && each > (room - r->mem_bound) / m->reads)
+            return fail(r, MPRT_ERR_INVALID_ARG, "gm_latency[%d]: %lld line reads of up to %lld cycles each, with "
+                        "the visits' cycles, could exceed 2^62 cycles", t, (long long)m->reads, (long long)each);
+        r->mem_bound += m->reads * each;
+        r->mem_on = 1;
+    }
+    return MPRT_OK;
+}
+
+/* Line x through a cache (tags, count: one PE's): 1 on a hit.  It becomes its set's most
+ * recent (front); a miss drops the set's least recent when the set is full. */
+static inline int cache_access(const memory *m, int64_t *tags, int64_t *count, int64_t x)
+{
+    int64_t s = m->pow2 ? (x & (m->nsets - 1)) : x % m->nsets, n = count[s], i;
+    int64_t *w = tags + s * m->ways;
+    if (n && w[0] == x) return 1;
+    for (i = 1; i < n; i++)
+        if (w[i] == x) break;
+    if (i < n) {
+        for (; i > 0; i--) w[i] = w[i - 1];
+        w[0] = x;
+        return 1;
+    }
+    if (n < m->ways)
+        count[s] = n + 1;
+    else
+        n = m->ways - 1;
+    for (i = n; i > 0; i--) w[i] = w[i - 1];
+    w[0] = x;
+    return 0;
+}
+
+int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
+{
+    struct mprt__mem *M = r->mem;
+    int32_t key = M->key[j];
+    int pe = r->procs[i].pe;
+    memory *m;
+    local_mem *lm;
+    int64_t k, a, b, now = r->now, done = now, port, xfer, lat, hits = 0, reads = 0, queued = 0;
+    int64_t *tags = NULL, *count = NULL;
+    const int64_t *lines;
+    if (key == -1) return 0;
+    m = &M->m[key >= 0 ? 0 : 1];
+    if (!m->on) return 0;
+    k = key >= 0 ? key : -2 - (int64_t)key;
+    lm = &m->loc[pe];
+    lm->fig.resident_accesses += m->info[k].items;
+    lm->fig.resident_hits += m->info[k].res;
+    a = m->info[k].start;
+    b = m->info[k + 1].start;
+    if (a == b) return 0;
+    port = m->port_free[m->nports == 1 ? 0 : pe];
+    xfer = m->xfer;
+    lat = m->latency;
+    lines = m->lines;
+    if (m->cached) {
+        tags = m->tags + (size_t)pe * (size_t)m->nsets * (size_t)m->ways;
+        count = m->count + (size_t)pe * (size_t)m->nsets;
+        lm->fig.cache_accesses += b - a;
+    }
+    for (; a < b; a++) {
+        int64_t s;
+        if (m->cached && cache_access(m, tags, count, lines[a])) {
+            hits++;
+            continue;
+        }
+        s = done > port ? done : port;      /* the port's first free cycle */
+        port = s + xfer;
+        queued += s - done;
+        reads++;
+        done = s + xfer + lat;
+    }
+    m->port_free[m->nports == 1 ? 0 : pe] = port;
+    lm->fig.cache_hits += hits;
+    lm->fig.gm_accesses += reads;
+    lm->fig.gm_busy += reads * xfer;
+    lm->fig.gm_queued += queued;
+    lm->fig.stall += done - now;
+    return done - now;
+}
+
+/* ---- figures ------------------------------------------------------------------------ */
+
+int mprt_replay_get_memory(const mprt_replay *r, mprt_replay_memory *out, size_t cap, int64_t *stall,
+                           size_t stall_cap)
+{
+    int p, t, i;
+    if (!r || !r->ran) return MPRT_ERR_STATE;
+    if (!out || (stall_cap && !stall)) return MPRT_ERR_INVALID_ARG;
+    if (cap < 2 * (size_t)r->cfg.pes || (stall && stall_cap < (size_t)r->nproc)) return MPRT_ERR_CAPACITY;
+    for (p = 0; p < r->cfg.pes; p++)
+        for (t = 0; t < 2; t++) {
+            const memory *m = r->mem ? &r->mem->m[t] : NULL;
+            if (m && m->on)
+                out[2 * p + t] = m->loc[p].fig;
+            else
+                memset(&out[2 * p + t], 0, sizeof *out);
+        }
+    for (i = 0; stall && i < r->nproc; i++) stall[i] = r->procs[i].stall;
+    return MPRT_OK;
+}

@@ -1,0 +1,338 @@
+/* replay_ring.c: the ring of level 2 in the compiled replay (see replay.c).
+ *
+ * The SimPy model's Ring (python/mprt/machine/ring.py; README.md there, "The
+ * ring (level 2)") step for step, so that the two agree to the cycle:
+ *
+ * - Node n of a PE's ring is its stage n; link n goes from node n to node
+ *   n + 1 and carries a flit per flit_time.  Each node has buffer_classes
+ *   one-header buffers.
+ * - Injection: the head of a send FIFO enters the network when its node's
+ *   class-0 buffer is free, and stays in the send FIFO until its tail has
+ *   left (one packet in the network per node: kept by its source node).
+ * - Hop: a header at node n moves on when link n is free and node n + 1's
+ *   buffer of class min(hops + 1, classes - 1) is free, holding the link a
+ *   flit time (an event).
+ * - Delivery: at its destination the header claims the receive FIFO (room,
+ *   and no other packet writing it), reserving a slot; then the other
+ *   flits - 1 flits stream over the whole path when all its links are free
+ *   (an event), and the packet goes to an idle processor or fills its slot;
+ *   its buffers, the write access and the send FIFO slot are released.
+ * - The arbiter (kick) grants requests first come first served: injections
+ *   node by node, then the waiting packets in the order they began to wait,
+ *   pass after pass while a packet completed during one.
+ * - Ring events run after the processors' events of the same cycle, among
+ *   themselves in the order they were scheduled (SimPy's priority
+ *   2 x processors + 1 and its event ids): a list in time order beside the
+ *   processors' events (replay.c's loop takes the first of the two).
+ *
+ * Nothing is allocated per packet or per event. */
+#include "replay.h"
+
+INLINE int ring_class(const ring_t *R, int hop) { return hop < R->C - 1 ? hop : R->C - 1; }
+
+INLINE int ring_next(const ring_t *R, int n) { return n + 1 == R->K ? 0 : n + 1; }
+
+int mprt__ring_build(mprt_replay *r)
+{
+    int p, n, c;
+    size_t cap = 4;
+    while (cap < (size_t)r->cfg.pes * RING_MAX) cap *= 2;
+    r->rings = calloc((size_t)r->cfg.pes, sizeof *r->rings);
+    r->rq_t = malloc(cap * sizeof *r->rq_t);
+    r->rq_s = malloc(cap * sizeof *r->rq_s);
+    if (!r->rings || !r->rq_t || !r->rq_s) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory");
+    r->rq_head = r->rq_len = 0;
+    r->rq_mask = cap - 1;
+    for (p = 0; p < r->cfg.pes; p++) {
+        ring_t *R = &r->rings[p];
+        R->K = r->cfg.nstages;
+        R->C = r->cfg.buffer_classes;
+        R->nd = &r->nodes[p * r->cfg.nstages];
+        for (n = 0; n < RING_MAX; n++) {
+            R->writer[n] = -1;
+            for (c = 0; c < RING_MAX; c++) R->buf[n][c] = -1;
+        }
+    }
+    return MPRT_OK;
+}
+
+/* Packet q of PE pe's ring has an event delay (> 0) cycles from now: after the pending
+ * ones of its time or before, so the list stays in time order, simultaneous events in
+ * the order they were scheduled (one per packet: the list never overflows). */
+INLINE void ring_at(mprt_replay *r, int pe, int q, int64_t delay, int what)
+{
+    int64_t t = r->now + delay;
+    size_t m = r->rq_mask, i = r->rq_len++;
+    r->rings[pe].pkt[q].event = what;
+    for (; i > 0 && r->rq_t[(r->rq_head + i - 1) & m] > t; i--) {
+        r->rq_t[(r->rq_head + i) & m] = r->rq_t[(r->rq_head + i - 1) & m];
+        r->rq_s[(r->rq_head + i) & m] = r->rq_s[(r->rq_head + i - 1) & m];
+    }
+    r->rq_t[(r->rq_head + i) & m] = t;
+    r->rq_s[(r->rq_head + i) & m] = pe * RING_MAX + q;
+}
+
+int mprt__ring_send(mprt_replay *r, node *src, int64_t x, int g)
+{
+    ring_t *R = &r->rings[src->pe];
+    int n = src->stage;
+    if (!f_room(&src->sf)) return 0;
+    f_put(r, &src->sf, x * 4 + g);
+    if (R->injected[n]) return 1;       /* it waits its turn */
+    R->ready |= 1u << n;
+    if (R->buf[n][0] < 0) mprt__ring_kick(r, src->pe);
+    return 1;
+}
+
+/* The replica of nd (fed per replica) a header claims a receive slot of, now
+ * assigned (-1: none can be): round-robin's next, which must have a free
+ * slot; shortest queue: the fewest queued among those with a free slot. */
+static int claim_copy(mprt_replay *r, node *nd)
+{
+    int k, best = -1;
+    int64_t low = 0;
+    if (nd->feed == 1) {
+        k = (int)(nd->turn % nd->n);
+        if (!f_room(&nd->rfs[k])) return -1;
+        nd->turn++;
+        return k;
+    }
+    for (k = 0; k < nd->n; k++) {
+        if (!f_room(&nd->rfs[k])) continue;
+        if (best < 0 || queued(r, nd, k) < low) {
+            best = k;
+            low = queued(r, nd, k);
+        }
+    }
+    return best;
+}
+
+/* Packet q is in its receive FIFO (or on an idle processor): its buffers, the
+ * FIFO's write access and its send FIFO slot are released. */
+static void complete(mprt_replay *r, int pe, int q)
+{
+    ring_t *R = &r->rings[pe];
+    ring_packet *k = &R->pkt[q];
+    node *d = &R->nd[k->dst], *s = &R->nd[k->src];
+    int i, n = k->src;
+    for (i = 0; i <= k->hops; i++, n = ring_next(R, n)) R->buf[n][ring_class(R, i)] = -1;
+    R->writer[k->dst] = -1;
+    if (d->feed) {
+        if (copy_idle(r, d, k->copy)) {
+            f_unreserve(r, &d->rfs[k->copy]);
+            mprt__replay_start_on(r, d, k->copy, k->x);
+        } else {
+            f_fill(r, &d->rfs[k->copy], k->x);
+        }
+    } else if (d->nidle) {
+        f_unreserve(r, &d->rf);
+        mprt__replay_start_on(r, d, -1, k->x);
+    } else {
+        f_fill(r, &d->rf, k->x);
+    }
+    f_get(r, &s->sf);
+    R->injected[k->src] = 0;
+    if (s->sf.q.len) R->ready |= 1u << k->src;
+    if (s->swait.len) mprt__replay_send_freed(r, s);   /* (may inject the node's next packet: k is
+                                                          * not read after) */
+    mprt__ring_kick(r, pe);
+}
+
+/* Try packet q's next step; 1 when it was granted. */
+static int step(mprt_replay *r, int pe, int q)
+{
+    ring_t *R = &r->rings[pe];
+    ring_packet *k = &R->pkt[q];
+    int64_t ft = r->cfg.flit_time, body;
+    if (k->phase == RING_HOP) {
+        int n = k->node, m = ring_next(R, n), c = ring_class(R, k->hops + 1);
+        if ((R->busy >> n & 1) || R->buf[m][c] >= 0) return 0;
+        R->busy |= 1u << n;
+        R->link_cycles[n] += ft;
+        R->buf[m][c] = q;
+        ring_at(r, pe, q, ft, RING_ARRIVE);
+        return 1;
+    }
+    if (k->phase == RING_CLAIM) {
+        node *d = &R->nd[k->dst];
+        if (R->writer[k->dst] >= 0) return 0;
+        if (d->feed) {
+            int c = claim_copy(r, d);
+            if (c < 0) return 0;
+            k->copy = c;
+            R->writer[k->dst] = q;
+            f_reserve(r, &d->rfs[c]);
+        } else {
+            if (!f_room(&d->rf)) return 0;
+            R->writer[k->dst] = q;
+            f_reserve(r, &d->rf);
+        }
+        k->phase = RING_BODY;
+        R->claiming--;
+    }
+    /* the body: the rest of the packet over the whole path */
+    body = k->flits - 1;
+    if (body <= 0) {
+        complete(r, pe, q);
+        return 1;
+    }
+    if (R->busy & k->path) return 0;
+    R->busy |= k->path;
+    {
+        int i, n = k->src;
+        for (i = 0; i < k->hops; i++, n = ring_next(R, n)) R->link_cycles[n] += body * ft;
+    }
+    ring_at(r, pe, q, body * ft, RING_BODY_DONE);
+    return 1;
+}
+
+void mprt__ring_kick(mprt_replay *r, int pe)
+{
+    ring_t *R = &r->rings[pe];
+    int n, i, cnt, keep;
+    if (R->kicking) {
+        R->again = 1;
+        return;
+    }
+    R->kicking = 1;
+    do {
+        unsigned m;
+        R->again = 0;
+        for (m = R->ready; m; m &= m - 1) {         /* node by node */
+            const queue *sf;
+            n = ctz64(m);
+            sf = &R->nd[n].sf.q;
+            if (R->buf[n][0] < 0) {
+                int64_t e = sf->buf[sf->head];
+                ring_packet *k = &R->pkt[n];
+                k->x = e >> 2;
+                k->dst = (int)(e & 3);
+                k->src = k->node = n;
+                k->hops = 0;
+                k->path = 0;
+                k->phase = RING_HOP;
+                k->copy = -1;
+                k->event = RING_NONE;
+                k->flits = r->pflits[k->x];
+                R->buf[n][0] = n;
+                R->injected[n] = 1;
+                R->ready &= ~(1u << n);
+                R->waiting[R->nwaiting++] = n;
+            }
+        }
+        /* the waiting packets in order; those not granted keep their places */
+        cnt = R->nwaiting;
+        for (i = keep = 0; i < cnt; i++) {
+            int q = R->waiting[i];
+            if (!step(r, pe, q)) R->waiting[keep++] = q;
+        }
+        R->nwaiting = keep;
+    } while (R->again);
+    R->kicking = 0;
+}
+
+void mprt__ring_event(mprt_replay *r)
+{
+    int slot = r->rq_s[r->rq_head], pe = slot / RING_MAX, q = slot % RING_MAX;
+    ring_t *R = &r->rings[pe];
+    ring_packet *k = &R->pkt[q];
+    r->rq_head = (r->rq_head + 1) & r->rq_mask;
+    r->rq_len--;
+    if (k->event == RING_ARRIVE) {          /* the header crossed link n */
+        int n = k->node;
+        R->busy &= ~(1u << n);
+        k->path |= 1u << n;
+        k->node = ring_next(R, n);
+        k->hops++;
+        k->phase = k->node == k->dst ? RING_CLAIM : RING_HOP;
+        R->claiming += k->phase == RING_CLAIM;
+        k->event = RING_NONE;
+        R->waiting[R->nwaiting++] = q;
+        mprt__ring_kick(r, pe);
+    } else {                                /* the body has streamed: the path is free */
+        R->busy &= ~k->path;
+        k->event = RING_NONE;
+        complete(r, pe, q);                 /* and its arbitration (the model's second one then
+                                             * grants nothing: a pass only takes resources) */
+    }
+}
+
+/* ---- packet sizes and the ring's figures ---------------------------------------------- */
+
+#define MAX_FLITS 65535
+
+int mprt_replay_set_flits(mprt_replay *r, const int64_t *flits, size_t nvisits, const int64_t *kid_flits,
+                          size_t nkinds, int64_t inject_flits)
+{
+    size_t j, c;
+    int64_t most = inject_flits;
+    if (!r) return MPRT_ERR_INVALID_ARG;
+    r->errmsg[0] = '\0';
+    r->flits_set = 0;
+    if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
+    if (nvisits != r->nv) return fail(r, MPRT_ERR_INVALID_ARG, "flits: %zu entries for %zu visits", nvisits, r->nv);
+    if ((nvisits && !flits) || !kid_flits) return fail(r, MPRT_ERR_INVALID_ARG, "flits: missing array");
+    if (nkinds != MPRT_RAY_SHADOW + 1)
+        return fail(r, MPRT_ERR_INVALID_ARG, "kid_flits: %zu entries, one per ray kind (%d) needed", nkinds,
+                    MPRT_RAY_SHADOW + 1);
+    if (inject_flits < 0 || inject_flits > MAX_FLITS)
+        return fail(r, MPRT_ERR_INVALID_ARG, "inject_flits: must be 0..%d, not %lld", MAX_FLITS,
+                    (long long)inject_flits);
+    for (c = 0; c < nkinds; c++) {
+        if (kid_flits[c] < 0 || kid_flits[c] > MAX_FLITS)
+            return fail(r, MPRT_ERR_INVALID_ARG, "kid_flits[%zu]: must be 0..%d, not %lld", c, MAX_FLITS,
+                        (long long)kid_flits[c]);
+        most = kid_flits[c] > most ? kid_flits[c] : most;
+    }
+    for (j = 0; j < nvisits; j++) {
+        if (flits[j] < 0 || flits[j] > MAX_FLITS)
+            return fail(r, MPRT_ERR_INVALID_ARG, "flits[%zu]: visit %zu's packet must be 0..%d flits, not %lld", j, j,
+                        MAX_FLITS, (long long)flits[j]);
+        most = flits[j] > most ? flits[j] : most;
+    }
+    if (RESERVE(r, pflits, cap_pflits, r->nv + 1)) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for flits");
+    /* a visit's packet is sent by the ray's visit before it; a ray's first by SC */
+    for (j = 1; j < r->nv; j++) r->pflits[j] = (uint16_t)flits[j - 1];
+    for (j = 0; j < (size_t)r->ntrees; j++) r->pflits[r->tree_first[j]] = (uint16_t)inject_flits;
+    for (c = 0; c < r->nchild; c++) r->pflits[r->child[c]] = (uint16_t)kid_flits[r->child_kind[c]];
+    r->max_flits = most;
+    r->flits_set = 1;
+    return MPRT_OK;
+}
+
+int mprt_replay_get_links(const mprt_replay *r, int64_t *out, size_t cap)
+{
+    int p, n;
+    if (!r || !r->ran || !r->cfg.ring) return MPRT_ERR_STATE;
+    if (cap < (size_t)r->cfg.pes * (size_t)r->cfg.nstages) return MPRT_ERR_CAPACITY;
+    if (!out) return MPRT_ERR_INVALID_ARG;
+    for (p = 0; p < r->cfg.pes; p++)
+        for (n = 0; n < r->cfg.nstages; n++) out[p * r->cfg.nstages + n] = r->rings[p].link_cycles[n];
+    return MPRT_OK;
+}
+
+int mprt_replay_get_ring(const mprt_replay *r, int pe, int64_t *buffers, size_t cap_buffers, int64_t *waiting,
+                         size_t cap_waiting, size_t *nwaiting)
+{
+    const ring_t *R;
+    int n, c, i;
+    if (!r || !r->ran || !r->cfg.ring) return MPRT_ERR_STATE;
+    if (pe < 0 || pe >= r->cfg.pes || !nwaiting) return MPRT_ERR_INVALID_ARG;
+    R = &r->rings[pe];
+    *nwaiting = (size_t)R->nwaiting;
+    if (cap_buffers < (size_t)(R->K * R->C) || cap_waiting < 4 * (size_t)R->nwaiting) return MPRT_ERR_CAPACITY;
+    if (!buffers || (R->nwaiting && !waiting)) return MPRT_ERR_INVALID_ARG;
+    for (n = 0; n < R->K; n++)
+        for (c = 0; c < R->C; c++) {
+            int q = R->buf[n][c];
+            buffers[n * R->C + c] = q < 0 ? -1 : R->pkt[q].src * 4 + R->pkt[q].dst;
+        }
+    for (i = 0; i < R->nwaiting; i++) {
+        const ring_packet *k = &R->pkt[R->waiting[i]];
+        waiting[4 * i] = k->src;
+        waiting[4 * i + 1] = k->dst;
+        waiting[4 * i + 2] = k->node;
+        waiting[4 * i + 3] = k->phase;
+    }
+    return MPRT_OK;
+}

@@ -1,0 +1,299 @@
+"""Level 3 in the compiled replay: the memories (caches, resident memory, ICGM and
+SCGM with their ports) against the SimPy machine model, differential: the same
+SimResult to the cycle (memory stalls per stage and processor, the ``memory``
+section), the same event log, the same errors and deadlocks; on the ideal
+network (with the ring: test_fidelity_full.py)."""
+import random
+
+import numpy as np
+import pytest
+
+import mprt
+from mprt.cost import CostModel
+from mprt.fidelity import Compiled, engine_for, evaluate, replay, unsupported
+from mprt.fidelity.memdata import MemoryData, ic_data
+from mprt.machine import ConfigError, DeadlockError, builtin, load_config, simulate
+from mprt.machine.config import CacheConfig, GlobalMemoryConfig, LocalMemoryConfig
+from mprt.machine.memory import DataLayout, LocalMemory
+
+from test_fidelity import FULL, GOLDEN, NAMES, head, outcome, random_config, same
+
+CM = CostModel.default()
+
+
+@pytest.fixture(scope="module")
+def traces():
+    return {n: mprt.load_trace(p) for n, p in zip(NAMES, GOLDEN)}
+
+
+def small_memories(cfg, pes=2, contention=True):
+    """Memories small enough that the golden scenes miss: IC 64 B resident + a 2-way
+    256 B cache of 16 B lines, SC uncached with 32 B resident."""
+    return cfg.replace(ring=None, pes=pes, ic_memory=LocalMemoryConfig(64, CacheConfig(256, 16, 2)),
+                       sc_memory=LocalMemoryConfig(32, None), icgm=GlobalMemoryConfig(7, 3, contention),
+                       scgm=GlobalMemoryConfig(5, 8, contention))
+
+
+def check(t, cfg, vc=None, record=False):
+    vc = vc if vc is not None else CM.visit_costs(t, cfg.processors())
+    a = outcome(lambda: simulate(t, cfg, costs=vc, record=record))
+    b = outcome(lambda: replay(t, cfg, costs=vc, record=record))
+    assert type(a) is type(b), cfg
+    if isinstance(a, DeadlockError):
+        assert str(a) == str(b) and a.state == b.state, cfg
+    else:
+        assert a.cycles == b.cycles, cfg
+        assert same(a, b), cfg
+        if record:
+            assert a.log == b.log
+    return a
+
+
+# ---- golden traces ------------------------------------------------------------------
+
+@pytest.mark.parametrize("name", NAMES)
+def test_golden_traces_equal_simpy_with_memories(traces, name):
+    t = traces[name]
+    three = builtin("3mppe").replace(ring=None)
+    full = load_config(FULL).replace(ring=None)
+    stalls = 0
+    for pes in (1, 2):
+        for cont in (True, False):
+            for cfg in (three, full, small_memories(three)):
+                cfg = cfg.replace(pes=pes, icgm=cfg.icgm.__class__(cfg.icgm.latency, cfg.icgm.bandwidth, cont),
+                                  scgm=cfg.scgm.__class__(cfg.scgm.latency, cfg.scgm.bandwidth, cont))
+                res = check(t, cfg)
+                stalls += res.stages["IC"]["memory_stall"] + res.stages["SC"]["memory_stall"]
+    assert stalls > 0          # the memories were exercised: lines missed and were read
+
+
+# ---- random configurations ---------------------------------------------------------------
+
+def random_memory(rng):
+    if rng.random() < 0.15:
+        return None
+    resident = rng.choice([0, 0, 16, 64, 200, 1024, 1 << 40])
+    cache = None
+    if rng.random() < 0.8:
+        line = rng.choice([1, 4, 8, 16, 32, 64])
+        ways = rng.choice([1, 2, 3, 4, 8])
+        sets = rng.choice([1, 2, 3, 4, 5, 8, 64])
+        if rng.random() < 0.05:           # far more than the data: sets beyond it never fill
+            sets = (1 << 40) // (line * ways)
+        cache = CacheConfig(line * ways * sets, line, ways)
+    return LocalMemoryConfig(resident, cache)
+
+
+def random_gm(rng):
+    return GlobalMemoryConfig(rng.choice([0, 1, 5, 20, 100]), rng.choice([1, 3, 8, 64]), rng.random() < 0.5)
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_random_memory_configurations_equal_simpy(traces, seed):
+    # 110 configurations per seed: random machines of test_fidelity (mappings, replicas and
+    # feeds, FIFOs, PEs, DIS, windows) with random memories: resident 0 to 2^40 bytes, caches
+    # of 1 to 64 sets (or 2^40 bytes) of 1 to 8 ways and 1 to 64-byte lines or none, latency,
+    # bandwidth, shared or per-PE ports; deadlocks included
+    rng = random.Random(300 + seed)
+    names = sorted(traces)
+    kinds = {"deadlock": 0, "stall": 0, "ic": 0, "sc": 0}
+    for i in range(110):
+        t = head(traces[rng.choice(names)], rng.choice([5, 20, 60]))
+        cfg = random_config(rng, feeds=rng.random() < 0.5)
+        ic, sc = random_memory(rng), random_memory(rng)
+        cfg = cfg.replace(ic_memory=ic, sc_memory=sc, icgm=random_gm(rng) if ic else None,
+                          scgm=random_gm(rng) if sc else None)
+        vc = CM.visit_costs(t, cfg.processors())
+        if rng.random() < 0.3:
+            vc.inject_process = vc.inject_send = 0
+        res = check(t, cfg, vc)
+        if isinstance(res, DeadlockError):
+            kinds["deadlock"] += 1
+        else:
+            kinds["stall"] += res.stages["IC"]["memory_stall"] + res.stages["SC"]["memory_stall"] > 0
+            kinds["ic"] += "icgm" in res.memory
+            kinds["sc"] += "scgm" in res.memory
+    assert all(kinds.values()), kinds
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_event_logs_equal_simpy_with_memories(traces, seed):
+    rng = random.Random(400 + seed)
+    t = head(traces["gears-g9"], 15)
+    cfg = random_config(rng, seed >= 2)
+    cfg = cfg.replace(ic_memory=LocalMemoryConfig(rng.choice([0, 64]), CacheConfig(128, 16, 2)),
+                      sc_memory=LocalMemoryConfig(0, None), icgm=random_gm(rng), scgm=random_gm(rng))
+    check(t, cfg, record=True)
+
+
+# ---- one load, many memories --------------------------------------------------------------
+
+def test_one_load_runs_many_memory_configurations(traces):
+    t = traces["rings-g9"]
+    base = small_memories(builtin("3mppe"))
+    vc = CM.visit_costs(t, base.processors())
+    c = Compiled(t, vc)
+    cfgs = [base.replace(ic_memory=LocalMemoryConfig(r, CacheConfig(s, 16, w)))
+            for r in (0, 512) for s, w in ((256, 2), (1024, 4), (96, 3))]
+    cfgs += [base.replace(pes=1, icgm=GlobalMemoryConfig(50, 1, False)), builtin("3mppe").replace(ring=None),
+             base.replace(ic_memory=None, sc_memory=None, icgm=None, scgm=None)]
+    for cfg in cfgs:                       # memory data swapped in and out of the one replay
+        a = simulate(t, cfg, costs=vc)
+        assert same(a, c.result(cfg)), cfg
+        assert c.cycles(cfg) == a.cycles
+    assert len({c.cycles(cfg) for cfg in cfgs}) > 5
+
+
+def test_lines_per_key_as_the_simpy_model_reads_them(traces):
+    # the vectorised per-voxel data equals LocalMemory's own, key by key
+    t = traces["tree-g9"]
+    layout = DataLayout(t)
+    for resident, line in ((0, 32), (100, 8), (400, 1), (1 << 20, 64)):
+        rm = layout.ic_resident(resident)
+        d = ic_data(layout, rm.items, line)
+        lm = LocalMemory("ic", layout, rm, None, None, 0)
+        lm.line = line
+        for v in range(len(layout.voxel_start) - 1):
+            nres, nitems, lines = lm._ranges(v)
+            a, b = d["line_start"][v], d["line_start"][v + 1]
+            assert (nres, nitems, lines) == (d["resident"][v], d["items"][v], tuple(d["lines"][a:b].tolist()))
+
+
+# ---- levels, engines, errors --------------------------------------------------------------
+
+def test_auto_takes_the_compiled_engine_for_memories_on_the_ideal_network(traces):
+    t = traces["balls-g9"]
+    cfg = builtin("3mppe").replace(ring=None)
+    assert unsupported(cfg) is None
+    assert engine_for(cfg, 3) == "compiled" and engine_for(builtin("3mppe"), 3) == "compiled"
+    e = evaluate(t, cfg)
+    assert e.level == 3 and e.engine == "compiled"
+    assert same(e.result, evaluate(t, cfg, engine="simpy").result)
+
+
+def test_bad_memory_configurations_fail_alike(traces):
+    t = head(traces["balls-g4"], 5)
+    with pytest.raises(ConfigError, match=r"ic_memory.cache.size: at most 2\^40 bytes"):
+        builtin("3mppe").replace(ic_memory=LocalMemoryConfig(0, CacheConfig(1 << 60, 32, 4)))
+    with pytest.raises(ConfigError, match="icgm: ic_memory is modelled"):
+        builtin("M").replace(ic_memory=LocalMemoryConfig(0, None))
+    # the largest cache allowed replays without allocating it (sets beyond the data never fill)
+    big = builtin("3mppe").replace(ring=None, ic_memory=LocalMemoryConfig(0, CacheConfig(1 << 40, 1, 1)))
+    assert same(simulate(t, big), replay(t, big))
+
+
+def test_memory_data_is_checked_by_the_c_replay(traces):
+    from mprt._lowlevel import binding
+    from mprt.errors import InvalidArgument, MprtError
+    from mprt.fidelity.compiled import c_config
+
+    lib = binding()
+    t = head(traces["balls-g4"], 5)
+    vc = CM.visit_costs(t, builtin("M").processors())
+    c = Compiled(t, vc)
+    md = MemoryData(t)
+    ic, _ = md.get("ic", 0, 32)
+    keys = md.keys
+    with pytest.raises(InvalidArgument, match="memory keys: .* given, the trace has"):
+        lib.replay_set_memory(c.h, keys[:-1], ic, None)
+    bad = dict(ic, lines=-ic["lines"] - 1)
+    with pytest.raises(InvalidArgument, match="memory data IC: line 0 is -"):
+        lib.replay_set_memory(c.h, keys, bad, None)
+    short = dict(ic, items=ic["items"][:1], resident=ic["resident"][:1], line_start=ic["line_start"][:2])
+    with pytest.raises(InvalidArgument, match="memory keys: visit .* reads IC key"):
+        lib.replay_set_memory(c.h, keys, short, None)
+    # a modelled memory without data (a failed call keeps none) is refused, not run
+    lib.replay_set_config(c.h, c_config(builtin("3mppe").replace(ring=None), 0))
+    with pytest.raises(MprtError, match="the IC memory is modelled but has no data"):
+        lib.replay_run(c.h)
+    # the line size the data was numbered in must be the configuration's
+    lib.replay_set_memory(c.h, keys, ic, md.get("sc", 0, 32)[0])
+    with pytest.raises(InvalidArgument, match="cache_line.0.: 16 bytes, but the IC memory data has lines of 32"):
+        lib.replay_set_config(c.h, c_config(small_memories(builtin("3mppe")), 0))
+        lib.replay_run(c.h)
+    # latencies that could overflow the cycle count are refused before the run (by the C
+    # replay itself: a machine configuration bounds the latency at 2^20, config.LIMITS)
+    huge = dict(c_config(builtin("3mppe").replace(ring=None), 0), gm_latency=[1 << 61, 10])
+    with pytest.raises(InvalidArgument, match=r"gm_latency.0.: .* could exceed 2\^62 cycles"):
+        lib.replay_set_config(c.h, huge)
+        lib.replay_run(c.h)
+    # a configuration the C replay refuses by itself
+    bad = dict(c_config(builtin("3mppe").replace(ring=None), 0), cache_size=[1 << 60, 0])
+    with pytest.raises(InvalidArgument, match=r"cache_size\[0\]: must be 0 .no cache. to 2\^40 bytes"):
+        lib.replay_set_config(c.h, bad)
+
+
+# ---- the resident set (both engines) ---------------------------------------------------------
+
+def reference_resident(layout, size, tag):
+    """The resident set item by item, as the model defines it: items in decreasing order of
+    references (ties: lists before shapes, lower id first), each taken if it still fits."""
+    if tag == "ic":
+        lens = np.diff(layout.voxel_start)
+        cands = [(int(r), 0, i, 8 * int(n)) for i, (r, n) in enumerate(zip(layout.voxel_refs, lens)) if r > 0 and n > 0]
+        cands += [(int(r), 1, i, int(b)) for i, (r, b) in enumerate(zip(layout.prim_refs, layout.shape_bytes)) if r > 0]
+    else:
+        cands = [(int(r), 0, i, 32) for i, r in enumerate(layout.material_refs) if r > 0]
+    cands.sort(key=lambda c: (-c[0], c[1], c[2]))
+    used, chosen = 0, set()
+    for _, kind, i, nbytes in cands:
+        if used + nbytes <= size:
+            chosen.add((kind, i))
+            used += nbytes
+    return chosen, used
+
+
+@pytest.mark.parametrize("name", ["tree-g9", "rings-g4", "gears-g9"])
+def test_resident_set_is_the_greedy_choice_by_references(traces, name):
+    layout = DataLayout(traces[name])
+    for size in (0, 8, 100, 333, 1000, 4096, 20000, 1 << 40):
+        rm = layout.ic_resident(size)
+        chosen, used = reference_resident(layout, size, "ic")
+        got = {(0, int(i)) for i in np.flatnonzero(rm.items["list"])} | \
+              {(1, int(i)) for i in np.flatnonzero(rm.items["shape"])}
+        assert got == chosen and rm.used == used <= size, size
+        rm = layout.sc_resident(size)
+        chosen, used = reference_resident(layout, size, "sc")
+        assert {(0, int(i)) for i in np.flatnonzero(rm.items["material"])} == chosen and rm.used == used
+
+
+def test_greedy_takes_each_item_that_still_fits():
+    from mprt.machine.memory import _greedy
+
+    rng = np.random.default_rng(5)
+    for _ in range(300):
+        n = int(rng.integers(0, 200))
+        nbytes = rng.integers(0, rng.choice([4, 50, 1000]), n)
+        size = int(rng.integers(0, max(1, int(nbytes.sum()) + 5)))
+        want, rem = [], size
+        for b in nbytes.tolist():
+            want.append(b <= rem)
+            rem -= b if b <= rem else 0
+        assert _greedy(nbytes, size).tolist() == want
+    # a long tail of near misses, one per round (the one-by-one fallback after 64 rounds)
+    nbytes = np.array([x for k in range(100) for x in (1, 100 - k)])
+    want, rem = [], 100
+    for b in nbytes.tolist():
+        want.append(b <= rem)
+        rem -= b if b <= rem else 0
+    assert _greedy(nbytes, 100).tolist() == want and sum(want) == 100
+
+
+def test_simulate_command_at_level_3_on_the_compiled_engine(tmp_path):
+    import json
+
+    from mprt.fidelity.cli import main
+
+    cfg = tmp_path / "noring.toml"
+    cfg.write_text('base = "3mppe"\nname = "noring"\nring = "none"\n[ic_memory]\nresident = 256\n'
+                   'cache = { size = 512, line = 16, ways = 2 }\n')
+    out = {}
+    for engine in ("compiled", "simpy"):
+        path = tmp_path / f"{engine}.json"
+        assert main(["simulate", GOLDEN[NAMES.index("balls-g9")], "--config", str(cfg), "--engine", engine,
+                     "--json", str(path)]) == 0
+        out[engine] = json.loads(path.read_text())
+    a, b = out["compiled"], out["simpy"]
+    assert (a["level"], a["engine"], b["engine"]) == (3, "compiled", "simpy")
+    assert a["cycles"] == b["cycles"] and a["memory"] == b["memory"] and a["stages"] == b["stages"]
+    assert a["memory"]["icgm"]["accesses"] > 0
