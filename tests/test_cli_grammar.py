@@ -27,6 +27,7 @@ DEFAULTS_MAY_DIFFER = {
     "--scheduler": "explore runs in this process, sweep on a LocalCluster",
     "--output": "scene writes NFF to stdout, trace needs a file, render writes an image only when asked",
     "--model": "simulate replays model M unless told; prepass chooses the subdivision for the paper's 3MPPE",
+    "--grid": "render, trace and simulate take Scene.default_grid; explore and prepass search the subdivision",
     "--workers": "explore evaluates on a process per core; sweep runs a LocalCluster of one worker per core",
 }
 # option: why its syntax differs between subcommands
@@ -118,7 +119,8 @@ def test_the_common_options_are_where_the_issue_asks():
     assert {"render", "trace", "simulate", "explore", "prepass"} <= users["--res"]
     assert {"render", "stats", "simulate", "explore", "prepass"} <= users["--json"]
     assert {"render", "trace", "simulate", "explore", "prepass"} <= users["--threads"]
-    assert {"render", "trace", "simulate"} <= users["--rules"] & users["--threshold"] & users["--grid"]
+    assert {"render", "trace", "simulate", "explore", "prepass"} <= users["--rules"] & users["--threshold"] & \
+        users["--grid"]
     assert {"simulate", "explore"} <= users["--level"]
 
 

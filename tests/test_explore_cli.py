@@ -106,8 +106,10 @@ def test_prepass_search_finds_the_best_of_every_candidate():
     # predictions are the low-resolution cycles scaled by the pixel ratio
     dims = tuple(r["subdivision"])
     from mprt.machine.config import builtin
-    low = TraceEvaluator(scene.grid(dims).trace(16, 16)[1]).run_config(builtin("3mppe"), 1).cycles
-    assert r["predicted_cycles"] == pytest.approx(low * 16)
+    lw, lh = r["low_resolution"]            # 64/4 = 16, raised to the floor of 32 per axis
+    assert (lw, lh) == (32, 32)
+    low = TraceEvaluator(scene.grid(dims).trace(lw, lh)[1]).run_config(builtin("3mppe"), 1).cycles
+    assert r["predicted_cycles"] == pytest.approx(low * 64 * 64 / (lw * lh))
 
 
 def test_prepass_cli_json(tmp_path):

@@ -136,21 +136,21 @@ def test_prepass_for_the_machine_named_at_the_level_trusted(tmp_path):
     from mprt.machine.config import builtin, load_config
     scene = mprt.Scene.spd("tetra", 1)
     out = tmp_path / "p.json"
-    assert _run("prepass", "tetra:1", "--res", "64x64", "--fraction", "4", "--candidates", "3,6", "--model",
+    assert _run("prepass", "tetra:1", "--res", "64x64", "--fraction", "2", "--candidates", "3,6", "--model",
                 "3mppe", "--json", out) == 0
     r = json.loads(out.read_text())
     ok = [row["level"] for row in r["ladder"] if row["error_top_worst"] <= 0.01]
     assert r["machine"] == "3mppe" and r["level"] == (min(ok) if ok else 3)
     cfg = tmp_path / "m.toml"
     cfg.write_text('base = "3mppe"\nname = "mine"\npes = 1\n')
-    assert _run("prepass", "tetra:1", "--res", "64x64", "--fraction", "4", "--candidates", "3,6", "--config", cfg,
+    assert _run("prepass", "tetra:1", "--res", "64x64", "--fraction", "2", "--candidates", "3,6", "--config", cfg,
                 "--level", "3", "--json", out) == 0
     r = json.loads(out.read_text())
     assert r["machine"] == "mine" and r["level"] == 3 and r["ladder"] is None
     mine = load_config(str(cfg))
     for c in r["candidates"]:
-        tr = scene.grid(tuple(c["subdivision"])).trace(16, 16)[1]
-        assert c["predicted_cycles"] == TraceEvaluator(tr, counted=False).run_config(mine, 3).cycles * 16
+        tr = scene.grid(tuple(c["subdivision"])).trace(32, 32)[1]
+        assert c["predicted_cycles"] == TraceEvaluator(tr, counted=False).run_config(mine, 3).cycles * 4
     assert [tuple(c["subdivision"]) for c in r["candidates"]] == sorted(grid_dims(scene, (n,), "proportional")
                                                                          for n in (3, 6))
     assert mine.pes != builtin("3mppe").pes           # the file's machine, not the default one

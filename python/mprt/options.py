@@ -232,10 +232,13 @@ EXIT_STATUS = ("exit status: 0 done; 1 an error during the work (a malformed sce
                "2 a bad option, scene, input or output path, found before any work")
 
 
-def add_grid(p) -> None:
+GRID_DEFAULT = "Scene.default_grid, about 8*N^(1/3) along the box's longest axis for N primitives"
+
+
+def add_grid(p, default_text: str = GRID_DEFAULT, extra: str = "") -> None:
+    """--grid (``default_text``: what a command does without it, e.g. explore's search)."""
     p.add_argument("--grid", type=grid_arg, default=None, metavar="N|NX,NY,NZ",
-                   help=f"voxels per axis, each 1..{GRID_MAX} (default: Scene.default_grid, about "
-                        "8*N^(1/3) along the box's longest axis for N primitives)")
+                   help=f"voxels per axis, each 1..{GRID_MAX}{extra} (default: {default_text})")
 
 
 def add_res(p) -> None:
@@ -311,6 +314,14 @@ def check_render_options(a) -> None:
     if getattr(a, "threshold", None) is not None and a.rules not in CUTOFF_RULES:
         raise UsageError(f"--threshold applies to the paper and paper1992 rules only (the {a.rules} rules have "
                          "no cutoff); leave it out or use --rules paper")
+
+
+def threshold_setting(rules: str, threshold) -> float | None:
+    """The cutoff a trace under ``rules`` uses: the one given, the library's default for the
+    rules with a cutoff, None for the others (what a report's settings show)."""
+    if rules not in CUTOFF_RULES:
+        return None
+    return float(threshold) if threshold is not None else default_threshold()
 
 
 def render_kwargs(a) -> dict:

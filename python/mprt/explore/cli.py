@@ -94,6 +94,13 @@ def _common(p):
     opt.add_threads(p)
 
 
+def _tracing(p, grid_default: str, grid_extra: str) -> None:
+    """--grid, --rules and --threshold as every command that traces has them (``mprt.options``)."""
+    opt.add_grid(p, grid_default, grid_extra)
+    opt.add_rules(p)
+    opt.add_threshold(p)
+
+
 def add_parsers(sub) -> None:
     from ..machine.config import BUILTIN
     from .search import GLOBAL_ALGORITHMS, OBJECTIVES, POLISHES, STARTS
@@ -103,6 +110,9 @@ def add_parsers(sub) -> None:
                                    "machine that renders SCENE fastest under a hardware budget.",
                        epilog=opt.EXIT_STATUS)
     _common(e)
+    _tracing(e, "searched over the space's subdivision variables",
+             "; fixes the subdivision: the space's subdivision variables are held at N per axis (or NX,NY,NZ) "
+             "and only the machine is searched")
     e.add_argument("--space", metavar="FILE.toml", help="design space (default: the built-in space)")
     e.add_argument("--objective", choices=OBJECTIVES, default="time",
                    help="time: cycles (under --budget); time*cost; pareto: the front by a sweep of budgets "
@@ -156,6 +166,9 @@ def add_parsers(sub) -> None:
                                    "fidelity ladder trusts for it, and print the best.",
                        epilog=opt.EXIT_STATUS)
     _common(p)
+    _tracing(p, "searched over --range, or the --candidates",
+             "; the only candidate: its full-resolution cycles are predicted as any other's (not with "
+             "--candidates or --range)")
     p.add_argument("--model", choices=tuple(BUILTIN), default=None,
                    help="built-in machine to choose the subdivision for (default: 3mppe)")
     p.add_argument("--config", metavar="FILE.toml", default=None,
@@ -175,7 +188,7 @@ def add_parsers(sub) -> None:
                    help="one n as n along the longest axis, others in proportion, or n per axis "
                         "(default: proportional)")
     p.add_argument("--fraction", type=_positive(int), default=16, metavar="F",
-                   help="trace at 1/F of --res (default: 16)")
+                   help="trace at 1/F of --res, at least 32 pixels per axis (the whole frame where smaller) (default: 16)")
     p.add_argument("--verify", "--check", type=_nonnegative_int, default=0, metavar="K", dest="check",
                    help="trace the K best predictions at --res on about 16 of its 16x16 tiles (stratified; a "
                         "sixty-fourth of 512x512) and choose among them by that (default: 0, the "
@@ -288,18 +301,20 @@ def run_explore(a) -> int:
     except SpaceError as e:
         raise opt.UsageError(str(e)) from None
     check_budget(space, a.budget, a.objective)
+    opt.check_render_options(a)
     scene = opt.load_scene(a.scene, skip_unknown=a.skip_unknown)[0]
     w, h = a.res or scene.info()["resolution"]
     kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget,
               level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, algorithm=a.algorithm,
               polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads, fraction=a.fraction,
-              sample=a.sample, verify=a.verify, starts=a.starts)
+              sample=a.sample, verify=a.verify, starts=a.starts, rules=a.rules, threshold=a.threshold, grid=a.grid)
     if a.workers is not None and a.workers < 0:
         raise opt.UsageError(f"--workers {a.workers}: give 0 or more processes")
     print(f"explore {scene.name} at {w}x{h}: "
           + ("measure the fidelity ladder on a low-resolution trace, " if a.level == "auto" else "")
           + f"search up to {a.max_evals} designs ({a.algorithm}, then {a.polish}) at the level chosen, "
             f"re-evaluate the best {a.verify} at {w}x{h} and polish them"
+          + (f" (subdivision fixed at {_dims_text(a.grid)})" if a.grid is not None else "")
           + (f", on the Dask scheduler {a.scheduler}" if a.scheduler else "")
           + "; each phase reports its progress and time", flush=True)
     if a.scheduler:
@@ -333,6 +348,10 @@ def run_explore(a) -> int:
               f"(its best costs {rep['best']['cost']:.0f} kGE); raise --budget or --max-evals", file=sys.stderr)
         return 1
     return 0
+
+
+def _dims_text(grid) -> str:
+    return "x".join(map(str, (grid,) * 3 if isinstance(grid, int) else grid))
 
 
 def check_budget(space, budget, objective) -> None:
@@ -391,13 +410,21 @@ def run_prepass(a) -> int:
     from .prepass import prepass
 
     opt.check_outputs(("--json", a.json, "json"))
+    opt.check_render_options(a)
+    candidates = a.candidates
+    if a.grid is not None:
+        if a.candidates or a.n_range:
+            raise opt.UsageError(f"--grid fixes the one subdivision to predict; leave out "
+                                 f"{'--candidates' if a.candidates else '--range'} (or --grid, to search)")
+        candidates = [(a.grid,) * 3 if isinstance(a.grid, int) else tuple(a.grid)]
     scene = opt.load_scene(a.scene, skip_unknown=a.skip_unknown)[0]
     w, h = a.res or scene.info()["resolution"]
     from ..machine.config import resolve
     machine = resolve(a.model or (None if a.config else "3mppe"), a.config, None)
-    r = prepass(scene, w, h, candidates=a.candidates, n_range=a.n_range, fraction=a.fraction, shape=a.shape,
+    r = prepass(scene, w, h, candidates=candidates, n_range=a.n_range, fraction=a.fraction, shape=a.shape,
                 threads=a.threads, check=a.check, refine=a.refine, design=machine,
-                level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance)
+                level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, rules=a.rules,
+                threshold=a.threshold)
     lw, lh = r["low_resolution"]
     print(f"prepass {scene.name}: {len(r['candidates'])} subdivisions traced at {lw}x{lh} in {r['seconds']:.2f} s; "
           f"cycles predicted for {w}x{h} on {r['machine']} at level {r['level']}"

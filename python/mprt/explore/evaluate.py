@@ -249,15 +249,17 @@ def grid_dims(scene, subdivision, shape: str = "cube") -> tuple:
 
 class SceneEvaluator:
     """Evaluates points (subdivision + design) on one scene at one resolution
-    and level: one trace per grid, kept (with its evaluator) while the traces
+    and level (traced under ``rules``, with the cutoff ``threshold``: None is the
+    library's default): one trace per grid, kept (with its evaluator) while the traces
     held stay under ``max_visits`` visits in all.  ``sample`` (a sampled-replay
     specification, e.g. ``stratified:16:1``): trace only those tiles of the
     frame and scale the cycles by the samples in the frame over those traced."""
 
     def __init__(self, scene, width: int, height: int, level: int = 1, shape: str = "cube",
                  unit_costs: UnitCosts | None = None, max_visits: int = 8_000_000, rules: str = "paper",
-                 threads: int = 1, sample: str | None = None):
+                 threads: int = 1, sample: str | None = None, threshold: float | None = None):
         self.scene, self.width, self.height = scene, int(width), int(height)
+        self.threshold = threshold
         self.level, self.shape, self.rules, self.threads = level, shape, rules, threads
         self.unit_costs = unit_costs or UnitCosts()
         self.max_visits = max_visits
@@ -271,7 +273,7 @@ class SceneEvaluator:
         from these (one tracing thread each; the trace is the same whatever the threads)."""
         return {"width": self.width, "height": self.height, "level": self.level, "shape": self.shape,
                 "unit_costs": self.unit_costs, "max_visits": self.max_visits, "rules": self.rules, "threads": 1,
-                "sample": self.sample}
+                "sample": self.sample, "threshold": self.threshold}
 
     def evaluator(self, dims) -> tuple:
         """(TraceEvaluator, scale) of a grid's trace."""
@@ -285,10 +287,12 @@ class SceneEvaluator:
         grid = self.scene.grid(dims)
         if self.sample:
             from ..fidelity import trace_sample
-            st = trace_sample(grid, self.sample, self.width, self.height, rules=self.rules, threads=self.threads)
+            st = trace_sample(grid, self.sample, self.width, self.height, rules=self.rules,
+                              threshold=self.threshold, threads=self.threads)
             tr, scale = st.trace, 1.0 / st.fraction
         else:
-            _, tr = grid.trace(self.width, self.height, rules=self.rules, threads=self.threads)
+            _, tr = grid.trace(self.width, self.height, rules=self.rules, threshold=self.threshold,
+                              threads=self.threads)
             scale = 1.0
         while self._held and sum(e.visits for e, _ in self._held.values()) + len(tr.visits) > self.max_visits:
             self._held.pop(next(iter(self._held)))

@@ -24,7 +24,8 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
             algorithm: str = "direct-l", polish: str = "lattice", max_evals: int = 1000, seed: int = 1,
             budgets: int = 6, progress=None, threads: int = 1, fraction: int | None = None, refine: int = 2,
             refine_evals: int = 60, sample: str | None = "auto", verify: int = 4, workers: int | None = None,
-            starts: str = "whole", log=None) -> dict:
+            starts: str = "whole", log=None, rules: str = "paper", threshold: float | None = None,
+            grid=None) -> dict:
     """Search ``space`` for ``scene`` at width x height; returns the report
     as a dict (the JSON of ``mprt explore``).
 
@@ -51,12 +52,18 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
     on each other in parallel (``parallel.Pool``): the ladder's designs, a
     polish neighbourhood, the full-resolution checks, the references and,
     with ``starts="mapping"``, the global phase's starts.  The answer does not
-    depend on their number."""
+    depend on their number.
+
+    Every trace is made under ``rules`` with the cutoff ``threshold`` (None: the library's
+    default), as ``mprt render``'s.  ``grid`` (N, or (nx, ny, nz)) fixes the subdivision: N
+    voxels per axis, the space's subdivision variables held at it (no subdivision search)."""
+    if grid is not None:
+        space = (space or default_space()).with_subdivision((grid,) * 3 if isinstance(grid, int) else grid)
     pool = Pool(scene, workers)
     try:
         return _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish,
                         max_evals, seed, budgets, progress, threads, fraction, refine, refine_evals, sample, verify,
-                        starts, log or (lambda text: None), pool)
+                        starts, log or (lambda text: None), pool, rules, threshold, grid)
     finally:
         pool.close()
 
@@ -67,7 +74,8 @@ def _global_task(sev, level, task):
 
 
 def _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish, max_evals, seed,
-             budgets, progress, threads, fraction, refine, refine_evals, sample, verify, starts, say, pool) -> dict:
+             budgets, progress, threads, fraction, refine, refine_evals, sample, verify, starts, say, pool,
+             rules="paper", threshold=None, grid=None) -> dict:
     t0 = time.perf_counter()
     space = space or default_space()
     unit_costs = UnitCosts.from_table(space.cost)
@@ -76,7 +84,8 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
     if sample == "auto":
         sample = "stratified:16:1" if width * height > 256 * 256 and fraction > 1 else None
     low = (width, height) if fraction == 1 else low_resolution(width, height, fraction)
-    ev = SceneEvaluator(scene, *low, level=0, shape=space.shape, unit_costs=unit_costs, threads=threads)
+    ev = SceneEvaluator(scene, *low, level=0, shape=space.shape, unit_costs=unit_costs, threads=threads, rules=rules,
+                        threshold=threshold)
     levels = choose_levels(scene, ev, space, level, tolerance, seed, say, pool)
     ev.level = lv = levels["search"]
     cost_of = lambda p: hardware_cost(p.design, unit_costs)  # noqa: E731
@@ -99,7 +108,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
     evaluations = res.evaluations
     if fraction > 1:
         full = SceneEvaluator(scene, width, height, level=lv, shape=space.shape, unit_costs=unit_costs,
-                              threads=threads, sample=sample)
+                              threads=threads, sample=sample, rules=rules, threshold=threshold)
         if objective == "pareto":
             fp = Problem(space, lambda pts: pool.run(full, pts, lv), "time")
             fp.evaluate_many([e.index for e in front])
@@ -130,7 +139,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
     b = best.result
     report = {
         "scene": scene.name,
-        "settings": settings(scene, width, height, threads),
+        "settings": settings(scene, width, height, threads, rules, threshold, grid),
         "width": width, "height": height,
         "objective": objective, "budget": budget,
         "best": {"subdivision": dims, "design": best.point.design.to_dict(), "cycles": best.cycles,
@@ -235,11 +244,14 @@ class NoLiveDesignError(MprtError, RuntimeError):
     """No design the explorer evaluated runs to the end at its level."""
 
 
-def settings(scene, width, height, threads) -> dict:
-    """What made a report: the scene and its content hash, the image, the version."""
-    from ..options import version
+def settings(scene, width, height, threads, rules: str = "paper", threshold=None, grid=None) -> dict:
+    """What made a report: the scene and its content hash, the image, the rules and cutoff of
+    its traces, the subdivision when it was fixed (``grid``: None when searched), the version."""
+    from ..options import threshold_setting, version
     return {"scene": scene.name, "scene_sha256": scene.content_hash(), "resolution": [width, height],
-            "rules": "paper", "threads": threads, "mprt_version": version()}
+            "rules": rules, "threshold": threshold_setting(rules, threshold),
+            "grid": None if grid is None else ([grid] * 3 if isinstance(grid, int) else list(grid)),
+            "threads": threads, "mprt_version": version()}
 
 
 def _refine(problem, space, full, objective, budget, refine, refine_evals, verify, pool, cost_of):

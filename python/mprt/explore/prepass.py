@@ -7,10 +7,12 @@ proportion, or n per axis with ``shape="cube"``) is tried up a geometric
 ladder over the range until the time has risen on ``past`` rungs past the
 best (default 1: large grids cost the most to build, and the rung past the
 best already closes the bracket; 2 chose the same subdivision on all six SPD
-scenes and the stadium at 512x512, at up to 3x the cost on gears), then the bracket around the best rung
+scenes and the stadium at 512x512, at up to 3x the cost on gears) and at
+least MIN_RUNGS rungs have been tried, then the bracket around the best rung
 is narrowed by golden-section steps until its ends are within ``ratio`` (the
 time is close to unimodal in n, fewer tests as voxels shrink, more steps and
-set-up, and flat near its minimum).  Each candidate's
+set-up, and flat near its minimum).  The low resolution is
+at least LOW_FLOOR pixels per axis (the whole frame where smaller).  Each candidate's
 full-resolution time is predicted as its low-resolution cycles times the
 ratio of pixel counts; the machine replayed is the machine model's 3MPPE
 (``mprt.machine`` built-in ``3mppe``) unless a Design or SystemConfig is given
@@ -36,8 +38,15 @@ from .space import Design
 FIXED_RULES = ("pbrt", "density8", "paper-best")
 
 
+LOW_FLOOR = 32      # the low resolution's floor per axis (the frame's own size where smaller)
+MIN_RUNGS = 4       # the walk up the ladder tries at least this many rungs
+
+
 def low_resolution(width: int, height: int, fraction: int) -> tuple[int, int]:
-    return max(int(round(width / fraction)), 8), max(int(round(height / fraction)), 8)
+    """width/fraction x height/fraction, but at least LOW_FLOOR per axis (or the frame's own
+    size, where smaller): below that a trace has too few rays to tell subdivisions apart
+    (at 8x8, tetra:1's ladder stopped after 2x2x2 and 3x3x3)."""
+    return tuple(max(int(round(n / fraction)), min(n, LOW_FLOOR)) for n in (width, height))
 
 
 def fixed_rule(scene, rule: str) -> tuple:
@@ -52,15 +61,17 @@ def fixed_rule(scene, rule: str) -> tuple:
 
 
 class _Cands:
-    def __init__(self, scene, w, h, design, shape, unit_costs, threads, level):
+    def __init__(self, scene, w, h, design, shape, unit_costs, threads, level, rules="paper", threshold=None):
         self.scene, self.w, self.h, self.design, self.shape = scene, w, h, design, shape
         self.unit_costs, self.threads, self.level = unit_costs, threads, level
+        self.rules, self.threshold = rules, threshold
         self.seen: dict = {}          # dims -> cycles at low resolution
 
     def __call__(self, n) -> float:
         dims = grid_dims(self.scene, (n,) if np.isscalar(n) else n, self.shape)
         if dims not in self.seen:
-            _, tr = self.scene.grid(dims).trace(self.w, self.h, threads=self.threads)
+            _, tr = self.scene.grid(dims).trace(self.w, self.h, rules=self.rules, threshold=self.threshold,
+                                                threads=self.threads)
             self.seen[dims] = TraceEvaluator(tr, self.unit_costs, counted=False).run_config(self.design,
                                                                                            self.level).cycles
         return self.seen[dims]
@@ -78,7 +89,8 @@ def default_range(scene, density=(1.0, 32.0), limit: int = 768) -> tuple[int, in
 def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range=None, fraction: int = 16,
             design=None, shape: str = "proportional", rungs: int = 7, level: int | str = 1,
             unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15, check: int = 0,
-            check_sample: str | None = None, past: int = 1, refine: str = "golden", tolerance: float = 0.01) -> dict:
+            check_sample: str | None = None, past: int = 1, refine: str = "golden", tolerance: float = 0.01,
+            rules: str = "paper", threshold: float | None = None) -> dict:
     """Predict the full-resolution cycles of candidate subdivisions from traces
     at width/fraction x height/fraction, and return the best.  ``candidates``:
     explicit subdivisions (n or (nx, ny, nz)), all evaluated; otherwise n is
@@ -89,7 +101,8 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
     n, a low-resolution trace cannot tell neighbouring candidates apart.
     Default sample: ``stratified:K:1`` with K such that about 16 tiles of 16x16
     are traced (a sixty-fourth of a 512x512 frame; all of a frame of 16 tiles
-    or fewer)."""
+    or fewer).  Every trace is made under ``rules`` with the cutoff ``threshold`` (None: the
+    library's default)."""
     if refine not in ("golden", "parabola", "none"):
         raise ValueError(f"prepass: refine must be 'parabola', 'golden' or 'none', not {refine!r}")
     t0 = time.perf_counter()
@@ -103,10 +116,11 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         n_range = default_range(scene)
     ladder_rows = None
     if level == "auto":
-        level, ladder_rows = trusted_level(scene, w, h, design, shape, candidates, n_range, tolerance, threads)
+        level, ladder_rows = trusted_level(scene, w, h, design, shape, candidates, n_range, tolerance, threads,
+                                           rules, threshold)
     elif level not in (0, 1, 2, 3):
         raise ValueError(f"prepass: level must be 0, 1, 2, 3 or 'auto', not {level!r}")
-    f = _Cands(scene, w, h, design, shape, unit_costs or UnitCosts(), threads, level)
+    f = _Cands(scene, w, h, design, shape, unit_costs or UnitCosts(), threads, level, rules, threshold)
     if candidates:
         for c in candidates:
             f(c)
@@ -115,12 +129,13 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         if not 1 <= lo <= hi:
             raise ValueError(f"prepass: subdivision range {lo}..{hi} is empty")
         ladder = sorted({int(round(x)) for x in np.geomspace(lo, hi, min(rungs, hi - lo + 1))})
-        # up the ladder until the time has risen on `past` rungs past the best (the large grids cost most)
+        # up the ladder until the time has risen on `past` rungs past the best (the large grids cost most),
+        # but at least MIN_RUNGS rungs: one rise at the bottom of the ladder is often the noise of a small trace
         vals = []
         for n in ladder:
             vals.append(f(n))
             i = int(np.argmin(vals))
-            if len(vals) - 1 - i >= past:
+            if len(vals) - 1 - i >= past and len(vals) >= min(MIN_RUNGS, len(ladder)):
                 break
         if refine == "parabola":
             _parabola(f, ladder[max(i - 1, 0)], ladder[i], ladder[min(i + 1, len(ladder) - 1)])
@@ -137,7 +152,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         from .evaluate import SceneEvaluator
         from .space import Point
         full = SceneEvaluator(scene, width, height, level=level, shape="cube", unit_costs=f.unit_costs,
-                              threads=threads, sample=check_sample)
+                              threads=threads, sample=check_sample, rules=rules, threshold=threshold)
         for dims, _ in sorted(cands, key=lambda kv: (kv[1], kv[0]))[:check]:
             checked[dims] = full.run(Point(dims, f.design)).cycles
             full._held.clear()
@@ -145,7 +160,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         best = (best[0], f.seen[best[0]])
     from .explorer import settings
     return {"subdivision": list(best[0]), "predicted_cycles": best[1] * scale,
-            "settings": settings(scene, width, height, threads),
+            "settings": settings(scene, width, height, threads, rules, threshold),
             "candidates": [dict({"subdivision": list(d), "predicted_cycles": c * scale},
                                 **({"sampled_cycles": checked[d]} if d in checked else {})) for d, c in cands],
             "check_sample": check_sample if check > 0 else None,
@@ -155,7 +170,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
 
 
 def trusted_level(scene, w: int, h: int, config, shape: str, candidates, n_range, tolerance: float,
-                  threads: int = 1) -> tuple:
+                  threads: int = 1, rules: str = "paper", threshold: float | None = None) -> tuple:
     """(level, ladder rows): the lowest level within ``tolerance`` of the machine's own level
     (``native_level``) for ``config`` on the w x h trace of the middle candidate (or of the
     geometric middle of ``n_range``)."""
@@ -167,7 +182,7 @@ def trusted_level(scene, w: int, h: int, config, shape: str, candidates, n_range
     else:
         lo, hi = (int(v) for v in n_range)
         mid = grid_dims(scene, (int(round(math.sqrt(lo * hi))),), shape)
-    _, tr = scene.grid(mid).trace(w, h, threads=threads)
+    _, tr = scene.grid(mid).trace(w, h, rules=rules, threshold=threshold, threads=threads)
     top = native_level(config)
     if top == 1:
         return 1, None
