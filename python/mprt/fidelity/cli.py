@@ -156,6 +156,62 @@ def _estimate_runs(st, e, an, cfg1, frame, ev):
     return estimate(st, e, an, cfg1, frame=Analytical(frame, fcosts), admitted=comp.admissions())
 
 
+PHASE_VISITS = 1 << 18      # traces of this many visits or more get phase lines (costing, loading, replaying)
+PROBE_RUNS = 64             # the estimate replays runs of trees holding 1/PROBE_RUNS of the visits first
+
+
+def _probe(trace, cfg, level: int) -> dict:
+    """Seconds each phase of a compiled replay of ``trace`` should take: the same phases timed on
+    runs of its trees holding 1/PROBE_RUNS of its visits (sample_trace), scaled by the visits."""
+    from .compiled import Compiled, costs_for
+    from .levels import at_level
+
+    st = sample_trace(trace, f"runs:{PROBE_RUNS}:1")
+    n = len(st.trace.visits)
+    if not n:
+        return {}
+    scale = len(trace.visits) / n
+    cfg_l = at_level(cfg, level)
+    costs_for(st.trace, cfg_l)      # the first costing also builds the cost model: not the visits' time
+    t0 = time.perf_counter()
+    costs = costs_for(st.trace, cfg_l)
+    t1 = time.perf_counter()
+    comp = Compiled(st.trace, costs)
+    t2 = time.perf_counter()
+    try:
+        comp.cycles(cfg_l)
+    except Exception:           # a deadlock or a limit on the sample says nothing about the time
+        return {"costing": (t1 - t0) * scale, "loading": (t2 - t1) * scale}
+    t3 = time.perf_counter()
+    return {"costing": (t1 - t0) * scale, "loading": (t2 - t1) * scale, "replaying": (t3 - t2) * scale,
+            "rate": n / max(t3 - t2, 1e-9)}
+
+
+def _phased_replay(ev, trace, cfg, level: int, engine: str, timeline: bool):
+    """The replay of a large trace in phases, each with a line on stderr (a bar against its
+    estimate on a terminal): costing the visits, loading them into the engine, replaying."""
+    from ..progress import Phases
+    from .levels import at_level, engine_for
+
+    eng = engine_for(cfg, level, engine)
+    visits = len(trace.visits)
+    est = _probe(trace, cfg, level) if eng == "compiled" else {}
+    total = sum(v for k, v in est.items() if k != "rate") if "replaying" in est else None
+    print(f"replay  {visits:,} visits at level {level} on the {eng} engine"
+          + (f": estimated {total:.1f} s (a 1/{PROBE_RUNS} sample of its trees replayed at "
+             f"{est['rate'] / 1e6:.2f} M visits/s)" if total else ""), file=sys.stderr, flush=True)
+    ph = Phases(3)
+    with ph.step(f"costing {visits:,} visits", est.get("costing")):
+        ev.costed(at_level(cfg, level))
+    with ph.step(f"loading into the {eng} engine", est.get("loading")):
+        ev.prepare(cfg, level, engine)
+    if eng == "simpy":          # SimPy counts its rays itself (a tqdm bar on a terminal)
+        ph.line(f"replaying {len(trace.rays):,} rays on SimPy")
+        return ev.evaluate(cfg, level, engine, timeline=timeline, progress=sys.stderr.isatty())
+    with ph.step(f"replaying at level {level}", est.get("replaying")):
+        return ev.evaluate(cfg, level, engine, timeline=timeline, progress=sys.stderr.isatty())
+
+
 def _replay(trace, cfg, a):
     tolerance = 0.01 if a.tolerance is None else a.tolerance
     st = getattr(a, "sampled_trace", None)
@@ -166,8 +222,11 @@ def _replay(trace, cfg, a):
     else:
         level = native_level(cfg) if a.level is None else int(a.level)
     ev = Evaluator(trace)
-    e = ev.evaluate(cfg, level, a.engine, timeline=bool(a.plot or getattr(a, "report", None)),
-                    progress=sys.stderr.isatty())
+    timeline = bool(a.plot or getattr(a, "report", None))
+    if len(trace.visits) < PHASE_VISITS:       # well under a second: no phase lines
+        e = ev.evaluate(cfg, level, a.engine, timeline=timeline, progress=sys.stderr.isatty())
+    else:
+        e = _phased_replay(ev, trace, cfg, level, a.engine, timeline)
     res = e.result
     extra = {"level": level, "engine": e.engine, "sampled": 1.0, "cycles_interval": [res.cycles, res.cycles]}
     line = f"level {level} on the {e.engine} engine"

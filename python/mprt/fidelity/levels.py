@@ -108,26 +108,33 @@ class Evaluator:
             self._costed[key] = {"costs": vc}
         return self._costed[key]
 
-    def evaluate(self, config: SystemConfig | str, level: int | None = None, engine: str = "auto",
-                 record: bool = False, timeline: bool = False, progress: bool = False) -> Evaluation:
-        """The configuration at a level (default: its native level) on an engine; raises
-        DeadlockError when the machine deadlocks, ConfigError for an impossible choice."""
+    def prepare(self, config: SystemConfig | str, level: int | None = None, engine: str = "auto") -> tuple:
+        """(configuration at the level, engine, its costed forms, level): the visits costed and the
+        engine's form of the trace loaded (the compiled replay's copy of it), as ``evaluate`` needs
+        them; a caller that reports each phase calls this first (``mprt simulate``)."""
         if isinstance(config, str):
             config = builtin(config)
         level = native_level(config) if level is None else level
         cfg = at_level(config, level)
         eng = engine_for(config, level, engine)
         c = self.costed(cfg)
+        if eng == "analytical" and "analytical" not in c:
+            c["analytical"] = Analytical(self.trace, c["costs"])
+        elif eng == "compiled" and "compiled" not in c:
+            c["compiled"] = Compiled(self.trace, c["costs"],      # the ring's packets as SimPy sizes them
+                                     None if self.cost_model is None else self.cost_model.packet_flits,
+                                     self._memory)
+        return cfg, eng, c, level
+
+    def evaluate(self, config: SystemConfig | str, level: int | None = None, engine: str = "auto",
+                 record: bool = False, timeline: bool = False, progress: bool = False) -> Evaluation:
+        """The configuration at a level (default: its native level) on an engine; raises
+        DeadlockError when the machine deadlocks, ConfigError for an impossible choice."""
+        cfg, eng, c, level = self.prepare(config, level, engine)
         t0 = time.perf_counter()
         if eng == "analytical":
-            if "analytical" not in c:
-                c["analytical"] = Analytical(self.trace, c["costs"])
             res = c["analytical"].result(cfg)
         elif eng == "compiled":
-            if "compiled" not in c:
-                c["compiled"] = Compiled(self.trace, c["costs"],      # the ring's packets as SimPy sizes them
-                                         None if self.cost_model is None else self.cost_model.packet_flits,
-                                         self._memory)
             # a timeline comes from the event log (64 bytes a visit), so only for traces of
             # up to TIMELINE_VISITS visits
             log = record or (timeline and len(self.trace.visits) <= TIMELINE_VISITS)

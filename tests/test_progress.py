@@ -1,0 +1,75 @@
+"""No silent long work (issue 20, item 2): phase lines on stderr, one at each start and end when
+not on a terminal, a bar against the estimate (or a spinner) on one.  The lines are checked, not
+the timing."""
+import io
+
+from mprt import cli
+from mprt.progress import Phases, clock_step, eta_text, rate_estimate
+
+
+class Terminal(io.StringIO):
+    def isatty(self):
+        return True
+
+
+def test_a_step_off_a_terminal_prints_one_line_at_its_start_and_one_at_its_end():
+    out = io.StringIO()
+    now = [0.0]
+    with clock_step("costing 10 visits", 12.0, stream=out, clock=lambda: now[0]):
+        now[0] = 11.5
+    assert out.getvalue().splitlines() == ["costing 10 visits, about 12 s", "costing 10 visits: done in 11.5 s"]
+
+
+def test_a_step_that_fails_says_it_stopped():
+    out = io.StringIO()
+    try:
+        with clock_step("search", None, stream=out):
+            raise KeyError("x")
+    except KeyError:
+        pass
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "search" and lines[1].startswith("search: stopped in ")
+
+
+def test_on_a_terminal_a_step_draws_a_bar_against_its_estimate_or_a_spinner():
+    for estimate, words in ((30.0, "s estimated"), (None, "s elapsed")):
+        out = Terminal()
+        with clock_step("phase 1/2: replaying at level 3", estimate, stream=out):
+            pass
+        text = out.getvalue()
+        assert "phase 1/2" in text and words in text and "replaying at level 3: done in" in text
+
+
+def test_phases_are_numbered():
+    out = io.StringIO()
+    ph = Phases(3, stream=out)
+    with ph.step("ladder", 2.0):
+        pass
+    ph.line("search, up to 100 designs", 40.0)
+    with ph.step("references"):
+        pass
+    lines = out.getvalue().splitlines()
+    assert lines[0] == "phase 1/3: ladder, about 2 s"
+    assert lines[2] == "phase 2/3: search, up to 100 designs, about 40 s"
+    assert lines[3] == "phase 3/3: references"
+
+
+def test_eta_and_rate():
+    assert eta_text(None) == "" and eta_text(0.2) == "under a second" and eta_text(300) == "about 5.0 min"
+    assert rate_estimate(2.0, 10, 50) == 10.0 and rate_estimate(0.0, 0, 5) is None
+
+
+def test_simulate_shows_the_replay_phases_with_an_estimate(monkeypatch, capsys):
+    from mprt.fidelity import cli as fcli
+    monkeypatch.setattr(fcli, "PHASE_VISITS", 0)          # a small trace, shown as a large one is
+    assert cli.main(["simulate", "balls:1", "--res", "32x32", "--model", "3mppe", "--threads", "1"]) == 0
+    err = capsys.readouterr().err
+    assert "visits at level 3 on the compiled engine: estimated" in err and "M visits/s" in err
+    for k, name in ((1, "costing"), (2, "loading into the compiled engine"), (3, "replaying at level 3")):
+        assert f"phase {k}/3: {name}" in err
+    assert err.count(": done in ") == 3
+
+
+def test_simulate_of_a_small_trace_prints_no_phases(capsys):
+    assert cli.main(["simulate", "tetra:1", "--res", "16x16", "--model", "M", "--threads", "1"]) == 0
+    assert "phase" not in capsys.readouterr().err
