@@ -73,3 +73,49 @@ def test_simulate_shows_the_replay_phases_with_an_estimate(monkeypatch, capsys):
 def test_simulate_of_a_small_trace_prints_no_phases(capsys):
     assert cli.main(["simulate", "tetra:1", "--res", "16x16", "--model", "M", "--threads", "1"]) == 0
     assert "phase" not in capsys.readouterr().err
+
+
+# -- explore: each phase numbered, with an estimate from the phases before it ----------------------
+def _explore(argv, capsys):
+    from pathlib import Path
+    small = Path(__file__).parent / "data" / "explore" / "small_space.toml"
+    assert cli.main(["explore", "tetra:1", "--space", str(small), "--max-evals", "20", "--workers", "0",
+                     "--threads", "1"] + argv) == 0
+    return capsys.readouterr().err
+
+
+def test_explore_announces_every_phase_numbered(capsys):
+    err = _explore(["--res", "64x64", "--fraction", "2"], capsys)
+    names = ["ladder", "search", "full-resolution checks", "polish at 64x64", "references"]
+    for k, name in enumerate(names, 1):
+        assert f"phase {k}/5: {name}" in err, (name, err)
+    search = err.split("phase 2/5: ")[1].splitlines()[0]
+    assert search.startswith("search: up to 20 designs") and ("about" in search or "under a second" in search)
+    assert err.count(": done in ") == 4            # the search ends with its own summary line
+
+
+def test_explore_at_a_fixed_level_has_no_ladder_phase(capsys):
+    err = _explore(["--res", "16x16", "--level", "1"], capsys)
+    assert "phase 1/2: search" in err and "phase 2/2: references" in err and "ladder" not in err
+
+
+def test_explore_on_a_scheduler_shows_the_remote_task(monkeypatch, capsys):
+    from mprt.explore import distributed
+    monkeypatch.setattr(distributed, "run_remote", lambda address, fn, *args: fn(*args))
+    err = _explore(["--res", "16x16", "--level", "1", "--scheduler", "tcp://nowhere:1"], capsys)
+    assert "remote  the search on the Dask scheduler tcp://nowhere:1" in err
+    assert "the search on the Dask scheduler tcp://nowhere:1 (one task; its phases run there): done in" in err
+
+
+def test_the_search_counts_its_evaluations_against_the_global_phase_with_the_time_left():
+    from types import SimpleNamespace
+    from mprt.explore.cli import _progress_printer
+    out = Terminal()
+    show = _progress_printer(total=100, stream=out)
+    best = SimpleNamespace(cycles=1000.0, cost=50.0)
+    for n in (1, 40, 120):
+        show(SimpleNamespace(memo=range(n), best=lambda: best))
+    show.end()
+    text = out.getvalue()
+    assert "40 evaluations of up to 100" in text and "left" in text
+    assert "120 evaluations, best 1,000 cycles" in text and "polishing" in text

@@ -17,6 +17,7 @@ import time
 
 from .. import options as opt
 from ..atomic import open_replacing
+from ..progress import Phases, clock_step, eta_text
 
 
 def _positive(kind):
@@ -262,30 +263,38 @@ def _nonnegative_int(text: str) -> int:
     return v
 
 
-def _progress_printer(every: int = 25):
-    start = time.perf_counter()
-    tty = sys.stderr.isatty()
-
+def _progress_printer(every: int = 25, total: int | None = None, stream=None):
+    """The search's progress: evaluations (of up to ``total`` in the global phase), the best so
+    far, the time spent since the search's first evaluation and the time left at that rate; one
+    line rewritten on a terminal, else a line every ``every`` evaluations."""
+    stream = stream or sys.stderr
+    tty = stream.isatty()
+    start = [None]
     open_line = [False]
 
     def show(problem):
         n = len(problem.memo)
+        if start[0] is None:
+            start[0] = time.perf_counter()
         if n % every and not tty:
             return
         b = problem.best()
-        msg = (f"\r  {n:5d} evaluations, best {b.cycles:,.0f} cycles at cost {b.cost:.0f} kGE, "
-               f"{time.perf_counter() - start:.1f} s")
-        print(msg if tty else msg[1:], end="" if tty else "\n", file=sys.stderr, flush=True)
+        spent = time.perf_counter() - start[0]
+        left = (f", {eta_text(spent / n * (total - n))} left" if total and 0 < n < total and spent > 0
+                else ", polishing" if total and n > total else "")
+        msg = (f"\r  {n:5d} evaluations{f' of up to {total}' if total and n <= total else ''}, best {b.cycles:,.0f} cycles at cost "
+               f"{b.cost:.0f} kGE, {spent:.1f} s{left}")
+        print(msg if tty else msg[1:], end="" if tty else "\n", file=stream, flush=True)
         open_line[0] = tty
 
     def end():
         if open_line[0]:
-            print(file=sys.stderr)
+            print(file=stream)
         open_line[0] = False
 
     def line(text):
         end()
-        print(text, file=sys.stderr, flush=True)
+        print(text, file=stream, flush=True)
 
     show.end, show.line = end, line
     return show
@@ -319,10 +328,11 @@ def run_explore(a) -> int:
           + "; each phase reports its progress and time", flush=True)
     if a.scheduler:
         from .distributed import run_remote
-        rep = run_remote(a.scheduler, explore_spec, a.scene, kw)
+        with clock_step(f"remote  the search on the Dask scheduler {a.scheduler} (one task; its phases run there)"):
+            rep = run_remote(a.scheduler, explore_spec, a.scene, kw)
     else:
-        show = _progress_printer()
-        rep = explore(scene, progress=show, log=show.line, workers=a.workers, **kw)
+        show = _progress_printer(total=a.max_evals)
+        rep = explore(scene, progress=show, log=show.line, workers=a.workers, phases=Phases(0), **kw)
         show.end()
     mark_feasible(rep)
     print_report(rep)

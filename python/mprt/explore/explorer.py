@@ -25,7 +25,7 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
             budgets: int = 6, progress=None, threads: int = 1, fraction: int | None = None, refine: int = 2,
             refine_evals: int = 60, sample: str | None = "auto", verify: int = 4, workers: int | None = None,
             starts: str = "whole", log=None, rules: str = "paper", threshold: float | None = None,
-            grid=None) -> dict:
+            grid=None, phases=None) -> dict:
     """Search ``space`` for ``scene`` at width x height; returns the report
     as a dict (the JSON of ``mprt explore``).
 
@@ -56,14 +56,18 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
 
     Every trace is made under ``rules`` with the cutoff ``threshold`` (None: the library's
     default), as ``mprt render``'s.  ``grid`` (N, or (nx, ny, nz)) fixes the subdivision: N
-    voxels per axis, the space's subdivision variables held at it (no subdivision search)."""
+    voxels per axis, the space's subdivision variables held at it (no subdivision search).
+
+    ``phases`` (an ``mprt.progress.Phases``; default: silent) is told each phase as it starts,
+    numbered, with its estimated time (from the phases before it: the ladder's seconds per
+    design, the search's per evaluation scaled by the pixels), and draws its progress."""
     if grid is not None:
         space = (space or default_space()).with_subdivision((grid,) * 3 if isinstance(grid, int) else grid)
     pool = Pool(scene, workers)
     try:
         return _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish,
                         max_evals, seed, budgets, progress, threads, fraction, refine, refine_evals, sample, verify,
-                        starts, log or (lambda text: None), pool, rules, threshold, grid)
+                        starts, log or (lambda text: None), pool, rules, threshold, grid, phases or _Silent())
     finally:
         pool.close()
 
@@ -75,7 +79,7 @@ def _global_task(sev, level, task):
 
 def _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish, max_evals, seed,
              budgets, progress, threads, fraction, refine, refine_evals, sample, verify, starts, say, pool,
-             rules="paper", threshold=None, grid=None) -> dict:
+             rules="paper", threshold=None, grid=None, phases=None) -> dict:
     t0 = time.perf_counter()
     space = space or default_space()
     unit_costs = UnitCosts.from_table(space.cost)
@@ -84,10 +88,22 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
     if sample == "auto":
         sample = "stratified:16:1" if width * height > 256 * 256 and fraction > 1 else None
     low = (width, height) if fraction == 1 else low_resolution(width, height, fraction)
+    phases.n = (level == "auto") + 1 + (fraction > 1) * (1 if objective == "pareto" else 2) + 1
     ev = SceneEvaluator(scene, *low, level=0, shape=space.shape, unit_costs=unit_costs, threads=threads, rules=rules,
                         threshold=threshold)
-    levels = choose_levels(scene, ev, space, level, tolerance, seed, say, pool)
+    if level == "auto":
+        with phases.step(f"ladder: {len(ladder_designs(space, seed))} designs at levels "
+                         f"{', '.join(map(str, LADDER_LEVELS))} on a {low[0]}x{low[1]} trace"):
+            levels = choose_levels(scene, ev, space, level, tolerance, seed, say, pool)
+    else:
+        levels = choose_levels(scene, ev, space, level, tolerance, seed, say, pool)
     ev.level = lv = levels["search"]
+    per_eval = _seconds_per_design(levels, lv, pool.workers)
+    # the polish may take as many designs again as the global phase, at least 32 a free variable
+    n_search = max_evals + max(max_evals, 32 * sum(v.size > 1 for v in space.variables))
+    phases.line(f"search: up to {max_evals} designs ({algorithm}), then the {polish} polish, at level {lv}, "
+                f"{low[0]}x{low[1]}", None if per_eval is None else per_eval * n_search)
+    t_search = time.perf_counter()
     cost_of = lambda p: hardware_cost(p.design, unit_costs)  # noqa: E731
     problem = Problem(space, lambda pts: pool.run(ev, pts, lv), objective,
                       budget if objective != "pareto" else None, progress=progress, cost_of=cost_of)
@@ -106,19 +122,22 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
         f"cost {best.cost:.0f} kGE, {time.perf_counter() - t0:.1f} s")
     history = [dict(r, phase="search", resolution=list(low), level=lv) for r in problem.history()]
     evaluations = res.evaluations
+    per_eval = (time.perf_counter() - t_search) / max(len(problem.memo), 1)   # at the search's resolution
     if fraction > 1:
+        per_eval *= width * height / (low[0] * low[1]) * (_sample_fraction(sample, width, height) if sample else 1)
         full = SceneEvaluator(scene, width, height, level=lv, shape=space.shape, unit_costs=unit_costs,
                               threads=threads, sample=sample, rules=rules, threshold=threshold)
         if objective == "pareto":
             fp = Problem(space, lambda pts: pool.run(full, pts, lv), "time")
-            fp.evaluate_many([e.index for e in front])
+            with phases.step(f"front at {width}x{height}: {len(front)} designs", per_eval * len(front)):
+                fp.evaluate_many([e.index for e in front])
             front = [fp.memo[space.canonical(e.index)] for e in front]
             best = min(front, key=lambda e: (e.cycles * e.cost, e.serial))
             history += [dict(r, phase="full", resolution=[width, height], level=lv) for r in fp.history()]
             evaluations += len(fp.memo)
         else:
             best, rows, n = _refine(problem, space, full, objective, budget, refine, refine_evals, verify, pool,
-                                    cost_of)
+                                    cost_of, phases, per_eval)
             history += [dict(r, resolution=[width, height], level=lv) for r in rows]
             evaluations += n
             say(f"full    {n} designs at level {lv}, {width}x{height}"
@@ -133,7 +152,9 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
     dims = list(grid_dims(scene, best.point.subdivision, space.shape))
     refs = {}
     made = {name: make() for name, make in REFERENCE_DESIGNS.items()}
-    got = pool.run(ev, [Point(best.point.subdivision, d) for d in made.values()], lv)
+    with phases.step(f"references: the paper's 3MPPE, models M and S at level {lv}, {ev.width}x{ev.height}",
+                     per_eval * len(made) if fraction > 1 else None):
+        got = pool.run(ev, [Point(best.point.subdivision, d) for d in made.values()], lv)
     for (name, d), r in zip(made.items(), got):
         refs[name] = {"cycles": r.cycles, "cost": r.cost, "utilisation": r.utilisation, "design": d.to_dict()}
     b = best.result
@@ -240,6 +261,35 @@ def choose_levels(scene, ev: SceneEvaluator, space: Space, level, tolerance: flo
             "ladder_seconds": time.perf_counter() - t0}
 
 
+class _Silent:
+    """Phases told to no one (``explore`` without ``phases``)."""
+    n = 0
+
+    def step(self, name, estimate=None):
+        from contextlib import nullcontext
+        return nullcontext()
+
+    def line(self, name, estimate=None):
+        pass
+
+
+def _seconds_per_design(levels: dict, lv: int, workers: int):
+    """The ladder's mean seconds per design at level ``lv`` over the workers (None: no ladder)."""
+    for row in levels.get("ladder") or ():
+        if row.get("level") == lv and row.get("seconds_per_design"):
+            return float(row["seconds_per_design"]) / max(workers, 1)
+    return None
+
+
+def _sample_fraction(sample: str, width: int, height: int) -> float:
+    """The share of a frame's tiles a tile sample traces (for the estimate only): N of them for
+    random:N, one in K for stratified:K and regular:K."""
+    from ..fidelity import Sampling
+    s = Sampling.parse(sample)
+    tiles = -(-width // 16) * -(-height // 16)
+    return min(s.k / tiles if s.method == "random" else 1 / max(s.k, 1), 1.0)
+
+
 class NoLiveDesignError(MprtError, RuntimeError):
     """No design the explorer evaluated runs to the end at its level."""
 
@@ -254,7 +304,8 @@ def settings(scene, width, height, threads, rules: str = "paper", threshold=None
             "threads": threads, "mprt_version": version()}
 
 
-def _refine(problem, space, full, objective, budget, refine, refine_evals, verify, pool, cost_of):
+def _refine(problem, space, full, objective, budget, refine, refine_evals, verify, pool, cost_of, phases=None,
+            per_eval=None):
     """The full-resolution phase, at the search's level: the ``verify`` best designs of the
     low-resolution search and its best of each stage mapping evaluated at full resolution in
     one batch; then, from the best design there of each of the ``refine`` best subdivisions,
@@ -269,8 +320,13 @@ def _refine(problem, space, full, objective, budget, refine, refine_evals, verif
             seen_maps.add(e.point.design.mapping)
             if e not in checks:
                 checks.append(e)
+    phases = phases or _Silent()
     vp = Problem(space, lambda pts: pool.run(full, pts, lv), objective, budget, cost_of=cost_of)
-    vp.evaluate_many([e.index for e in checks])
+    t0 = time.perf_counter()
+    with phases.step(f"full-resolution checks: {len(checks)} designs at {full.width}x{full.height}",
+                     None if per_eval is None else per_eval * len(checks) / max(min(pool.workers, len(checks)), 1)):
+        vp.evaluate_many([e.index for e in checks])
+    per_eval = (time.perf_counter() - t0) / max(len(checks), 1) * max(min(pool.workers, len(checks)), 1)
     rows = [dict(r, phase="full-check") for r in vp.history()]
     subs = []
     for e in sorted(vp.memo.values(), key=vp.rank):
@@ -280,6 +336,16 @@ def _refine(problem, space, full, objective, budget, refine, refine_evals, verif
             break
     found = [(vp.rank(e), e) for e in vp.memo.values()]
     n = len(vp.memo)
+    with phases.step(f"polish at {full.width}x{full.height}: up to {refine_evals} designs from each of "
+                     f"{len(subs)} subdivision(s)", per_eval * refine_evals * len(subs)):
+        n += _polish(space, full, objective, budget, refine_evals, pool, cost_of, subs, found, rows, lv)
+    return min(found, key=lambda t: t[0][:2])[1], rows, n
+
+
+def _polish(space, full, objective, budget, refine_evals, pool, cost_of, subs, found, rows, lv) -> int:
+    """The lattice polish from the best design of each subdivision in ``subs`` (adds to
+    ``found`` and ``rows``); returns the designs evaluated."""
+    n = 0
     for sub, e in subs:
         sp = space.with_subdivision(sub)
         fp = Problem(sp, lambda pts: pool.run(full, pts, lv), objective, budget, cost_of=cost_of)
@@ -290,7 +356,7 @@ def _refine(problem, space, full, objective, budget, refine, refine_evals, verif
         found += [(fp.rank(fp.memo[k]), fp.memo[k]) for k in new]
         rows += [dict(r, phase="full") for r in fp.history() if r["evaluation"] > 1]
         n += len(new)
-    return min(found, key=lambda t: t[0][:2])[1], rows, n
+    return n
 
 
 def _plain_log_axis(axis) -> None:
