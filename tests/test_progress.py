@@ -32,7 +32,7 @@ def test_a_step_that_fails_says_it_stopped():
 
 
 def test_on_a_terminal_a_step_draws_a_bar_against_its_estimate_or_a_spinner():
-    for estimate, words in ((30.0, "s estimated"), (None, "s elapsed")):
+    for estimate, words in ((30.0, "0 of about 30 s"), (None, "s elapsed")):
         out = Terminal()
         with clock_step("phase 1/2: replaying at level 3", estimate, stream=out):
             pass

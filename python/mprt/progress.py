@@ -59,8 +59,9 @@ def clock_step(label: str, estimate: float | None = None, stream=None, clock=tim
         from tqdm import tqdm
 
         total = round(estimate, 1) if estimate and estimate >= BAR_AFTER else None
-        bar = tqdm(total=total, unit="s", desc=label.split(":")[0], leave=False, file=stream,
-                   bar_format=("{desc}: {bar} {n:.0f}/{total:.0f} s estimated" if total else
+        desc = label if len(label) <= 48 else label[:47] + "…"
+        bar = tqdm(total=total, unit="s", desc=desc, leave=False, file=stream,
+                   bar_format=("{desc} {bar:24} {n:.0f} of about {total:.0f} s" if total else
                                "{desc}: {n:.0f} s elapsed"))
 
         def draw():

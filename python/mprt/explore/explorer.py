@@ -94,7 +94,10 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
     if level == "auto":
         with phases.step(f"ladder: {len(ladder_designs(space, seed))} designs at levels "
                          f"{', '.join(map(str, LADDER_LEVELS))} on a {low[0]}x{low[1]} trace"):
-            levels = choose_levels(scene, ev, space, level, tolerance, seed, say, pool)
+            said = []          # its line after the step's (a bar may be drawn meanwhile)
+            levels = choose_levels(scene, ev, space, level, tolerance, seed, said.append, pool)
+        for text in said:
+            say(text)
     else:
         levels = choose_levels(scene, ev, space, level, tolerance, seed, say, pool)
     ev.level = lv = levels["search"]
