@@ -40,8 +40,11 @@ def test_explore_passes_rules_threshold_and_grid_to_every_trace(tmp_path, traces
     out = tmp_path / "e.json"
     assert run("explore", "tetra:1", "--res", "16x16", "--space", SMALL, "--level", "1", "--max-evals", "20",
                "--workers", "0", "--threads", "1", "--rules", "paper1992", "--threshold", "1/256", "--grid", "4",
-               "--json", out) == 0
+               "--json", out, "--report", tmp_path / "e.html") == 0
     r = json.loads(out.read_text())
+    html = (tmp_path / "e.html").read_text()
+    reproduce = html[html.index('id="reproduce"'):]
+    assert "paper1992" in reproduce and "threshold" in reproduce and "0.00390625" in reproduce
     assert r["settings"]["rules"] == "paper1992"
     assert r["settings"]["threshold"] == 1 / 256
     assert r["settings"]["grid"] == [4, 4, 4]
