@@ -15,6 +15,7 @@ ORDER = [
     "_build",      # cffi builder of the extensions (imports none of the package)
     "errors",      # exceptions
     "atomic",      # outputs written whole (a temporary renamed into place)
+    "progress",    # phase lines and clock-driven bars on stderr (tqdm)
     "_lowlevel",   # the only importer of the compiled extensions: one wrapper per C call, enums, record dtypes
     "scene",       # Scene
     "grid",        # Grid (adds Scene.grid), render, intersect, camera rays, per-tile calls
