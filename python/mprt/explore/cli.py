@@ -189,7 +189,8 @@ def add_parsers(sub) -> None:
                    help="one n as n along the longest axis, others in proportion, or n per axis "
                         "(default: proportional)")
     p.add_argument("--fraction", type=_positive(int), default=16, metavar="F",
-                   help="trace at 1/F of --res, at least 32 pixels per axis (the whole frame where smaller) (default: 16)")
+                   help="trace at 1/F of --res, at least 32 pixels per axis (the whole frame where smaller) "
+                        "(default: 16)")
     p.add_argument("--verify", "--check", type=_nonnegative_int, default=0, metavar="K", dest="check",
                    help="trace the K best predictions at --res on about 16 of its 16x16 tiles (stratified; a "
                         "sixty-fourth of 512x512) and choose among them by that (default: 0, the "
@@ -282,7 +283,8 @@ def _progress_printer(every: int = 25, total: int | None = None, stream=None):
         spent = time.perf_counter() - start[0]
         left = (f", {eta_text(spent / n * (total - n))} left" if total and 0 < n < total and spent > 0
                 else ", polishing" if total and n > total else "")
-        msg = (f"\r  {n:5d} evaluations{f' of up to {total}' if total and n <= total else ''}, best {b.cycles:,.0f} cycles at cost "
+        of = f" of up to {total}" if total and n <= total else ""
+        msg = (f"\r  {n:5d} evaluations{of}, best {b.cycles:,.0f} cycles at cost "
                f"{b.cost:.0f} kGE, {spent:.1f} s{left}")
         print(msg if tty else msg[1:], end="" if tty else "\n", file=stream, flush=True)
         open_line[0] = tty
