@@ -81,7 +81,7 @@ def expand_voxels(gaps: np.ndarray, count: np.ndarray, voxels: int) -> np.ndarra
     fit the grid."""
     nonempty = np.cumsum(gaps, dtype=np.int64)
     if len(gaps) != len(count) or (nonempty.size and (nonempty[-1] >= voxels or np.any(gaps[1:] == 0))):
-        raise TraceError(f"the voxel lists do not fit a grid of {voxels} voxels")
+        raise TraceError(f"voxel_gaps: the voxel lists do not fit a grid of {voxels} voxels (meta.json field 'grid')")
     start = np.zeros(voxels + 1, dtype=np.int64)
     start[nonempty + 1] = count
     return np.cumsum(start).astype(np.uint32)
