@@ -302,3 +302,17 @@ def test_valid_traces_pass_in_any_chunk_size():
 def test_voxel_budget_grows_with_the_file():
     assert tracevalid.voxel_budget(0) >= 256 ** 3
     assert tracevalid.voxel_budget(10 << 20) > tracevalid.voxel_budget(1 << 20)
+
+
+@pytest.mark.parametrize("field, value", [("voxel_id", (1 << 32) - 1), ("voxel_id", -(1 << 32) - 1),
+                                          ("ray", 1 << 32), ("ray", -1), ("suppressed", 255), ("outcome", 9)])
+@pytest.mark.parametrize("fast", [True, False])
+def test_visit_ranges_fast_and_field_by_field_agree(monkeypatch, field, value, fast):
+    """The block check on 32-bit words and the check field by field refuse the same values
+    (those that hide in one half of a 64-bit field too) with the same message."""
+    if not fast:
+        monkeypatch.setattr(tracevalid._VisitBounds, "usable", staticmethod(lambda n: False))
+    meta, arrays = fresh()
+    arrays["visits"][field][len(arrays["visits"]) // 2] = value
+    with pytest.raises(mprt.TraceError, match=f"visits field '{field}': record {len(arrays['visits']) // 2} "):
+        tracevalid.validate(meta, arrays, chunk=1000)

@@ -113,12 +113,16 @@ class Trace:
         return _stats.trace_stats(self)
 
 
-def load_trace(path, mmap: bool | None = None, verify: bool = True) -> Trace:
+def load_trace(path, mmap: bool | None = None, verify: bool = True, invariants: bool = False) -> Trace:
     """Read a trace saved by Trace.save or streamed by trace(); checks the
     format version, that every array is present and whole, (``verify``) the
     checksums, and the metadata and arrays (``mprt.tracevalid``: one TraceError
-    naming the member and the field).  Uncompressed traces are memory-mapped (``mmap``; default:
+    naming the member and the field), then (``invariants``) the invariants
+    (``mprt.tracecheck``).  Uncompressed traces are memory-mapped (``mmap``; default:
     when the file is over 256 MB), so a trace of any size opens in bounded
     memory."""
     meta, arrays = tracefile.read(path, mmap, verify)
-    return Trace.from_arrays(meta, arrays, path)
+    trace = Trace.from_arrays(meta, arrays, path)
+    if invariants:
+        tracecheck.check(trace)
+    return trace

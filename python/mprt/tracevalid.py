@@ -18,6 +18,7 @@ The invariants between records (``mprt.tracecheck``) come after, streamed as wel
 from __future__ import annotations
 
 import math
+import sys
 
 import numpy as np
 
@@ -162,6 +163,11 @@ def _chunks(a, size):
     return chunks(a, size)
 
 
+def release(a):
+    from .tracefile import release as rel
+    rel(a)
+
+
 def check_arrays(meta: dict, arrays: dict, chunk: int = CHUNK) -> None:
     """Raise TraceError naming the member and field of the first array or value a trace with
     this (valid) metadata cannot hold.  Reads the records in chunks of ``chunk``."""
@@ -208,17 +214,55 @@ def check_arrays(meta: dict, arrays: dict, chunk: int = CHUNK) -> None:
                                           "is not a finite number")
     steps = sum(meta["grid"])              # a walk crosses at most nx + ny + nz voxels
     vertices = int(np.sum(arrays["prim_words"], dtype=np.int64))
-    for i, v in _chunks(visits, chunk):
-        _range("visits", "ray", v["ray"], 0, n - 1, i)
-        _range("visits", "voxel_id", v["voxel_id"], -1, voxels - 1, i)
-        _range("visits", "prim", v["prim"], -1, nprim - 1, i)
-        _range("visits", "stage", v["stage"], 0, len(Stage) - 1, i)
-        _range("visits", "outcome", v["outcome"], 0, len(Outcome) - 1, i)
-        _range("visits", "steps", v["steps"], 0, steps, i)
-        _range("visits", "tests", v["tests"], 0, len(ids), i)
-        _range("visits", "vertices", v["vertices"], 0, vertices, i)
-        _range("visits", "made", v["made"], 0, lights + 2, i)
-        _range("visits", "suppressed", v["suppressed"], 0, lights + 2, i)
+    bounds = {"ray": (0, n - 1), "voxel_id": (-1, voxels - 1), "prim": (-1, nprim - 1), "steps": (0, steps),
+              "tests": (0, len(ids)), "vertices": (0, vertices), "stage": (0, len(Stage) - 1),
+              "outcome": (0, len(Outcome) - 1), "made": (0, lights + 2), "suppressed": (0, lights + 2)}
+    fast = _VisitBounds(bounds) if _VisitBounds.usable(n) else None
+    for i in range(0, len(visits), chunk):
+        part = visits[i:i + chunk]
+        if fast is None or not fast.ok(part):
+            _visit_ranges(np.array(part), i, bounds)
+        release(part)
+
+
+class _VisitBounds:
+    """The visits' ranges checked a block at a time on its 32-bit words, transposed (one pass
+    over the records, then contiguous reductions in cache): about four times faster than a
+    pass per field.  A block that fails is checked again field by field, for the message."""
+
+    BLOCK = 1 << 14
+
+    @staticmethod
+    def usable(n: int) -> bool:
+        return sys.byteorder == "little" and VISIT_DTYPE.itemsize == 48 and n < (1 << 31) and \
+            [VISIT_DTYPE.fields[k][1] for k in ("ray", "voxel_id", "steps", "tests", "vertices", "prim",
+                                                 "stage", "outcome", "made", "suppressed")] == \
+            [0, 8, 16, 20, 36, 40, 44, 45, 46, 47]
+
+    def __init__(self, b: dict):
+        big = np.iinfo(np.int32)
+        self.lo = np.array([b["ray"][0], 0, -1, -1, b["steps"][0], *[b["tests"][0]] * 4, b["vertices"][0],
+                            b["prim"][0], big.min], dtype=np.int64)
+        self.hi = np.array([b["ray"][1], 0, min(b["voxel_id"][1], big.max), 0, b["steps"][1],
+                            *[min(b["tests"][1], big.max)] * 4, min(b["vertices"][1], big.max), b["prim"][1],
+                            big.max], dtype=np.int64)
+        self.bytes_hi = np.array([min(b[k][1], 255) for k in ("stage", "outcome", "made", "suppressed")])
+
+    def ok(self, part: np.ndarray) -> bool:
+        for j in range(0, len(part), self.BLOCK):
+            w = np.ascontiguousarray(part[j:j + self.BLOCK].view(np.int32).reshape(-1, 12).T)
+            if np.any(w.min(axis=1) < self.lo) or np.any(w.max(axis=1) > self.hi) \
+                    or np.any(w[3] != (w[2] >> 31)):        # voxel_id: -1 or 0..voxels-1
+                return False
+            u = w[11].view(np.uint32)
+            if any(int(((u >> np.uint32(8 * k)) & np.uint32(255)).max()) > self.bytes_hi[k] for k in range(4)):
+                return False
+        return True
+
+
+def _visit_ranges(v: np.ndarray, i: int, bounds: dict) -> None:
+    for field, (lo, hi) in bounds.items():
+        _range("visits", field, v[field], lo, hi, i)
 
 
 def validate(meta, arrays: dict, file_bytes: int | None = None, chunk: int = CHUNK) -> None:
