@@ -316,3 +316,27 @@ def test_visit_ranges_fast_and_field_by_field_agree(monkeypatch, field, value, f
     arrays["visits"][field][len(arrays["visits"]) // 2] = value
     with pytest.raises(mprt.TraceError, match=f"visits field '{field}': record {len(arrays['visits']) // 2} "):
         tracevalid.validate(meta, arrays, chunk=1000)
+
+
+def test_a_member_claiming_a_huge_size_allocates_nothing(tmp_path):
+    """A deflated member whose zip directory claims 2 GB: refused before reading, in one line."""
+    path = save(tmp_path / "t.npz", *fresh(), compress=True)
+    data = bytearray(path.read_bytes())
+    with zipfile.ZipFile(path) as z:
+        info = z.getinfo("visits.npy")
+    at = 0
+    while True:                         # the visits' central directory entry
+        at = data.index(b"PK\x01\x02", at + 1)
+        name_len = int.from_bytes(data[at + 28:at + 30], "little")
+        if data[at + 46:at + 46 + name_len] == b"visits.npy":
+            break
+    assert int.from_bytes(data[at + 24:at + 28], "little") == info.file_size
+    data[at + 24:at + 28] = (1 << 31).to_bytes(4, "little")
+    (tmp_path / "h.npz").write_bytes(bytes(data))
+    tracemalloc.start()
+    try:
+        one_line_error(tmp_path / "h.npz", "'visits'")
+        peak = tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+    assert peak < 64 << 20

@@ -402,6 +402,7 @@ def _member_offset(f, info) -> int:
 
 
 META_MAX = 1 << 20          # bytes of meta.json
+DEFLATE_RATIO_MAX = 1032    # deflate's largest expansion: what a member holds is bounded by the file
 _NPY_ERRORS = (ValueError, EOFError, SyntaxError, OverflowError, RecursionError, MemoryError, zipfile.BadZipFile,
                OSError, zlib.error, tokenize.TokenError, TraceError)
 
@@ -436,6 +437,8 @@ def _read_npy(path, z, raw, info, mmap: bool):
         if math.prod(shape) == 0:
             return np.zeros(shape, dtype=dtype)
         return np.memmap(path, dtype=dtype, mode="r", offset=off + head, shape=shape)
+    if info.file_size > DEFLATE_RATIO_MAX * info.compress_size + 4096:
+        raise TraceError(f"{info.file_size} bytes cannot come from {info.compress_size} deflated")
     with z.open(info) as f:
         shape, dtype, head = _npy_header(f, info.file_size)
         data = f.read(info.file_size - head)
