@@ -18,11 +18,9 @@ and writes (meta, arrays) pairs whose arrays are those of ``ARRAYS``;
 """
 from __future__ import annotations
 
-import ctypes
 import hashlib
 import io
 import json
-import mmap
 import os
 import math
 import shutil
@@ -36,6 +34,8 @@ import numpy as np
 
 from ._lowlevel import RAY_DTYPE, VISIT_DTYPE
 from .errors import TraceError
+from . import tracevalid
+from .pages import chunks, release  # noqa: F401  (tracefile.chunks, tracefile.release: kept for callers)
 
 FORMAT = "mprt-trace"
 FORMAT_VERSION = 4
@@ -120,42 +120,6 @@ def _stored(name: str, compress: bool) -> zipfile.ZipInfo:
 def as_bytes(a: np.ndarray) -> np.ndarray:
     """A contiguous array's bytes as a uint8 view."""
     return a.view(np.uint8).reshape(-1)
-
-
-try:
-    _madvise = ctypes.CDLL(None, use_errno=True).madvise
-    _madvise.argtypes = (ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int)
-    _DONTNEED = mmap.MADV_DONTNEED
-except (AttributeError, OSError):   # no madvise: pages simply stay until the kernel wants them
-    _madvise = None
-
-
-_AROUND = 1 << 21   # the kernel may map pages beyond a fault (fault-around, large folios): up to 2 MiB
-
-
-def release(a: np.ndarray) -> None:
-    """Let the kernel drop the pages of a read-only memory-mapped array from its start to the
-    end of the slice ``a`` (and a little beyond, where the kernel maps ahead) from this
-    process's resident set: they stay in the page cache and are read again if touched.  Called
-    on each slice once it is processed, reading a file of any size through (in order, or with
-    look-ups behind) keeps memory bounded.  Anything but a read-only memory map is left alone."""
-    if _madvise is None or not isinstance(a, np.memmap) or a.mode != "r" or a.nbytes == 0 \
-            or not a.flags.c_contiguous:
-        return
-    root = a
-    while isinstance(root.base, np.ndarray):
-        root = root.base
-    start = root.ctypes.data - root.ctypes.data % mmap.PAGESIZE
-    _madvise(start, min(a.ctypes.data + a.nbytes + _AROUND, root.ctypes.data + root.nbytes) - start, _DONTNEED)
-
-
-def chunks(a: np.ndarray, size: int):
-    """(offset, in-memory copy of a[offset:offset + size]) over the whole array; a memory-mapped
-    array's pages are released after each copy (``release``)."""
-    for i in range(0, len(a), size):
-        part = a[i:i + size]
-        yield i, np.array(part)
-        release(part)
 
 
 CRC_PART = 1 << 26      # bytes: arrays of two parts or more are checksummed by threads, a part each
@@ -510,8 +474,6 @@ def read(path, mmap: bool | None = None, verify: bool = True):
     (default: when the file is over 256 MB).  A version 1, 2 or 3 file is returned with
     today's field names and version.  Every failure is one TraceError naming the file, the
     member and the field; memory is bounded by the file's size."""
-    from . import tracevalid
-
     path = os.fspath(path)
     try:
         z = zipfile.ZipFile(path)

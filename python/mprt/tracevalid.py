@@ -24,6 +24,7 @@ import numpy as np
 
 from ._lowlevel import KINDS, RAY_DTYPE, RULES, VISIT_DTYPE, Outcome, RayKind, Stage
 from .errors import TraceError
+from .pages import chunks, release
 
 GRID_MAX = 1024             # voxels per axis (options.GRID_MAX)
 RES_MAX = 65536             # width, height (options.RES_MAX)
@@ -158,14 +159,6 @@ def _range(member: str, field: str | None, x: np.ndarray, lo: int, hi: int, offs
     _fail(member, field, f"record {offset + i} holds {int(value)}, outside {lo}..{hi}")
 
 
-def _chunks(a, size):
-    from .tracefile import chunks
-    return chunks(a, size)
-
-
-def release(a):
-    from .tracefile import release as rel
-    rel(a)
 
 
 def check_arrays(meta: dict, arrays: dict, chunk: int = CHUNK) -> None:
@@ -200,7 +193,7 @@ def check_arrays(meta: dict, arrays: dict, chunk: int = CHUNK) -> None:
     n, lights = len(rays), meta["lights"]
     pixels = meta["samples_w"] * meta["samples_h"]
     depth = meta.get("max_depth", DEPTH_MAX)
-    for i, r in _chunks(rays, chunk):
+    for i, r in chunks(rays, chunk):
         if not np.array_equal(r["id"], np.arange(i, i + len(r))):
             j = int(np.argmax(r["id"] != np.arange(i, i + len(r))))
             _fail("rays", "id", f"record {i + j} holds {int(r['id'][j])}: ids must be 0..n-1 in order")
