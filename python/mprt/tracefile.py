@@ -122,6 +122,40 @@ def as_bytes(a: np.ndarray) -> np.ndarray:
     return a.view(np.uint8).reshape(-1)
 
 
+def _gf2_times(mat: list, vec: int) -> int:
+    out, i = 0, 0
+    while vec:
+        if vec & 1:
+            out ^= mat[i]
+        vec >>= 1
+        i += 1
+    return out
+
+
+def crc32_combine(crc1: int, crc2: int, len2: int) -> int:
+    """The CRC-32 of A + B from crc1 of A, crc2 of B and len2 = len(B) in bytes (zlib's
+    crc32_combine: crc1 carried through len2 zero bytes by squaring the one-zero-bit operator)."""
+    if len2 <= 0:
+        return crc1
+    odd = [0xEDB88320] + [1 << n for n in range(31)]      # one zero bit
+    even = [_gf2_times(odd, v) for v in odd]                # two
+    odd = [_gf2_times(even, v) for v in even]               # four
+    while True:
+        even = [_gf2_times(odd, v) for v in odd]
+        if len2 & 1:
+            crc1 = _gf2_times(even, crc1)
+        len2 >>= 1
+        if not len2:
+            break
+        odd = [_gf2_times(even, v) for v in even]
+        if len2 & 1:
+            crc1 = _gf2_times(odd, crc1)
+        len2 >>= 1
+        if not len2:
+            break
+    return crc1 ^ crc2
+
+
 CRC_PART = 1 << 26      # bytes: arrays of two parts or more are checksummed by threads, a part each
 
 
@@ -190,43 +224,6 @@ def write(path, meta: dict, arrays: dict, compress: bool | None = None) -> dict:
         for k in MEMBERS:
             _write_array(z, k, members[k], compress)
     return meta
-
-
-def crc32_combine(crc1: int, crc2: int, len2: int) -> int:
-    """The CRC-32 of A + B from crc32(A), crc32(B) and len(B) (zlib's crc32_combine, which
-    Python's zlib does not offer): CRC-32 is linear, so A's part is crc1 carried through
-    len2 zero bytes, by squaring a 32x32 GF(2) matrix."""
-    def times(mat, vec):
-        out, i = 0, 0
-        while vec:
-            if vec & 1:
-                out ^= mat[i]
-            vec >>= 1
-            i += 1
-        return out
-
-    def square(mat):
-        return [times(mat, mat[n]) for n in range(32)]
-
-    if len2 <= 0:
-        return crc1 ^ crc2
-    odd = [0xEDB88320] + [1 << n for n in range(31)]   # one zero bit
-    even = square(odd)                                   # two
-    odd = square(even)                                   # four
-    while True:
-        even = square(odd)
-        if len2 & 1:
-            crc1 = times(even, crc1)
-        len2 >>= 1
-        if not len2:
-            break
-        odd = square(even)
-        if len2 & 1:
-            crc1 = times(odd, crc1)
-        len2 >>= 1
-        if not len2:
-            break
-    return crc1 ^ crc2
 
 
 _COUNT_DIGITS = 20   # a record count's width in a streamed member's header: any count fits
