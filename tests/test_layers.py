@@ -19,6 +19,8 @@ ORDER = [
     "_lowlevel",   # the only importer of the compiled extensions: one wrapper per C call, enums, record dtypes
     "scene",       # Scene
     "grid",        # Grid (adds Scene.grid), render, intersect, camera rays, per-tile calls
+    "pages",       # arrays read in chunks, memory-mapped pages released
+    "tracevalid",  # the one validation of a trace: meta schema, dtypes, shapes, ranges
     "tracefile",   # the .npz format of (meta, arrays)
     "tracecheck",  # trace invariants
     "stats",       # the paper's statistics of a trace

@@ -287,8 +287,9 @@ def cmd_stats(a) -> int:
     if a.json != "-":
         options.check_outputs(("--json", a.json, "json"))
     t0 = time.perf_counter()
-    tr = load_trace(a.trace, mmap=True)     # memory-mapped and read in chunks: bounded memory
-    st = tr.check() if a.check else tr.stats()
+    # memory-mapped and read in chunks: bounded memory; validated (mprt.tracevalid) as it loads
+    tr = load_trace(a.trace, mmap=True, invariants=a.check)
+    st = tr.stats()
     if a.json:
         options.write_json(sys.stdout if a.json == "-" else a.json,
                            {**st, "invariants_checked": bool(a.check),

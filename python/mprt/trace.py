@@ -26,7 +26,7 @@ import os
 import numpy as np
 
 from . import stats as _stats
-from . import tracecheck, tracefile
+from . import tracecheck, tracefile, tracevalid
 from ._lowlevel import KINDS, RAY_DTYPE, RULES, VISIT_DTYPE, Outcome, RayKind, Stage, binding
 from .errors import TraceError
 from .tracefile import ARRAYS, FORMAT_VERSION
@@ -93,10 +93,19 @@ class Trace:
         self.meta = tracefile.write(path, self.meta, self.arrays(), compress)
         self.path = os.fspath(path)
 
+    def validate(self, invariants: bool = True) -> None:
+        """The one validation every reader runs (``mprt.tracevalid``): the metadata against its
+        schema, each array's dtype, shape and ranges, then (``invariants``) the invariants
+        between records (``mprt.tracecheck``), all in bounded memory; raise TraceError naming
+        the member and the field of the first fault."""
+        tracevalid.validate(self.meta, self.arrays())
+        if invariants:
+            tracecheck.check(self)
+
     def check(self) -> dict:
-        """Validate the invariants (mprt.tracecheck); raise TraceError naming the first broken
-        one.  Returns the statistics."""
-        tracecheck.check(self)
+        """Validate the trace (``validate``: schema, ranges and invariants); raise TraceError
+        naming the first fault.  Returns the statistics."""
+        self.validate()
         return self.stats()
 
     def stats(self) -> dict:
@@ -104,11 +113,16 @@ class Trace:
         return _stats.trace_stats(self)
 
 
-def load_trace(path, mmap: bool | None = None, verify: bool = True) -> Trace:
+def load_trace(path, mmap: bool | None = None, verify: bool = True, invariants: bool = False) -> Trace:
     """Read a trace saved by Trace.save or streamed by trace(); checks the
-    format version, that every array is present and whole, and (``verify``)
-    the checksums.  Uncompressed traces are memory-mapped (``mmap``; default:
+    format version, that every array is present and whole, (``verify``) the
+    checksums, and the metadata and arrays (``mprt.tracevalid``: one TraceError
+    naming the member and the field), then (``invariants``) the invariants
+    (``mprt.tracecheck``).  Uncompressed traces are memory-mapped (``mmap``; default:
     when the file is over 256 MB), so a trace of any size opens in bounded
     memory."""
     meta, arrays = tracefile.read(path, mmap, verify)
-    return Trace.from_arrays(meta, arrays, path)
+    trace = Trace.from_arrays(meta, arrays, path)
+    if invariants:
+        tracecheck.check(trace)
+    return trace

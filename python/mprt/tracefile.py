@@ -18,14 +18,14 @@ and writes (meta, arrays) pairs whose arrays are those of ``ARRAYS``;
 """
 from __future__ import annotations
 
-import ctypes
 import hashlib
 import io
 import json
-import mmap
 import os
+import math
 import shutil
 import tempfile
+import tokenize
 import zipfile
 import zlib
 from concurrent.futures import ThreadPoolExecutor
@@ -34,12 +34,15 @@ import numpy as np
 
 from ._lowlevel import RAY_DTYPE, VISIT_DTYPE
 from .errors import TraceError
+from . import tracevalid
+from .pages import chunks, release  # noqa: F401  (tracefile.chunks, tracefile.release: kept for callers)
 
 FORMAT = "mprt-trace"
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4
+VERSIONS = (1, 2, 3, 4)   # the versions this mprt reads
 # The arrays of a trace in memory (and the members of version 1 and 2 files).
 ARRAYS = ("rays", "visits", "voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material", "samples")
-# The members of a version 3 file: voxel_start becomes voxel_gaps and voxel_count.
+# The members of a version 3 or 4 file: voxel_start becomes voxel_gaps and voxel_count.
 MEMBERS = ("rays", "visits", "voxel_gaps", "voxel_count", "voxel_ids", "prim_kind", "prim_words", "prim_material",
            "samples")
 RECORDS = ("rays", "visits")   # deflated unless large (or when asked): stored ones can be memory-mapped
@@ -78,7 +81,7 @@ def expand_voxels(gaps: np.ndarray, count: np.ndarray, voxels: int) -> np.ndarra
     fit the grid."""
     nonempty = np.cumsum(gaps, dtype=np.int64)
     if len(gaps) != len(count) or (nonempty.size and (nonempty[-1] >= voxels or np.any(gaps[1:] == 0))):
-        raise TraceError(f"the voxel lists do not fit a grid of {voxels} voxels")
+        raise TraceError(f"voxel_gaps: the voxel lists do not fit a grid of {voxels} voxels (meta.json field 'grid')")
     start = np.zeros(voxels + 1, dtype=np.int64)
     start[nonempty + 1] = count
     return np.cumsum(start).astype(np.uint32)
@@ -117,42 +120,6 @@ def _stored(name: str, compress: bool) -> zipfile.ZipInfo:
 def as_bytes(a: np.ndarray) -> np.ndarray:
     """A contiguous array's bytes as a uint8 view."""
     return a.view(np.uint8).reshape(-1)
-
-
-try:
-    _madvise = ctypes.CDLL(None, use_errno=True).madvise
-    _madvise.argtypes = (ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int)
-    _DONTNEED = mmap.MADV_DONTNEED
-except (AttributeError, OSError):   # no madvise: pages simply stay until the kernel wants them
-    _madvise = None
-
-
-_AROUND = 1 << 21   # the kernel may map pages beyond a fault (fault-around, large folios): up to 2 MiB
-
-
-def release(a: np.ndarray) -> None:
-    """Let the kernel drop the pages of a read-only memory-mapped array from its start to the
-    end of the slice ``a`` (and a little beyond, where the kernel maps ahead) from this
-    process's resident set: they stay in the page cache and are read again if touched.  Called
-    on each slice once it is processed, reading a file of any size through (in order, or with
-    look-ups behind) keeps memory bounded.  Anything but a read-only memory map is left alone."""
-    if _madvise is None or not isinstance(a, np.memmap) or a.mode != "r" or a.nbytes == 0 \
-            or not a.flags.c_contiguous:
-        return
-    root = a
-    while isinstance(root.base, np.ndarray):
-        root = root.base
-    start = root.ctypes.data - root.ctypes.data % mmap.PAGESIZE
-    _madvise(start, min(a.ctypes.data + a.nbytes + _AROUND, root.ctypes.data + root.nbytes) - start, _DONTNEED)
-
-
-def chunks(a: np.ndarray, size: int):
-    """(offset, in-memory copy of a[offset:offset + size]) over the whole array; a memory-mapped
-    array's pages are released after each copy (``release``)."""
-    for i in range(0, len(a), size):
-        part = a[i:i + size]
-        yield i, np.array(part)
-        release(part)
 
 
 def _gf2_times(mat: list, vec: int) -> int:
@@ -225,6 +192,19 @@ def crc(a: np.ndarray, chunk: int = 1 << 24, threads: int | None = None) -> int:
     return value
 
 
+def signature(dtype: np.dtype, shape) -> bytes:
+    """What a version 4 checksum covers before the bytes: the array's dtype and shape."""
+    return f"{np.lib.format.dtype_to_descr(np.dtype(dtype))!r} {tuple(int(n) for n in shape)!r}\n".encode()
+
+
+def typed_crc(a: np.ndarray, data_crc: int | None = None) -> int:
+    """The version 4 checksum of an array: CRC-32 of its signature (dtype and shape) followed by
+    its bytes (``data_crc``: the bytes' CRC-32, when already known), so that an array
+    reinterpreted or reshaped under its old checksum is refused as well as edited bytes."""
+    return crc32_combine(zlib.crc32(signature(a.dtype, a.shape)), crc(a) if data_crc is None else data_crc,
+                         a.nbytes)
+
+
 def _write_array(z, name, a, compress):
     with z.open(_stored(name, compress), "w", force_zip64=True) as f:
         np.lib.format.write_array(f, np.ascontiguousarray(a), allow_pickle=False)
@@ -238,7 +218,7 @@ def write(path, meta: dict, arrays: dict, compress: bool | None = None) -> dict:
     if compress is None:
         compress = sum(np.asarray(arrays[k]).nbytes for k in RECORDS) < AUTO_COMPRESS_BYTES
     members = file_members(meta, arrays)
-    meta = dict(meta, format=FORMAT, version=FORMAT_VERSION, crc32={k: crc(members[k]) for k in MEMBERS})
+    meta = dict(meta, format=FORMAT, version=FORMAT_VERSION, crc32={k: typed_crc(members[k]) for k in MEMBERS})
     with zipfile.ZipFile(path, "w", allowZip64=True) as z:
         z.writestr("meta.json", json.dumps(meta, sort_keys=True))
         for k in MEMBERS:
@@ -319,8 +299,10 @@ class TraceWriter:
             self.visits.close()   # the zip wrote the member's local header: CRC and sizes
             self.visits = None
             placeholder, header = npy_header(VISIT_DTYPE, 0), npy_header(VISIT_DTYPE, self.count["visits"])
-            sums["visits"] = self._records_crc(self.info, placeholder, nbytes)
-            self.info.CRC = crc32_combine(zlib.crc32(header), sums["visits"], nbytes)
+            data_crc = self._records_crc(self.info, placeholder, nbytes)
+            sig = zlib.crc32(signature(VISIT_DTYPE, (self.count["visits"],)))
+            sums["visits"] = crc32_combine(sig, data_crc, nbytes)
+            self.info.CRC = crc32_combine(zlib.crc32(header), data_crc, nbytes)
             fp, end = self.z.fp, self.z.fp.tell()
             local = self.info.FileHeader(True)
             fp.seek(self.info.header_offset + len(local))
@@ -334,12 +316,14 @@ class TraceWriter:
                 f.write(header)
                 self.rays.seek(0)
                 shutil.copyfileobj(self.rays, f, 1 << 22)
-            sums["rays"] = self._records_crc(info, header, self.count["rays"] * RAY_DTYPE.itemsize)
+            nbytes = self.count["rays"] * RAY_DTYPE.itemsize
+            sums["rays"] = crc32_combine(zlib.crc32(signature(RAY_DTYPE, (self.count["rays"],))),
+                                         self._records_crc(info, header, nbytes), nbytes)
             members = file_members(meta, arrays)
             for k in MEMBERS:
                 if k not in RECORDS:
                     _write_array(self.z, k, members[k], False)
-                    sums[k] = crc(members[k])
+                    sums[k] = typed_crc(np.asarray(members[k]))
             meta = dict(meta, format=FORMAT, version=FORMAT_VERSION, crc32=sums)
             self.z.writestr("meta.json", json.dumps(meta, sort_keys=True))
             self.z.close()
@@ -378,10 +362,17 @@ def _member_offset(f, info) -> int:
     return info.header_offset + 30 + name_len + extra_len
 
 
-def _mmap_npy(path, f, info):
-    """Memory-map an uncompressed .npy member (no copy, bounded memory)."""
-    off = _member_offset(f, info)
-    f.seek(off)
+META_MAX = 1 << 20          # bytes of meta.json
+DEFLATE_RATIO_MAX = 1032    # deflate's largest expansion: what a member holds is bounded by the file
+_NPY_ERRORS = (ValueError, EOFError, SyntaxError, OverflowError, RecursionError, MemoryError, zipfile.BadZipFile,
+               OSError, zlib.error, tokenize.TokenError, TraceError)
+
+
+def _npy_header(f, size: int):
+    """(shape, dtype, header bytes) of a .npy member of ``size`` bytes read from ``f``; TraceError
+    unless its data is exactly the rest of the member (a count in a damaged header never
+    decides what is allocated) and its dtype holds numbers."""
+    begin = f.tell()
     version = np.lib.format.read_magic(f)
     read_header = {(1, 0): np.lib.format.read_array_header_1_0, (2, 0): np.lib.format.read_array_header_2_0}
     if version not in read_header:
@@ -389,25 +380,50 @@ def _mmap_npy(path, f, info):
     shape, fortran, dtype = read_header[version](f)
     if fortran:
         raise TraceError("Fortran-ordered arrays are not expected in a trace")
-    count = int(np.prod(shape))
-    if f.tell() - off + count * dtype.itemsize > info.file_size:
-        raise TraceError("array is truncated")
-    if count == 0:
-        return np.zeros(shape, dtype=dtype)
-    return np.memmap(path, dtype=dtype, mode="r", offset=f.tell(), shape=shape)
+    if dtype.hasobject:
+        raise TraceError(f"dtype {dtype} holds Python objects")
+    head = f.tell() - begin
+    if not all(isinstance(n, int) and n >= 0 for n in shape) or \
+            head + math.prod(shape) * dtype.itemsize != size:
+        raise TraceError(f"shape {shape} of {dtype} does not fill its {size - head} bytes")
+    return shape, dtype, head
+
+
+def _read_npy(path, z, raw, info, mmap: bool):
+    """A member as an array: memory-mapped (no copy) when stored and ``mmap``, read otherwise."""
+    if mmap and info.compress_type == zipfile.ZIP_STORED:
+        off = _member_offset(raw, info)
+        raw.seek(off)
+        shape, dtype, head = _npy_header(raw, info.file_size)
+        if math.prod(shape) == 0:
+            return np.zeros(shape, dtype=dtype)
+        return np.memmap(path, dtype=dtype, mode="r", offset=off + head, shape=shape)
+    if info.file_size > DEFLATE_RATIO_MAX * info.compress_size + 4096:
+        raise TraceError(f"{info.file_size} bytes cannot come from {info.compress_size} deflated")
+    with z.open(info) as f:
+        shape, dtype, head = _npy_header(f, info.file_size)
+        data = f.read(info.file_size - head)
+    a = np.frombuffer(bytearray(data), dtype=dtype)
+    return a.reshape(shape)
 
 
 def _read_meta(path, z, names) -> dict:
     if "meta.json" not in names:
         raise TraceError(f"{path}: no meta.json: not an mprt trace")
+    if z.getinfo("meta.json").file_size > META_MAX:
+        raise TraceError(f"{path}: meta.json is over {META_MAX} bytes")
     try:
         meta = json.loads(z.read("meta.json"))
-    except (ValueError, zipfile.BadZipFile) as e:
-        raise TraceError(f"{path}: meta.json is unreadable ({e})") from None
+    except (ValueError, RecursionError, zipfile.BadZipFile, zlib.error, OSError) as e:
+        reason = "nested too deeply" if isinstance(e, RecursionError) else str(e).splitlines()[0] if str(e) else \
+            type(e).__name__
+        raise TraceError(f"{path}: meta.json is unreadable ({reason})") from None
+    if not isinstance(meta, dict):
+        raise TraceError(f"{path}: meta.json must be a JSON object, not {type(meta).__name__}")
     if meta.get("format") != FORMAT:
-        raise TraceError(f"{path}: not an mprt trace (format {meta.get('format')!r})")
-    if meta.get("version") not in (1, 2, FORMAT_VERSION):
-        raise TraceError(f"{path}: trace format version {meta.get('version')!r} is not supported "
+        raise TraceError(f"{path}: not an mprt trace (meta.json field 'format' is {meta.get('format')!r:.60})")
+    if meta.get("version") not in VERSIONS or isinstance(meta.get("version"), bool):
+        raise TraceError(f"{path}: trace format version {meta.get('version')!r:.60} is not supported "
                          f"(this mprt reads versions 1 to {FORMAT_VERSION}); {REGENERATE}")
     return meta
 
@@ -422,12 +438,17 @@ def sha256(a: np.ndarray, chunk: int = 1 << 24) -> str:
 
 
 def _checksum_matches(meta: dict, name: str, a: np.ndarray) -> bool:
-    """The member's checksum in ``meta``: CRC-32 (``crc32``, versions 2 and 3 and later version 1
-    files) or SHA-256 (``sha256``, the version 1 files of the first trace format)."""
+    """The member's checksum in ``meta``: CRC-32 of dtype, shape and bytes (``crc32``, version 4),
+    of the bytes (``crc32``, versions 2 and 3 and later version 1 files) or SHA-256 of the
+    bytes (``sha256``, the version 1 files of the first trace format)."""
     if "crc32" in meta:
-        return meta["crc32"].get(name) == crc(a)
+        want = meta["crc32"].get(name)
+        if not isinstance(want, int):
+            return False
+        return want == (typed_crc(a) if meta["version"] >= 4 else crc(a))
     if "sha256" in meta and meta.get("version") == 1:
-        return meta["sha256"].get(name) == sha256(a)
+        want = meta["sha256"].get(name)
+        return isinstance(want, str) and want == sha256(a)
     return False
 
 
@@ -444,47 +465,55 @@ def _rename_v1(visits: np.ndarray) -> np.ndarray:
 
 def read(path, mmap: bool | None = None, verify: bool = True):
     """Read a trace file: (meta, arrays), the arrays those of ``ARRAYS``.  Checks the format
-    version, that every member is present and whole, and (``verify``) the checksums.
-    Uncompressed members are memory-mapped when ``mmap`` (default: when the file is over
-    256 MB).  A version 1 or 2 file is returned with today's field names and version."""
+    version, the metadata (``tracevalid.check_meta``: before any array is read), that every
+    member is present and whole, (``verify``) the checksums, and the arrays
+    (``tracevalid.check_arrays``).  Uncompressed members are memory-mapped when ``mmap``
+    (default: when the file is over 256 MB).  A version 1, 2 or 3 file is returned with
+    today's field names and version.  Every failure is one TraceError naming the file, the
+    member and the field; memory is bounded by the file's size."""
     path = os.fspath(path)
     try:
         z = zipfile.ZipFile(path)
-    except (zipfile.BadZipFile, OSError) as e:
+        size = os.path.getsize(path)
+    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as e:
         raise TraceError(f"{path}: not a readable trace file ({e})") from None
     if mmap is None:
-        mmap = os.path.getsize(path) > (256 << 20)
+        mmap = size > (256 << 20)
     with z, open(path, "rb") as raw:
         names = set(z.namelist())
         meta = _read_meta(path, z, names)
+        try:
+            tracevalid.check_meta(meta, size)
+        except TraceError as e:
+            raise TraceError(f"{path}: {e}") from None
+        version = meta["version"]
         arrays = {}
-        for k in MEMBERS if meta["version"] == FORMAT_VERSION else ARRAYS:
+        for k in MEMBERS if version >= 3 else ARRAYS:
             if k + ".npy" not in names:
                 raise TraceError(f"{path}: array {k!r} is missing")
             info = z.getinfo(k + ".npy")
             try:
-                if mmap and info.compress_type == zipfile.ZIP_STORED:
-                    arrays[k] = _mmap_npy(path, raw, info)
-                else:
-                    with z.open(info) as f:
-                        data = f.read()
-                    arrays[k] = np.lib.format.read_array(io.BytesIO(data), allow_pickle=False)
-            except (ValueError, EOFError, zipfile.BadZipFile, OSError, TraceError) as e:
-                raise TraceError(f"{path}: array {k!r} is truncated or corrupt ({e})") from None
+                arrays[k] = _read_npy(path, z, raw, info, mmap)
+            except _NPY_ERRORS as e:
+                reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+                raise TraceError(f"{path}: array {k!r} is truncated or corrupt ({reason:.200})") from None
             if verify and not _checksum_matches(meta, k, arrays[k]):
                 raise TraceError(f"{path}: array {k!r} does not match its checksum (tampered or damaged)")
-    if meta["version"] == FORMAT_VERSION:
-        try:
+    try:
+        if version >= 3:
+            for k in ("voxel_gaps", "voxel_count"):
+                if arrays[k].ndim != 1 or arrays[k].dtype.kind != "u":
+                    raise TraceError(f"{k}: has dtype {arrays[k].dtype} and shape {arrays[k].shape}, "
+                                     "expected one dimension of unsigned integers")
             arrays["voxel_start"] = expand_voxels(arrays.pop("voxel_gaps"), arrays.pop("voxel_count"),
                                                   grid_voxels(meta))
-        except TraceError as e:
-            raise TraceError(f"{path}: {e}") from None
-        if arrays["voxel_start"][-1] != len(arrays["voxel_ids"]):
-            raise TraceError(f"{path}: the voxel lists hold {arrays['voxel_start'][-1]} entries, "
-                             f"voxel_ids {len(arrays['voxel_ids'])}")
-    if meta["version"] == 1:
-        arrays["visits"] = _rename_v1(arrays["visits"])
-    meta["version"] = FORMAT_VERSION
-    if arrays["rays"].dtype != RAY_DTYPE or arrays["visits"].dtype != VISIT_DTYPE:
-        raise TraceError(f"{path}: rays/visits have an unexpected layout; {REGENERATE}")
+            if arrays["voxel_start"][-1] != len(arrays["voxel_ids"]):
+                raise TraceError(f"the voxel lists hold {arrays['voxel_start'][-1]} entries, "
+                                 f"voxel_ids {len(arrays['voxel_ids'])}")
+        if version == 1:
+            arrays["visits"] = _rename_v1(arrays["visits"])
+        meta["version"] = FORMAT_VERSION
+        tracevalid.check_arrays(meta, arrays)
+    except TraceError as e:
+        raise TraceError(f"{path}: {e}") from None
     return meta, arrays

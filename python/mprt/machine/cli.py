@@ -61,7 +61,7 @@ def _load_source(a):
 
     src = a.source
     if src.endswith(".npz"):
-        trace = load_trace(src)
+        trace = load_trace(src, invariants=True)     # schema, ranges and invariants: before any engine
         how = f"trace   {src}"
     else:
         scene, _ = opt.load_scene(src, skip_unknown=a.skip_unknown)

@@ -1,0 +1,44 @@
+"""Reading large arrays in bounded memory: ``release`` lets the kernel drop the pages of a
+memory-mapped array once processed, ``chunks`` walks an array a copy of a chunk at a time.
+Used by the trace file format, its validation, its invariant check and its statistics."""
+from __future__ import annotations
+
+import ctypes
+import mmap
+
+import numpy as np
+
+try:
+    _madvise = ctypes.CDLL(None, use_errno=True).madvise
+    _madvise.argtypes = (ctypes.c_void_p, ctypes.c_size_t, ctypes.c_int)
+    _DONTNEED = mmap.MADV_DONTNEED
+except (AttributeError, OSError):   # no madvise: pages simply stay until the kernel wants them
+    _madvise = None
+
+
+_AROUND = 1 << 21   # the kernel may map pages beyond a fault (fault-around, large folios): up to 2 MiB
+
+
+def release(a: np.ndarray) -> None:
+    """Let the kernel drop the pages of a read-only memory-mapped array from its start to the
+    end of the slice ``a`` (and a little beyond, where the kernel maps ahead) from this
+    process's resident set: they stay in the page cache and are read again if touched.  Called
+    on each slice once it is processed, reading a file of any size through (in order, or with
+    look-ups behind) keeps memory bounded.  Anything but a read-only memory map is left alone."""
+    if _madvise is None or not isinstance(a, np.memmap) or a.mode != "r" or a.nbytes == 0 \
+            or not a.flags.c_contiguous:
+        return
+    root = a
+    while isinstance(root.base, np.ndarray):
+        root = root.base
+    start = root.ctypes.data - root.ctypes.data % mmap.PAGESIZE
+    _madvise(start, min(a.ctypes.data + a.nbytes + _AROUND, root.ctypes.data + root.nbytes) - start, _DONTNEED)
+
+
+def chunks(a: np.ndarray, size: int):
+    """(offset, in-memory copy of a[offset:offset + size]) over the whole array; a memory-mapped
+    array's pages are released after each copy (``release``)."""
+    for i in range(0, len(a), size):
+        part = a[i:i + size]
+        yield i, np.array(part)
+        release(part)
