@@ -1,12 +1,17 @@
 """The time of one `mprt explore SCENE --res 512x512` per SPD scene (default
 settings: built-in space, level auto at 1% tolerance: the ladder measured at
-64x64, the search at 64x64 at level 1 or below, the two best subdivisions
-polished at 512x512 on a sixteenth of its tiles, the best designs verified at
-the ladder's level), budget 800 kGE, tracing on 2 threads.
+64x64, the search at the ladder's level, the best designs re-evaluated and
+polished at 512x512 on a sample of its tiles), budget 800 kGE, tracing on 2
+threads; beside it, in the same run, the time of one whole `mprt trace` command
+of the same frame at the subdivision the explorer chose (the issue's yardstick:
+an exploration within 10 traces).
 
     .venv/bin/python studies/20_design_space/explore_timing.py [RES] [BUDGET] [SCENE ...]
 """
+import os
+import subprocess
 import sys
+import tempfile
 import time
 
 import mprt
@@ -14,16 +19,22 @@ from mprt.explore.explorer import explore
 
 
 def main(res=512, budget=800.0, *names):
-    print("| scene | seconds | evaluations | level (search, verify) | ladder s | subdivision | best design "
+    print("| scene | seconds | trace s | x trace | evaluations | level | ladder s | subdivision | best design "
           "| cycles | cost kGE | x 3MPPE | x S |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in names or mprt.SPD_SCENES:
         t0 = time.perf_counter()
         r = explore(mprt.Scene.spd(name), res, res, budget=float(budget), threads=2,
                     log=lambda s: print(f"  {name}: {s}", file=sys.stderr, flush=True))
         s = time.perf_counter() - t0
         b, refs, lv = r["best"], r["references"], r["level"]
-        print(f"| {name} | {s:.0f} | {r['evaluations']} | {lv['search']}, {lv['verify']} "
+        with tempfile.TemporaryDirectory() as d:
+            t1 = time.perf_counter()
+            subprocess.run([sys.executable, "-m", "mprt", "trace", name, "--grid", ",".join(map(str, b["subdivision"])),
+                            "--res", f"{res}x{res}", "--threads", "2", "-o", os.path.join(d, "t.npz")], check=True,
+                           stdout=subprocess.DEVNULL)
+            tt = time.perf_counter() - t1
+        print(f"| {name} | {s:.0f} | {tt:.1f} | {s / tt:.1f} | {r['evaluations']} | {lv['search']} "
               f"| {lv.get('ladder_seconds', 0):.0f} | {'x'.join(map(str, b['subdivision']))} | {b['described']} "
               f"| {b['cycles']:.3g} | {b['cost']:.0f} | {refs['3mppe']['cycles'] / b['cycles']:.2f} "
               f"| {refs['S']['cycles'] / b['cycles']:.2f} |", flush=True)
