@@ -117,40 +117,9 @@ void mprt__record_visit(mprt__recorder *recorder, const mprt__visit *visit);
 int64_t mprt__record_ray(mprt__recorder *recorder, int64_t parent, int kind, int depth, int sample, int light,
                          double contribution);
 
-/* A stage visit counted, in code compiled apart for tracing (1: recorded in
- * place, inline) and for rendering (0: nothing recorded); the hot loop
- * (pipeline.c's walk) has one copy of each. */
-static inline void mprt__emit_visit_as(mprt__sink *sink, const mprt__visit *v, const int tracing)
+/* A stage visit added to the counters (every visit, traced or not). */
+static inline void mprt__count_visit(mprt_counters *counters, const mprt__visit *v)
 {
-    mprt_counters *counters = &sink->counters;
-    int k;
-    switch (v->stage) {
-    case MPRT_STAGE_OS:
-        counters->os_visits++;
-        counters->voxels_traversed += v->steps;
-        break;
-    case MPRT_STAGE_IC:
-        counters->ic_visits++;
-        for (k = 0; k < MPRT_NKINDS; k++) counters->tests[k] += v->tests[k];
-        counters->polygon_vertices += v->vertices;
-        break;
-    default: /* MPRT_STAGE_SC */
-        counters->sc_visits++;
-        counters->suppressed_rays += v->suppressed;
-        counters->tir += v->tir;
-        break;
-    }
-    if (v->outcome == MPRT_OUT_HIT || v->outcome == MPRT_OUT_BLOCKED || v->outcome == MPRT_OUT_LATE_HIT) {
-        counters->hits++;
-        if (v->ray_kind == MPRT_RAY_PRIMARY) counters->eye_hits++;
-    }
-    if (tracing) mprt__record_visit_here(sink->recorder, v);
-}
-
-/* A stage visit: counted, and recorded when tracing. */
-static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
-{
-    mprt_counters *counters = &sink->counters;
     int k;
     switch (v->stage) {
     case MPRT_STAGE_OS:
@@ -174,6 +143,21 @@ static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
         counters->hits++;
         if (v->ray_kind == MPRT_RAY_PRIMARY) counters->eye_hits++;
     }
+}
+
+/* A stage visit counted, in code compiled apart for tracing (1: recorded in
+ * place, inline) and for rendering (0: nothing recorded); the hot loop
+ * (pipeline.c's walk) has one copy of each. */
+static inline void mprt__emit_visit_as(mprt__sink *sink, const mprt__visit *v, const int tracing)
+{
+    mprt__count_visit(&sink->counters, v);
+    if (tracing) mprt__record_visit_here(sink->recorder, v);
+}
+
+/* A stage visit: counted, and recorded when tracing. */
+static inline void mprt__emit_visit(mprt__sink *sink, const mprt__visit *v)
+{
+    mprt__count_visit(&sink->counters, v);
     if (sink->recorder) {
         /* A copy, so that the caller's visit can live in registers when not tracing */
         mprt__visit copy = *v;
