@@ -137,22 +137,16 @@ def crc32_combine(crc1: int, crc2: int, len2: int) -> int:
     crc32_combine: crc1 carried through len2 zero bytes by squaring the one-zero-bit operator)."""
     if len2 <= 0:
         return crc1
-    odd = [0xEDB88320] + [1 << n for n in range(31)]      # one zero bit
-    even = [_gf2_times(odd, v) for v in odd]                # two
-    odd = [_gf2_times(even, v) for v in even]               # four
-    while True:
-        even = [_gf2_times(odd, v) for v in odd]
+    op = [0xEDB88320] + [1 << n for n in range(31)]       # one zero bit
+    for _ in range(3):                                      # squared: two, four, eight (one zero byte)
+        op = [_gf2_times(op, v) for v in op]
+    while True:                                             # len2's bits, lowest first, squaring as it goes
         if len2 & 1:
-            crc1 = _gf2_times(even, crc1)
+            crc1 = _gf2_times(op, crc1)
         len2 >>= 1
         if not len2:
             break
-        odd = [_gf2_times(even, v) for v in even]
-        if len2 & 1:
-            crc1 = _gf2_times(odd, crc1)
-        len2 >>= 1
-        if not len2:
-            break
+        op = [_gf2_times(op, v) for v in op]
     return crc1 ^ crc2
 
 
