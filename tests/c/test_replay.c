@@ -4,40 +4,14 @@
  * configurations and traces. */
 #include "check.h"
 #include "mprt.h"
+#include "replay_hand.h"
 
 #include <string.h>
 
-#define MAXV 32
-
-/* A hand-built trace: rays (parent, kind) and visits (ray, stage, made). */
-typedef struct {
-    mprt_trace_ray rays[MAXV];
-    mprt_trace_visit visits[MAXV];
-    int64_t process[MAXV], receive[MAXV], send[MAXV];
-    size_t nr, nv;
-} hand;
-
-static void ray(hand *h, int64_t parent, int kind)
-{
-    mprt_trace_ray *r = &h->rays[h->nr];
-    memset(r, 0, sizeof *r);
-    r->id = (int64_t)h->nr;
-    r->parent = parent;
-    r->kind = (uint8_t)kind;
-    h->nr++;
-}
-
+/* A visit with no packet size (the ideal network does not read it). */
 static void visit(hand *h, int64_t r, int stage, int made, int64_t cycles)
 {
-    mprt_trace_visit *v = &h->visits[h->nv];
-    memset(v, 0, sizeof *v);
-    v->ray = r;
-    v->stage = (uint8_t)stage;
-    v->made = (uint8_t)made;
-    h->process[h->nv] = cycles;
-    h->receive[h->nv] = 0;
-    h->send[h->nv] = 0;
-    h->nv++;
+    visit_flits(h, r, stage, made, cycles, 0);
 }
 
 static mprt_replay_config model_m(void)

@@ -4,40 +4,9 @@
  * configurations. */
 #include "check.h"
 #include "mprt.h"
+#include "replay_hand.h"
 
 #include <string.h>
-
-#define MAXV 64
-
-typedef struct {
-    mprt_trace_ray rays[MAXV];
-    mprt_trace_visit visits[MAXV];
-    int64_t process[MAXV], receive[MAXV], send[MAXV], flits[MAXV];
-    size_t nr, nv;
-} hand;
-
-static void ray(hand *h, int64_t parent, int kind)
-{
-    mprt_trace_ray *r = &h->rays[h->nr];
-    memset(r, 0, sizeof *r);
-    r->id = (int64_t)h->nr;
-    r->parent = parent;
-    r->kind = (uint8_t)kind;
-    h->nr++;
-}
-
-static void visit(hand *h, int64_t r, int stage, int made, int64_t cycles, int64_t flits)
-{
-    mprt_trace_visit *v = &h->visits[h->nv];
-    memset(v, 0, sizeof *v);
-    v->ray = r;
-    v->stage = (uint8_t)stage;
-    v->made = (uint8_t)made;
-    h->process[h->nv] = cycles;
-    h->receive[h->nv] = h->send[h->nv] = 0;
-    h->flits[h->nv] = flits;
-    h->nv++;
-}
 
 /* Model M's stages on a ring of `classes` buffer classes, 1 cycle per flit. */
 static mprt_replay_config ring_m(int classes)
@@ -81,14 +50,14 @@ static void test_hand_worked_ring_run(void)
     ray(&h, -1, MPRT_RAY_PRIMARY);
     ray(&h, 0, MPRT_RAY_SHADOW);
     ray(&h, 0, MPRT_RAY_REFLECT);
-    visit(&h, 0, MPRT_STAGE_OS, 0, 10, 3);
-    visit(&h, 0, MPRT_STAGE_IC, 0, 20, 3);
-    visit(&h, 0, MPRT_STAGE_SC, 2, 30, 0);
-    visit(&h, 1, MPRT_STAGE_OS, 0, 5, 3);
-    visit(&h, 1, MPRT_STAGE_SC, 0, 4, 0);
-    visit(&h, 2, MPRT_STAGE_OS, 0, 6, 3);
-    visit(&h, 2, MPRT_STAGE_IC, 0, 8, 3);
-    visit(&h, 2, MPRT_STAGE_OS, 0, 3, 0);
+    visit_flits(&h, 0, MPRT_STAGE_OS, 0, 10, 3);
+    visit_flits(&h, 0, MPRT_STAGE_IC, 0, 20, 3);
+    visit_flits(&h, 0, MPRT_STAGE_SC, 2, 30, 0);
+    visit_flits(&h, 1, MPRT_STAGE_OS, 0, 5, 3);
+    visit_flits(&h, 1, MPRT_STAGE_SC, 0, 4, 0);
+    visit_flits(&h, 2, MPRT_STAGE_OS, 0, 6, 3);
+    visit_flits(&h, 2, MPRT_STAGE_IC, 0, 8, 3);
+    visit_flits(&h, 2, MPRT_STAGE_OS, 0, 3, 0);
     r = loaded(&h, &c);
     CHECK(mprt_replay_run(r, log, 8 * 9) == MPRT_OK);
     CHECK(mprt_replay_get_info(r, &info) == MPRT_OK && info.cycles == 97 && info.events == 16);
@@ -122,7 +91,7 @@ static hand four_rays(void)
     int k, v;
     for (k = 0; k < 4; k++) ray(&h, -1, MPRT_RAY_PRIMARY);
     for (k = 0; k < 4; k++)
-        for (v = 0; v < 5; v++) visit(&h, k, st[v], 0, d[5 * k + v], 2);
+        for (v = 0; v < 5; v++) visit_flits(&h, k, st[v], 0, d[5 * k + v], 2);
     return h;
 }
 
