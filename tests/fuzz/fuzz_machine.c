@@ -79,8 +79,9 @@ static int add_visit(trace *t, int64_t ray, int stage, int made, bytes *b)
 
 /* Rays of one tree, breadth first (a parent's id below its children's), each
  * ray's visits together: (OS, IC) pairs, then SC making its children, or a last
- * OS (the ray left).  Returns -1 when the arrays are full. */
-static int add_tree(trace *t, bytes *b)
+ * OS (the ray left).  Returns -1 when the arrays are full, leaving a partial
+ * tree (children without visits) that add_tree removes. */
+static int grow_tree(trace *t, bytes *b)
 {
     size_t first = t->nr, r;
     if (t->nr == MAX_RAYS) return -1;
@@ -115,6 +116,16 @@ static int add_tree(trace *t, bytes *b)
         }
     }
     return 0;
+}
+
+/* One whole tree, or none when the arrays fill up (returns -1 then). */
+static int add_tree(trace *t, bytes *b)
+{
+    size_t nr = t->nr, nv = t->nv;
+    if (grow_tree(t, b) == 0) return 0;
+    t->nr = nr;
+    t->nv = nv;
+    return -1;
 }
 
 static void config(mprt_replay_config *c, bytes *b)
