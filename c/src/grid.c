@@ -14,7 +14,7 @@
  * face is listed on both sides of it) or the voxels are too thin to shrink.
  * That listing leaves out voxels a primitive meets only on their boundary
  * (a corner, an edge, or a face it does not lie in); it is a study, not
- * watertight with the walk's acceptance rule (studies/03_bench/listing.py).
+ * watertight with the walk's acceptance rule (studies/08_grid_shape/listing.py).
  *
  * Empty space: the grid is also split into macro cells of whole voxels,
  * about cubic in space (one voxel each on a grid of cubic voxels), and each
