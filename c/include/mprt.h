@@ -212,8 +212,17 @@ int mprt_grid_create(const mprt_scene *scene, int nx, int ny, int nz, size_t max
  * bounding box touches (as simpler tracers do); or in those and one more
  * voxel beyond the box's last on each axis (a box's voxel range rounded
  * outward, floor(lo) to ceil(hi), as an off-by-one tracer would).  More
- * list entries, more intersection tests, the same hits. */
-typedef enum { MPRT_LIST_EXACT = 0, MPRT_LIST_BOX = 1, MPRT_LIST_BOX_OUTWARD = 2 } mprt_listing;
+ * list entries, more intersection tests, the same hits.  MPRT_LIST_OCCUPIED
+ * (a study): only in the voxels whose interior the surface meets (or whose
+ * face a flat primitive lies in), leaving out those it meets only on their
+ * boundary; fewer entries, but not watertight: a ray through a voxel edge
+ * or corner can miss or break a tie differently (studies/03_bench). */
+typedef enum {
+    MPRT_LIST_EXACT = 0,
+    MPRT_LIST_BOX = 1,
+    MPRT_LIST_BOX_OUTWARD = 2,
+    MPRT_LIST_OCCUPIED = 3
+} mprt_listing;
 
 /* mprt_grid_create with a listing convention (mprt_listing). */
 int mprt_grid_create_listing(const mprt_scene *scene, int nx, int ny, int nz, size_t max_bytes, int listing,

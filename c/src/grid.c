@@ -7,7 +7,14 @@
  * tests against the voxel box grown by a small relative margin, so that
  * rounding in the 3DDDA's voxel boundaries can never hide a primitive; or,
  * with MPRT_LIST_BOX, in every voxel its bounding box (so grown) touches,
- * and with MPRT_LIST_BOX_OUTWARD one voxel more on each axis's high side.
+ * and with MPRT_LIST_BOX_OUTWARD one voxel more on each axis's high side;
+ * or, with MPRT_LIST_OCCUPIED, only in the voxels whose interior its surface
+ * meets: the same tests against the voxel box shrunk by the margin, except
+ * on an axis along which the primitive is flat (a polygon lying in a voxel
+ * face is listed on both sides of it) or the voxels are too thin to shrink.
+ * That listing leaves out voxels a primitive meets only on their boundary
+ * (a corner, an edge, or a face it does not lie in); it is a study, not
+ * watertight with the walk's acceptance rule (studies/08_grid_shape/listing.py).
  *
  * Empty space: the grid is also split into macro cells of whole voxels,
  * about cubic in space (one voxel each on a grid of cubic voxels), and each
@@ -408,8 +415,11 @@ static int pairs_push(pairs *p, uint32_t v, int32_t id, size_t limit)
 }
 
 /* The voxel range primitive i's bounds touch, grown by the margin (on
- * MPRT_LIST_BOX_OUTWARD one voxel more on each axis's high side). */
-static int prim_range(mprt_grid *g, long long i, int a0[3], int a1[3])
+ * MPRT_LIST_BOX_OUTWARD one voxel more on each axis's high side); and per
+ * axis whether its voxel boxes shrink by the margin (MPRT_LIST_OCCUPIED, on
+ * an axis along which the primitive is thicker than twice the margin and
+ * the voxels thicker than four times it) or grow by it (otherwise). */
+static int prim_range(mprt_grid *g, long long i, int a0[3], int a1[3], int shrink[3])
 {
     const mprt_scene *s = g->scene;
     vec3 blo, bhi;
@@ -420,8 +430,17 @@ static int prim_range(mprt_grid *g, long long i, int a0[3], int a1[3])
         a0[a] = axis_cell(g, a, vget(blo, a) - g->pad);
         a1[a] = axis_cell(g, a, vget(bhi, a) + g->pad);
         if (g->listing == MPRT_LIST_BOX_OUTWARD && a1[a] < g->n[a] - 1) a1[a]++;
+        shrink[a] = g->listing == MPRT_LIST_OCCUPIED && vget(bhi, a) - vget(blo, a) > 2 * g->pad &&
+                    vget(g->cell, a) > 4 * g->pad;
     }
     return MPRT_OK;
+}
+
+/* Whether the listing tests each primitive's surface against the voxels
+ * (else every voxel of its bounds' range lists it). */
+static int listing_tests(const mprt_grid *g)
+{
+    return g->listing == MPRT_LIST_EXACT || g->listing == MPRT_LIST_OCCUPIED;
 }
 
 static int push(mprt_grid *g, pairs *P, int x, int y, int z, long long i, size_t pair_limit, size_t max_bytes)
@@ -444,16 +463,18 @@ static int list_reference(mprt_grid *g, pairs *P, size_t pair_limit, size_t max_
     long long i;
     int st;
     for (i = 0; i < s->nprims; i++) {
-        int a0[3], a1[3], x, y, z;
-        if ((st = prim_range(g, i, a0, a1)) != MPRT_OK) return st;
+        int a0[3], a1[3], shrink[3], x, y, z;
+        real m[3];
+        if ((st = prim_range(g, i, a0, a1, shrink)) != MPRT_OK) return st;
+        for (x = 0; x < 3; x++) m[x] = shrink[x] ? -margin : margin;
         for (z = a0[2]; z <= a1[2]; z++)
             for (y = a0[1]; y <= a1[1]; y++)
                 for (x = a0[0]; x <= a1[0]; x++) {
                     vec3 lo = mprt__grid_voxel_lo(g, x, y, z);
                     vec3 hi = mprt__grid_voxel_lo(g, x + 1, y + 1, z + 1);
-                    lo = v3(lo.x - margin, lo.y - margin, lo.z - margin);
-                    hi = v3(hi.x + margin, hi.y + margin, hi.z + margin);
-                    int touch = g->listing != MPRT_LIST_EXACT ? 1 : prim_box(s, i, lo, hi);
+                    lo = v3(lo.x - m[0], lo.y - m[1], lo.z - m[2]);
+                    hi = v3(hi.x + m[0], hi.y + m[1], hi.z + m[2]);
+                    int touch = !listing_tests(g) ? 1 : prim_box(s, i, lo, hi);
                     if (touch < 0)
                         return grid_fail(g, MPRT_ERR_STATE, "grid: " MPRT__UNKNOWN_KIND, i, s->prims[i].kind);
                     if (touch && (st = push(g, P, x, y, z, i, pair_limit, max_bytes)) != MPRT_OK) return st;
@@ -472,34 +493,43 @@ static int list_fast(mprt_grid *g, pairs *P, size_t pair_limit, size_t max_bytes
 {
     const mprt_scene *s = g->scene;
     const real margin = g->pad;
-    real *tab, *vlo[3], *vhi[3], *vmag[3];
+    real *tab, *vlo[3], *vhi[3], *vmag[3], *tlo[2][3], *thi[2][3], *tmag[2][3];
     mprt__polybox pb;
     long long i;
-    int a, k, st = MPRT_OK;
-    tab = malloc(3 * (size_t)(g->n[0] + g->n[1] + g->n[2]) * sizeof *tab);
+    int a, k, j, st = MPRT_OK;
+    const size_t per = (size_t)(g->n[0] + g->n[1] + g->n[2]);
+    /* per axis the voxel bounds grown by the margin (tables 0) and, for
+     * MPRT_LIST_OCCUPIED, shrunk by it (tables 1), with their magnitudes */
+    tab = malloc(6 * per * sizeof *tab);
     if (!tab) return grid_fail(g, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the voxel bounds");
     memset(&pb, 0, sizeof pb);
-    for (a = 0, vlo[0] = tab; a < 3; a++) {
-        const real lo = vget(g->lo, a), cell = vget(g->cell, a);
-        vhi[a] = vlo[a] + g->n[a];
-        vmag[a] = vhi[a] + g->n[a];
-        if (a < 2) vlo[a + 1] = vmag[a] + g->n[a];
-        for (k = 0; k < g->n[a]; k++) {
-            real l = lo + (real)k * cell, h = lo + (real)(k + 1) * cell, al, ah;
-            vlo[a][k] = l - margin;
-            vhi[a][k] = h + margin;
-            al = ABS(vlo[a][k]);
-            ah = ABS(vhi[a][k]);
-            vmag[a][k] = al > ah ? al : ah;
+    for (j = 0; j < 2; j++)
+        for (a = 0; a < 3; a++) {
+            const real lo = vget(g->lo, a), cell = vget(g->cell, a), m = j ? -margin : margin;
+            tlo[j][a] = a == 0 ? tab + 3 * per * (size_t)j : tmag[j][a - 1] + g->n[a - 1];
+            thi[j][a] = tlo[j][a] + g->n[a];
+            tmag[j][a] = thi[j][a] + g->n[a];
+            for (k = 0; k < g->n[a]; k++) {
+                real l = lo + (real)k * cell, h = lo + (real)(k + 1) * cell, al, ah;
+                tlo[j][a][k] = l - m;
+                thi[j][a][k] = h + m;
+                al = ABS(tlo[j][a][k]);
+                ah = ABS(thi[j][a][k]);
+                tmag[j][a][k] = al > ah ? al : ah;
+            }
         }
-    }
     for (i = 0; i < s->nprims && st == MPRT_OK; i++) {
         const mprt__prim *p = &s->prims[i];
         mprt__cone_extent cx;
         real smag = 0;
-        int a0[3], a1[3], x, y, z;
-        if ((st = prim_range(g, i, a0, a1)) != MPRT_OK) break;
-        if (p->kind == MPRT_POLYGON && g->listing == MPRT_LIST_EXACT) {
+        int a0[3], a1[3], shrink[3], x, y, z;
+        if ((st = prim_range(g, i, a0, a1, shrink)) != MPRT_OK) break;
+        for (a = 0; a < 3; a++) {
+            vlo[a] = tlo[shrink[a]][a];
+            vhi[a] = thi[shrink[a]][a];
+            vmag[a] = tmag[shrink[a]][a];
+        }
+        if (p->kind == MPRT_POLYGON && listing_tests(g)) {
             mprt__polybox_set(&pb, &s->polygons[p->index], s->verts);
             for (x = a0[0]; x <= a1[0] && st == MPRT_OK; x++)
                 for (y = a0[1]; y <= a1[1] && st == MPRT_OK; y++) {
@@ -517,8 +547,8 @@ static int list_fast(mprt_grid *g, pairs *P, size_t pair_limit, size_t max_bytes
                 }
             continue;
         }
-        if (g->listing == MPRT_LIST_EXACT && p->kind == MPRT_SPHERE) smag = vmaxabs(s->spheres[p->index].c);
-        if (g->listing == MPRT_LIST_EXACT && (p->kind == MPRT_CYLINDER || p->kind == MPRT_CONE))
+        if (listing_tests(g) && p->kind == MPRT_SPHERE) smag = vmaxabs(s->spheres[p->index].c);
+        if (listing_tests(g) && (p->kind == MPRT_CYLINDER || p->kind == MPRT_CONE))
             mprt__cone_box_prepare(&s->cones[p->index], &cx);
         for (z = a0[2]; z <= a1[2] && st == MPRT_OK; z++)
             for (y = a0[1]; y <= a1[1] && st == MPRT_OK; y++)
@@ -527,7 +557,7 @@ static int list_fast(mprt_grid *g, pairs *P, size_t pair_limit, size_t max_bytes
                     real m = vmag[0][x] > vmag[1][y] ? vmag[0][x] : vmag[1][y];
                     int touch;
                     if (vmag[2][z] > m) m = vmag[2][z];
-                    if (g->listing != MPRT_LIST_EXACT) touch = 1;
+                    if (!listing_tests(g)) touch = 1;
                     else if (p->kind == MPRT_SPHERE) touch = mprt__sphere_box_with(&s->spheres[p->index], lo, hi, m, smag);
                     else if (p->kind == MPRT_CYLINDER || p->kind == MPRT_CONE)
                         touch = mprt__cone_box_with(&s->cones[p->index], &cx, lo, hi, m);
@@ -772,8 +802,10 @@ static int create(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes,
     *out = g;
     g->scene = s;
     if (!s) return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: no scene");
-    if (listing != MPRT_LIST_EXACT && listing != MPRT_LIST_BOX && listing != MPRT_LIST_BOX_OUTWARD)
-        return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: unknown listing %d (0 exact, 1 box, 2 box_outward)", listing);
+    if (listing != MPRT_LIST_EXACT && listing != MPRT_LIST_BOX && listing != MPRT_LIST_BOX_OUTWARD &&
+        listing != MPRT_LIST_OCCUPIED)
+        return grid_fail(g, MPRT_ERR_INVALID_ARG,
+                         "grid: unknown listing %d (0 exact, 1 box, 2 box_outward, 3 occupied)", listing);
     g->listing = listing;
     if (nx < 1 || ny < 1 || nz < 1 || nx > 1024 || ny > 1024 || nz > 1024)
         return grid_fail(g, MPRT_ERR_INVALID_ARG, "grid: subdivision %dx%dx%d is not in 1..1024 per axis", nx, ny, nz);

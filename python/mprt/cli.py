@@ -76,7 +76,7 @@ def _scene_and_grid(a):
     t0 = time.perf_counter()
     scene, how = options.load_scene(a.scene, skip_unknown=a.skip_unknown)
     t1 = time.perf_counter()
-    grid = scene.grid(a.grid)
+    grid = scene.grid(a.grid, listing=a.listing)
     t2 = time.perf_counter()
     desc = grid.resolve(render_desc(**options.render_kwargs(a)))
     info, gs = scene.info(), grid.stats()

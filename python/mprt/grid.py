@@ -20,7 +20,7 @@ from .atomic import replacing
 
 
 # How a grid lists primitives in voxels (mprt_listing).
-LISTINGS = {"exact": 0, "box": 1, "box_outward": 2}
+LISTINGS = {"exact": 0, "box": 1, "box_outward": 2, "occupied": 3}
 # The workload conventions of a render description and their choices, in the order of their
 # MPRT_* values (1, 2, ...; 0 leaves the rule set's choice): see mprt.h and docs/workload.md.
 CONVENTIONS = {
@@ -176,7 +176,8 @@ def _scene_grid(scene: Scene, n: int | Sequence[int] | None = None, max_bytes: i
     """Build a uniform grid of n per axis (or (nx, ny, nz)) voxels over the scene;
     None picks ``default_grid()``.  max_bytes bounds its memory (0: the library's default);
     listing 'exact' lists a primitive in the voxels its surface touches, 'box' in those its
-    bounding box touches."""
+    bounding box touches, 'occupied' (a study, not watertight) only in those whose interior its
+    surface meets."""
     return Grid(scene, scene.default_grid() if n is None else n, max_bytes, listing)
 
 

@@ -10,7 +10,7 @@ with these helpers and, before any work:
     def add_parser(sub):
         p = sub.add_parser("simulate", ...)
         options.add_scene_argument(p)          # or its own positional
-        options.add_render_options(p)          # --grid --res --rules --threshold --threads --tile --mailbox
+        options.add_render_options(p)          # --grid --listing --res --rules --threshold --threads --tile --mailbox
         p.add_argument("--json", metavar="OUT.json", help=options.OUTPUT_HELP["json"])
     def run(a):
         options.check_render_options(a)        # combinations (--threshold with --rules spd)
@@ -38,6 +38,7 @@ from fractions import Fraction
 
 from ._lowlevel import EXT_VERSION, RULES, binding
 from .errors import InvalidArgument, SceneParseError
+from .grid import LISTINGS
 from .scene import SPD_DEFAULT_SIZES, SPD_SCENES, Scene
 from .atomic import open_replacing
 
@@ -241,6 +242,15 @@ def add_grid(p, default_text: str = GRID_DEFAULT, extra: str = "") -> None:
                    help=f"voxels per axis, each 1..{GRID_MAX}{extra} (default: {default_text})")
 
 
+def add_listing(p) -> None:
+    """--listing: how the grid lists primitives in voxels (mprt.grid.LISTINGS)."""
+    p.add_argument("--listing", choices=tuple(LISTINGS), default="exact",
+                   help="voxels a primitive is listed in: exact (every voxel its surface may touch, closed and "
+                        "padded), box (every voxel its bounding box touches), box_outward (and one more on each "
+                        "axis's high side), occupied (a study: only the voxels whose interior its surface meets; "
+                        "fewer tests but not watertight, a ray through a voxel edge can miss) (default: exact)")
+
+
 def add_res(p) -> None:
     p.add_argument("--res", type=resolution_arg, default=None, metavar="WxH",
                    help=f"image size, each 1..{RES_MAX} (default: the scene's view resolution)")
@@ -294,6 +304,7 @@ def add_render_options(p: argparse.ArgumentParser, trace: bool = False) -> argpa
     and default in --help.  Returns the argument group (to add more)."""
     g = p.add_argument_group("rendering")
     add_grid(g)
+    add_listing(g)
     add_res(g)
     add_rules(g)
     add_threshold(g)

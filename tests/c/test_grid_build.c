@@ -7,7 +7,7 @@
  * anisotropic subdivisions, and on random and degenerate polygons (concave,
  * non-planar within tolerance, axis-aligned, on voxel boundaries, tiny, huge,
  * far from the origin), with spheres and cones among them, where the rounding allowances differ from voxel to
- * voxel.  Full-size scenes at the prepass's subdivisions:
+ * voxel; for the exact listing and, on most of these, the occupied one (voxel boxes shrunk, not grown).  Full-size scenes at the prepass's subdivisions:
  * studies/03_bench/build.py --before. */
 #include "check.h"
 #include "geom.h"
@@ -73,6 +73,8 @@ static void test_spd_scenes(void)
             for (d = 0; d < NDIMS; d++) same_grid(s, dims[d][0], dims[d][1], dims[d][2], MPRT_LIST_EXACT, names[i]);
             same_grid(s, 9, 5, 13, MPRT_LIST_BOX, names[i]);
             same_grid(s, 9, 5, 13, MPRT_LIST_BOX_OUTWARD, names[i]);
+            same_grid(s, 9, 5, 13, MPRT_LIST_OCCUPIED, names[i]);
+            same_grid(s, 16, 16, 16, MPRT_LIST_OCCUPIED, names[i]);
             mprt_scene_destroy(s);
         }
 }
@@ -190,6 +192,7 @@ static void test_random_polygons(void)
         for (d = 0; d < 4; d++) {
             int nx = rnd_int(&r, 1, 40), ny = rnd_int(&r, 1, 40), nz = rnd_int(&r, 1, 40);
             same_grid(s, nx, ny, nz, MPRT_LIST_EXACT, "random polygons");
+            if (d == 0) same_grid(s, nx, ny, nz, MPRT_LIST_OCCUPIED, "random polygons");
         }
         mprt_scene_destroy(s);
     }
@@ -220,6 +223,7 @@ static void test_boundary_polygons(void)
         for (d = 0; d < 5; d++) {
             static const int nd[5][3] = {{8, 8, 8}, {16, 16, 16}, {4, 8, 32}, {32, 1, 2}, {5, 7, 9}};
             same_grid(s, nd[d][0], nd[d][1], nd[d][2], MPRT_LIST_EXACT, "boundary polygons");
+            same_grid(s, nd[d][0], nd[d][1], nd[d][2], MPRT_LIST_OCCUPIED, "boundary polygons");
         }
         mprt_scene_destroy(s);
     }
@@ -245,6 +249,7 @@ static void test_mixed_magnitudes(void)
     add_poly(s, 48, v);
     same_grid(s, 50, 50, 50, MPRT_LIST_EXACT, "mixed magnitudes");
     same_grid(s, 97, 13, 61, MPRT_LIST_EXACT, "mixed magnitudes");
+    same_grid(s, 97, 13, 61, MPRT_LIST_OCCUPIED, "mixed magnitudes");
     mprt_scene_destroy(s);
 }
 
