@@ -191,9 +191,9 @@ def _phased_replay(ev, trace, cfg, level: int, engine: str, timeline: bool):
     """The replay of a large trace in phases, each with a line on stderr (a bar against its
     estimate on a terminal): costing the visits, loading them into the engine, replaying."""
     from ..progress import Phases
-    from .levels import at_level, engine_for
+    from .levels import at_level
 
-    eng = engine_for(cfg, level, engine)
+    eng = ev.engine_for(cfg, level, engine)
     visits = len(trace.visits)
     est = _probe(trace, cfg, level) if eng == "compiled" else {}
     total = sum(v for k, v in est.items() if k != "rate") if "replaying" in est else None

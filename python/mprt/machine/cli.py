@@ -14,6 +14,7 @@ import os
 import sys
 import time
 
+from .. import memory_estimate
 from .. import options as opt
 from .config import BUILTIN, resolve
 from .errors import ConfigError, DeadlockError
@@ -67,6 +68,10 @@ def _load_source(a):
         scene, _ = opt.load_scene(src, skip_unknown=a.skip_unknown)
         grid = scene.grid(a.grid)
         w, h = a.res or (0, 0)
+        if getattr(a, "machine_config", None) is not None:      # the least the frame holds, before tracing
+            rw, rh = a.res or scene.info()["resolution"]
+            memory_estimate.check_simulate(a, a.machine_config, memory_estimate.frame_counts(
+                rw, rh, grid.n, scene.info()["prims"]))
         t0 = time.perf_counter()
         _, trace = trace_grid(grid, w, h, rules=a.rules or "paper", threshold=a.threshold,
                               threads=a.threads or os.cpu_count() or 1, tile=a.tile or 16,
@@ -121,8 +126,12 @@ def run(a, load=None, replay=None) -> int:
                  if level == "auto" else "")
               + (f", {a.sample} of it" if getattr(a, "sample", None) else "")
               + (f", against the baseline {a.baseline}" if getattr(a, "baseline", None) else ""), flush=True)
+        a.machine_config = cfg
+        if a.source.endswith(".npz"):       # from the file's headers, before its records are read
+            memory_estimate.check_simulate(a, cfg, memory_estimate.file_counts(a.source))
         trace, settings, how = (load or _load_source)(a)
         print(how)
+        memory_estimate.check_simulate(a, cfg, memory_estimate.trace_counts(trace), trace)
         if replay is None:
             res, extra = System(trace, cfg, timeline=bool(a.plot or a.report)).run(progress=sys.stderr.isatty()), {}
         else:
