@@ -25,7 +25,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s = subparsers.add_parser(
         "simulate", help="replay a trace on a machine model (S, M, 3mppe or a TOML configuration)",
         description="Replay a trace on the machine model (SimPy).  A SCENE (SPD name or NFF file) is traced "
-                    "first with the tracing options.",
+                    "first with the tracing options.  Its peak memory is estimated before any work; a run that "
+                    "would need more than is available (MemAvailable, or MPRT_MEMORY_LIMIT, e.g. 8G) is refused "
+                    "with the figures (exit 2).",
         epilog=opt.EXIT_STATUS + "; 3 with --baseline: the cycles moved beyond --tolerance")
     s.add_argument("source", metavar="TRACE.npz|SCENE", help="a trace file, or a scene to trace first")
     opt.add_skip_unknown(s)
