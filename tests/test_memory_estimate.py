@@ -203,3 +203,34 @@ def test_simulate_cli_falls_back_or_refuses(tmp_path, monkeypatch, capsys):
     assert main(["simulate", str(path), "--config", str(cfg)]) == 2
     err = capsys.readouterr().err.strip()
     assert err.count("\n") == 0 and "needs about" in err and "caches" in err, err
+
+
+def test_huge_caches_are_counted(tmp_path, monkeypatch, capsys):
+    """512 PEs x 262146 entries: under the compiled replay's 2^28, but 2 GiB of cache arrays."""
+    path, cfg = tmp_path / "big.npz", tmp_path / "half.toml"
+    big_cache_trace().save(path)
+    cfg.write_text(BIG_TOML.replace("pes = 1024", "pes = 512"))
+    monkeypatch.setenv(me.ENV, "1G")
+    refused(capsys, ["simulate", str(path), "--config", str(cfg), "--engine", "compiled"], "caches 2.0 GiB",
+            "1.0 GiB available")
+
+
+@pytest.mark.parametrize("field, text", [("replicas", "[[stage]]\nsubtasks = ['OS', 'IC', 'SC']\nreplicas = 1000000\n"),
+                                         ("size", "[ic_memory]\ncache = { size = 1152921504606846976, line = 32, "
+                                                  "ways = 4 }\n[icgm]\nlatency = 1\nbandwidth = 8\n")])
+def test_replicas_and_cache_sizes_beyond_the_bounds_are_refused_first(tmp_path, capsys, field, text):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('base = "M"\n' + text)
+    assert main(["simulate", GOLDEN, "--config", str(cfg)]) == 2
+    err = capsys.readouterr().err.strip()
+    assert err.count("\n") == 0 and field in err and "at most" in err, err
+
+
+@pytest.mark.parametrize("engine", ["compiled", "simpy"])
+def test_a_huge_cache_on_a_small_trace_is_not_refused(tmp_path, monkeypatch, engine):
+    """Both engines size a cache by the data it can hold, and so does the estimate."""
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('base = "3mppe"\npes = 8\n[ic_memory]\nresident = 0\n'
+                   'cache = { size = 1099511627776, line = 32, ways = 4 }\n')
+    monkeypatch.setenv(me.ENV, "1G")
+    assert main(["simulate", GOLDEN, "--config", str(cfg), "--engine", engine]) == 0

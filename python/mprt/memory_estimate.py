@@ -211,8 +211,8 @@ def cache_entries(cache, span: int) -> tuple[int, int]:
 def replay_parts(e: Estimate, config, engine: str, visits: int, rays: int, figures=None,
                  timeline: bool = False) -> None:
     """The cost arrays and the engine's state for one configuration.  ``figures(tag, mc)``:
-    (span, reads) of a local memory's data (``memory_figures``); without it the caches count
-    as configured, every set filled."""
+    (span, reads) of a local memory's data (``memory_figures``); without it (the trace not yet
+    read) the caches are not counted: both engines size them by the data, not the configuration."""
     e.add("costs", visits * COSTS)
     procs = config.pes * sum(s.replicas for s in config.stages)
     level3 = config.ic_memory is not None or config.sc_memory is not None
@@ -231,7 +231,9 @@ def replay_parts(e: Estimate, config, engine: str, visits: int, rays: int, figur
         mc = getattr(config, f"{tag}_memory")
         if mc is None or mc.cache is None:
             continue
-        span, reads = figures(tag, mc) if figures is not None else (mc.cache.size // mc.cache.line, 1 << 62)
+        if figures is None:
+            continue
+        span, reads = figures(tag, mc)
         nsets, entries = cache_entries(mc.cache, span)
         if engine == "compiled":
             e.add("caches", config.pes * (entries * 8 + nsets * 8))
