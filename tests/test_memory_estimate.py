@@ -12,6 +12,7 @@ import pytest
 import mprt
 from mprt import memory_estimate as me
 from mprt.cli import main
+from mprt.explore.memory import check_sweep
 from mprt.fidelity import evaluate
 from mprt.machine import CacheConfig, ConfigError, GlobalMemoryConfig, LocalMemoryConfig, builtin, simulate
 from mprt.trace import IC, LEFT, OS, PRIMARY, RAY_DTYPE, RETURN, TO_IC, VISIT_DTYPE
@@ -133,7 +134,7 @@ def test_sweep_refuses_a_huge_resolution(tmp_path, monkeypatch, capsys):
 
 def test_sweep_estimate_of_a_small_spec_fits():
     spec = {"scenes": ["balls:1"], "width": 32, "height": 32, "subdivisions": [(4,)], "shape": "cube"}
-    e = me.check_sweep(spec, 2)
+    e = check_sweep(spec, 2)
     assert 0 < e.total < 64 << 20 and e.floor
 
 

@@ -1,7 +1,8 @@
 """A Trace built in memory is validated by the Python API (``tracevalid.check_trace``) before the
 cost model or an engine reads it: records that ``stats --check`` rejects in a file get the same
 one-line TraceError through ``simulate``, ``System``, ``Compiled``, ``replay``, ``costs_for``
-and ``evaluate`` (issue 19)."""
+and ``evaluate`` (issue 19).  (``CostModel.visit_costs`` keeps its own checks, ``cannot cost
+this trace: ...``, and its other record layouts: tests/test_cost_fast.py.)"""
 import functools
 import json
 
@@ -10,7 +11,6 @@ import pytest
 
 import mprt
 from mprt import tracefile, tracevalid
-from mprt.cost import CostModel
 from mprt.fidelity import evaluate
 from mprt.fidelity.compiled import Compiled, costs_for, replay
 from mprt.machine import System, builtin, simulate
@@ -48,7 +48,6 @@ ENTRY_POINTS = {
     "replay": lambda t: replay(t, "M"),
     "Compiled": lambda t: Compiled(t, costs_for(source(), builtin("M"))),
     "costs_for": lambda t: costs_for(t, builtin("M")),
-    "visit_costs": lambda t: CostModel.default().visit_costs(t, builtin("M").processors()),
     "evaluate": lambda t: evaluate(t, "3mppe", 3),
 }
 

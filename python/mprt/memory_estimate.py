@@ -291,88 +291,21 @@ def compiled_cache_overflow(config, figures) -> str | None:
     return None
 
 
-def simulate_engine(a, cfg):
-    """(configuration at the level, engine) that ``mprt simulate`` will run: --level (auto and
-    none: the configuration's own, the most a run may take), --engine (SimPy for the machine
-    model's command alone)."""
-    from .fidelity.levels import at_level, engine_for, native_level
-
-    level = getattr(a, "level", None)
-    level = native_level(cfg) if level in (None, "auto") else int(level)
-    return at_level(cfg, level), engine_for(cfg, level, getattr(a, "engine", "simpy"))
-
-
-def check_simulate(a, cfg, counts: dict | None, trace=None) -> None:
+def check_simulate(counts: dict | None, plan, timeline: bool = False, loaded: bool = False) -> None:
     """Refuse (MemoryRefused) a simulate that cannot fit: before reading a trace file (its
-    headers' counts) or tracing a scene (``frame_counts``), and again with the trace in hand
-    (``trace``: its caches' data known; the trace itself already held).  With ``--engine auto``
-    caches the compiled replay refuses are estimated on SimPy, which ``Evaluator`` falls back to."""
-    if counts is None:
+    headers' counts, ``file_counts``) or tracing a scene (``frame_counts``), and again with the
+    trace in hand (``loaded``: the trace itself already held).  ``plan``: (configuration at the
+    level run, engine, figures of its memories' data or None), or None when the run will name a
+    fault of its own."""
+    if counts is None or plan is None:
         return
-    from .machine.errors import ConfigError
-
-    try:
-        c, engine = simulate_engine(a, cfg)
-    except ConfigError:
-        return          # the run names it
-    timeline = bool(getattr(a, "plot", None) or getattr(a, "report", None))
-    figures = None
-    if trace is not None and (c.ic_memory is not None or c.sc_memory is not None):
-        from .fidelity.memdata import MemoryData
-
-        a.memory_data = MemoryData.of(trace)      # held for the run's Evaluator: computed once
-        figures = lambda tag, mc: memory_figures(a.memory_data, tag, mc)  # noqa: E731
-        if engine == "compiled" and getattr(a, "engine", "simpy") == "auto" and compiled_cache_overflow(c, figures):
-            engine = "simpy"                      # as Evaluator.engine_for falls back
+    cfg, engine, figures = plan
     e = Estimate(floor=bool(counts.get("floor")))
-    if trace is None:
+    if not loaded:
         _trace_parts(e, counts)
-    replay_parts(e, c, engine, counts["visits"], counts["rays"], figures, timeline)
+    replay_parts(e, cfg, engine, counts["visits"], counts["rays"], figures, timeline)
     e.check()
 
 
-def _workers(n: int | None) -> int:
+def workers_of(n: int | None) -> int:
     return max(int(n if n else os.cpu_count() or 1), 1)
-
-
-def check_sweep(spec: dict, workers: int | None) -> Estimate:
-    """A sweep's workers each hold one traced frame (scene, subdivision) at a time; the largest
-    scene and subdivision bound it.  Refuses (MemoryRefused) what cannot fit."""
-    from .explore.evaluate import grid_dims
-    from .scene import Scene
-
-    prims, voxels = 0, 0
-    for sc in spec["scenes"]:
-        scene = Scene.load(sc)
-        prims = max(prims, scene.info()["prims"])
-        for sub in spec["subdivisions"]:
-            voxels = max(voxels, int(np.prod(grid_dims(scene, sub, spec["shape"]))))
-    e = for_frames("", [(spec["width"], spec["height"], (voxels,), prims)], _workers(workers))
-    e.check()
-    return e
-
-
-def check_explore(scene, width: int, height: int, space, grid, fraction, sample, workers) -> Estimate:
-    """An explorer's processes each hold the search's low-resolution frame and the full
-    resolution's (the samples of the whole frame; records of the sampled tiles, or of the
-    frame), at the largest subdivision of the space (or ``grid``)."""
-    from .explore.evaluate import grid_dims
-    from .explore.prepass import low_resolution
-
-    subs = [grid if isinstance(grid, tuple) else (grid,)] if grid is not None else space.subdivisions()
-    voxels = max(int(np.prod(grid_dims(scene, s, space.shape))) for s in subs)
-    prims = scene.info()["prims"]
-    f = max(1, min(width, height) // 64) if fraction is None else fraction
-    if sample == "auto":
-        sample = "stratified:16:1" if width * height > 256 * 256 and f > 1 else None
-    frames = [(*low_resolution(width, height, f), (voxels,), prims)] if f > 1 else []
-    e = for_frames("", frames + [(width, height, (voxels,), prims)], 1)
-    if f > 1 and sample:      # the full frame's samples, only a few tiles' records
-        traced = min(width * height, 16 * 16 * 16)
-        e.parts["visits"] -= (width * height - traced) * VISIT
-        e.parts["rays"] -= (width * height - traced) * RAY
-        e.parts["costs"] -= (width * height - traced) * (COSTS + COMPILED)
-    n = _workers(workers)
-    e = e.scaled(n + 1, f"for {n} workers and the explorer") if n > 1 else e
-    e.check()
-    return e

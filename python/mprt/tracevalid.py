@@ -295,8 +295,8 @@ def check_trace(trace) -> None:
     """The validation of a Trace however it was made (a file, the tracer, or arrays built in
     memory and handed to the Python API): ``validate`` on its metadata and arrays, so a record
     ``mprt stats --check`` rejects gets the same one-line TraceError before the cost model or
-    an engine reads it.  Run by every entry point (``CostModel.visit_costs``, ``System``,
-    ``Compiled``, ``Evaluator``); once per trace and set of arrays (ranges and dtypes: about
+    an engine reads it.  Run by every entry point (``System``, ``Compiled``, ``costs_for``,
+    ``Evaluator``; ``CostModel.visit_costs`` has checks of its own); once per trace and set of arrays (ranges and dtypes: about
     60 ns a visit; the arrays are compared by identity, so arrays changed in place after a
     check are not checked again)."""
     if getattr(trace, "meta", None) is None or not hasattr(trace, "visits"):

@@ -197,10 +197,8 @@ class CostModel:
         priced in C in one pass (``fast.py``); ``reference_visit_costs`` is the
         same arithmetic in numpy.  (``chunk``: visits per call, for the numpy
         form and for a trace whose records are not in the C layout.)"""
-        from ..tracevalid import check_trace
         from .fast import visit_costs
 
-        check_trace(trace)          # a trace built in memory: its ranges before any is priced
         return visit_costs(self, trace, _check_procs(procs), chunk)
 
     def reference_visit_costs(self, trace, procs: Mapping[str, ProcessorConfig], chunk: int = 1 << 20) -> VisitCosts:

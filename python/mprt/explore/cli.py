@@ -322,7 +322,7 @@ def run_explore(a) -> int:
     if a.workers is not None and a.workers < 0:
         raise opt.UsageError(f"--workers {a.workers}: give 0 or more processes")
     if not a.scheduler:     # before any work: the frames the processes hold must fit
-        from ..memory_estimate import check_explore
+        from .memory import check_explore
         from .parallel import default_workers
         check_explore(scene, w, h, space, a.grid, a.fraction, a.sample,
                       default_workers() if a.workers is None else a.workers)
@@ -476,7 +476,7 @@ def run_sweep(a) -> int:
           f"{'the Dask scheduler ' + a.scheduler if a.scheduler else 'a local Dask cluster'}; progress with an "
           "estimate of the time left below", flush=True)
     if not a.scheduler:     # before any work: every worker holds a traced frame
-        from ..memory_estimate import check_sweep
+        from .memory import check_sweep
         check_sweep(spec, a.workers)
     tick = sweep_progress()
     r = sweep(spec, a.out, scheduler=a.scheduler, workers=a.workers, progress=tick)

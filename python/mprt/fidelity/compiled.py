@@ -246,6 +246,7 @@ class Compiled:
 
 def costs_for(trace, config: SystemConfig, cost_model=None):
     """The cost model's visit costs for a configuration's processors (default model)."""
+    check_trace(trace)              # a trace built in memory: its ranges before it is priced
     if cost_model is None:
         from ..cost import CostModel
 
