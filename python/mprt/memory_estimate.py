@@ -282,8 +282,8 @@ def compiled_cache_overflow(config, figures) -> str | None:
     ``figures(tag, memory_config)``: (span, reads) of memory ``tag``'s data (``memory_figures``)."""
     for tag in ("ic", "sc"):
         mc = getattr(config, f"{tag}_memory")
-        if mc is None or mc.cache is None:
-            continue
+        if mc is None or mc.cache is None or config.pes * (mc.cache.size // mc.cache.line) <= CACHE_LIMIT:
+            continue            # (sets x ways <= size / line: no data needed to know it fits)
         per = cache_entries(mc.cache, figures(tag, mc)[0])[1]
         if per * config.pes > CACHE_LIMIT:
             return (f"the {tag.upper()} caches would hold {config.pes} PEs x {per} entries per PE (sets x ways the "
