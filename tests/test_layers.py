@@ -27,6 +27,7 @@ ORDER = [
     "trace",       # Trace, load_trace, the record enums and dtypes
     "tracing",     # trace(grid, ...) -> (image, Trace) (adds Grid.trace)
     "options",     # the command line's options, validated once for every subcommand
+    "memory_estimate",  # peak memory of simulate, explore and sweep, against the memory available
     "report",      # self-contained HTML pages of explore, simulate and sweep (from their JSON and plots)
     "cost",        # operation costs of stage visits (takes a Trace)
     "replay",      # costed trace -> per-PE ray streams

@@ -27,7 +27,7 @@ def hand_trace(rays, visits):
               "prim_kind": np.zeros(1, np.int32), "prim_words": np.array([4], np.int32),
               "prim_material": np.zeros(1, np.int32), "samples": np.zeros((1, 1, 3))}
     meta = {"scene": "hand", "grid": [1, 1, 1], "width": 1, "height": 1, "rules": "paper", "threshold": 0.0,
-            "lights": 1, "tiles": [0], "tiles_total": 1}
+            "lights": 1, "tiles": [0], "tiles_total": 1, "samples_w": 1, "samples_h": 1}
     return mprt.Trace.from_arrays(meta, arrays)
 
 

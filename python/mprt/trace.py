@@ -99,6 +99,7 @@ class Trace:
         between records (``mprt.tracecheck``), all in bounded memory; raise TraceError naming
         the member and the field of the first fault."""
         tracevalid.validate(self.meta, self.arrays())
+        tracevalid.mark_checked(self)
         if invariants:
             tracecheck.check(self)
 
@@ -123,6 +124,7 @@ def load_trace(path, mmap: bool | None = None, verify: bool = True, invariants: 
     memory."""
     meta, arrays = tracefile.read(path, mmap, verify)
     trace = Trace.from_arrays(meta, arrays, path)
+    tracevalid.mark_checked(trace)      # tracefile.read ran tracevalid's checks
     if invariants:
         tracecheck.check(trace)
     return trace

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm import tqdm
 
-from . import tracefile
+from . import tracefile, tracevalid
 from ._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Rules
 from .errors import InvalidArgument
 from .grid import CONVENTIONS, Grid, render_desc
@@ -410,6 +410,7 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
             arrays["rays"] = records.result("rays")
             arrays["visits"] = records.result("visits")
             result = Trace.from_arrays(meta, arrays)
+            tracevalid.mark_checked(result)     # the tracer's own records
     finally:
         side.shutdown()
         if bar:

@@ -321,6 +321,11 @@ def run_explore(a) -> int:
               sample=a.sample, verify=a.verify, starts=a.starts, rules=a.rules, threshold=a.threshold, grid=a.grid)
     if a.workers is not None and a.workers < 0:
         raise opt.UsageError(f"--workers {a.workers}: give 0 or more processes")
+    if not a.scheduler:     # before any work: the frames the processes hold must fit
+        from .memory import check_explore
+        from .parallel import default_workers
+        check_explore(scene, w, h, space, a.grid, a.fraction, a.sample,
+                      default_workers() if a.workers is None else a.workers)
     print(f"explore {scene.name} at {w}x{h}: "
           + ("measure the fidelity ladder on a low-resolution trace, " if a.level == "auto" else "")
           + f"search up to {a.max_evals} designs ({a.algorithm}, then {a.polish}) at the level chosen, "
@@ -470,6 +475,9 @@ def run_sweep(a) -> int:
           f"{len(spec['designs'])} design(s) at {spec['width']}x{spec['height']}, level {spec['level']}, on "
           f"{'the Dask scheduler ' + a.scheduler if a.scheduler else 'a local Dask cluster'}; progress with an "
           "estimate of the time left below", flush=True)
+    if not a.scheduler:     # before any work: every worker holds a traced frame
+        from .memory import check_sweep
+        check_sweep(spec, a.workers)
     tick = sweep_progress()
     r = sweep(spec, a.out, scheduler=a.scheduler, workers=a.workers, progress=tick)
     tick.end()

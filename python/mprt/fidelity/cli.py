@@ -191,9 +191,9 @@ def _phased_replay(ev, trace, cfg, level: int, engine: str, timeline: bool):
     """The replay of a large trace in phases, each with a line on stderr (a bar against its
     estimate on a terminal): costing the visits, loading them into the engine, replaying."""
     from ..progress import Phases
-    from .levels import at_level, engine_for
+    from .levels import at_level
 
-    eng = engine_for(cfg, level, engine)
+    eng = ev.engine_for(cfg, level, engine)
     visits = len(trace.visits)
     est = _probe(trace, cfg, level) if eng == "compiled" else {}
     total = sum(v for k, v in est.items() if k != "rate") if "replaying" in est else None
@@ -251,6 +251,30 @@ def _replay(trace, cfg, a):
     return res, extra
 
 
+def _plan(a, cfg, trace=None):
+    """(configuration at the level run, engine, its memories' figures) for the memory estimate
+    (``memory_estimate.check_simulate``): --level (auto: the configuration's own, the most it may
+    take), --engine, with ``auto`` SimPy where the compiled replay refuses the caches (as
+    ``Evaluator.engine_for``); None where the run will name a fault itself."""
+    from .. import memory_estimate as me
+    from .levels import at_level, engine_for
+    from .memdata import MemoryData
+
+    level = native_level(cfg) if a.level in (None, "auto") else int(a.level)
+    try:
+        engine = engine_for(cfg, level, a.engine)
+    except ConfigError:
+        return None
+    c = at_level(cfg, level)
+    if trace is None or (c.ic_memory is None and c.sc_memory is None):
+        return c, engine, None
+    a.memory_data = MemoryData.of(trace)        # held for the run's Evaluator: computed once
+    figures = lambda tag, mc: me.memory_figures(a.memory_data, tag, mc)  # noqa: E731
+    if engine == "compiled" and a.engine == "auto" and me.compiled_cache_overflow(c, figures):
+        engine = "simpy"
+    return c, engine, figures
+
+
 def run(a) -> int:
     from . import baseline
     from ..options import UsageError
@@ -266,7 +290,7 @@ def run(a) -> int:
         print(f"mprt simulate: error: {e}", file=sys.stderr)
         return 2
     a.replayed = None
-    rc = machine_cli.run(a, load=_load, replay=_replay)
+    rc = machine_cli.run(a, load=_load, replay=_replay, plan=_plan)
     if rc != 0 or base is None or a.replayed is None:
         return rc
     res, extra = a.replayed

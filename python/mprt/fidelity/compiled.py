@@ -34,6 +34,7 @@ from ..errors import InvalidArgument
 from ..machine.config import DIS_POLICIES, FEEDS, SUBTASKS, SystemConfig, builtin
 from ..machine.errors import ConfigError
 from ..trace import RAY_KINDS, TraceError
+from ..tracevalid import check_trace
 from .memdata import MemoryData
 from .views import SystemView
 
@@ -115,6 +116,7 @@ class Compiled:
     packets of the rays SC makes (default: the default cost model's)."""
 
     def __init__(self, trace, costs, packet_flits=None, memory: MemoryData | None = None):
+        check_trace(trace)          # a trace built in memory: its ranges before C reads it
         process, receive, send, self.gen_process, self.gen_send = _cost_arrays(trace, costs)
         self.trace = trace
         self.memory = memory if memory is not None else MemoryData.of(trace)
@@ -244,6 +246,7 @@ class Compiled:
 
 def costs_for(trace, config: SystemConfig, cost_model=None):
     """The cost model's visit costs for a configuration's processors (default model)."""
+    check_trace(trace)              # a trace built in memory: its ranges before it is priced
     if cost_model is None:
         from ..cost import CostModel
 

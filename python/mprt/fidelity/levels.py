@@ -25,6 +25,7 @@ from ..machine.errors import ConfigError
 from .analytical import Analytical
 from .compiled import Compiled, costs_for, unsupported
 from .memdata import MemoryData
+from ..tracevalid import check_trace
 
 LEVELS = (0, 1, 2, 3)
 ENGINES = ("auto", "analytical", "compiled", "simpy")
@@ -92,11 +93,36 @@ class Evaluator:
     forms.  ``costs``: per-visit costs to use for every configuration instead."""
 
     def __init__(self, trace, cost_model=None, costs=None):
+        check_trace(trace)          # a trace built in memory: its ranges before any level reads it
         self.trace = trace
         self.cost_model = cost_model
         self.costs = costs
         self._costed = {}
         self._memory = MemoryData.of(trace)  # level 3's per-key data, shared by every costing
+
+    def engine_for(self, config: SystemConfig, level: int, engine: str = "auto") -> str:
+        """``engine_for``, and for ``auto`` on this trace: SimPy where the compiled replay refuses
+        the caches (more than 2^28 entries over all PEs, ``memory_estimate.compiled_cache_overflow``)
+        and SimPy's estimate fits the memory available (``memory_estimate.available``); else a
+        ConfigError naming the limit and the figures."""
+        from .. import memory_estimate as me
+
+        eng = engine_for(config, level, engine)
+        if eng != "compiled" or engine != "auto":
+            return eng
+        cfg = at_level(config, level)
+        figures = lambda tag, mc: me.memory_figures(self._memory, tag, mc)  # noqa: E731
+        why = me.compiled_cache_overflow(cfg, figures)
+        if why is None:
+            return eng
+        est = me.Estimate()
+        me.replay_parts(est, cfg, "simpy", len(self.trace.visits), len(self.trace.rays), figures)
+        have, source = me.available()
+        if est.total > have:
+            where = f"{cfg.source}: " if cfg.source else ""
+            raise ConfigError(f"{where}{why}, and the SimPy model would need {est.text()}, {me.size_text(have)} "
+                              f"available ({source})")
+        return "simpy"
 
     def _key(self, config):
         return tuple((t, repr(p)) for t, p in sorted(config.processors().items()))
@@ -116,7 +142,7 @@ class Evaluator:
             config = builtin(config)
         level = native_level(config) if level is None else level
         cfg = at_level(config, level)
-        eng = engine_for(config, level, engine)
+        eng = self.engine_for(config, level, engine)
         c = self.costed(cfg)
         if eng == "analytical" and "analytical" not in c:
             c["analytical"] = Analytical(self.trace, c["costs"])

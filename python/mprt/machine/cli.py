@@ -14,6 +14,7 @@ import os
 import sys
 import time
 
+from .. import memory_estimate
 from .. import options as opt
 from .config import BUILTIN, resolve
 from .errors import ConfigError, DeadlockError
@@ -24,7 +25,9 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     s = subparsers.add_parser(
         "simulate", help="replay a trace on a machine model (S, M, 3mppe or a TOML configuration)",
         description="Replay a trace on the machine model (SimPy).  A SCENE (SPD name or NFF file) is traced "
-                    "first with the tracing options.",
+                    "first with the tracing options.  Its peak memory is estimated before any work; a run that "
+                    "would need more than is available (MemAvailable, or MPRT_MEMORY_LIMIT, e.g. 8G) is refused "
+                    "with the figures (exit 2).",
         epilog=opt.EXIT_STATUS + "; 3 with --baseline: the cycles moved beyond --tolerance")
     s.add_argument("source", metavar="TRACE.npz|SCENE", help="a trace file, or a scene to trace first")
     opt.add_skip_unknown(s)
@@ -67,6 +70,10 @@ def _load_source(a):
         scene, _ = opt.load_scene(src, skip_unknown=a.skip_unknown)
         grid = scene.grid(a.grid)
         w, h = a.res or (0, 0)
+        if getattr(a, "memory_plan", None) is not None:      # the least the frame holds, before tracing
+            rw, rh = a.res or scene.info()["resolution"]
+            memory_estimate.check_simulate(memory_estimate.frame_counts(rw, rh, grid.n, scene.info()["prims"]),
+                                           a.memory_plan(a, a.machine_config), _timeline(a))
         t0 = time.perf_counter()
         _, trace = trace_grid(grid, w, h, rules=a.rules or "paper", threshold=a.threshold,
                               threads=a.threads or os.cpu_count() or 1, tile=a.tile or 16,
@@ -88,10 +95,23 @@ def source_settings(a, trace) -> dict:
             "threads": None if src.endswith(".npz") else a.threads or os.cpu_count() or 1}
 
 
-def run(a, load=None, replay=None) -> int:
+def _simpy_plan(a, cfg, trace=None):
+    """What this command runs, for its memory estimate: the configuration, on SimPy (its caches'
+    data not counted: the fidelity ladder's plan knows it)."""
+    return cfg, "simpy", None
+
+
+def _timeline(a) -> bool:
+    return bool(getattr(a, "plot", None) or getattr(a, "report", None))
+
+
+def run(a, load=None, replay=None, plan=None) -> int:
     """``load(a)`` -> (trace, settings, how) and ``replay(trace, cfg, a)`` -> (SimResult, JSON
     fields to add) replace the defaults (tracing/reading SOURCE; the SimPy replay), so the
-    fidelity ladder's options can reuse this command (mprt.fidelity.cli)."""
+    fidelity ladder's options can reuse this command (mprt.fidelity.cli); ``plan(a, cfg,
+    trace=None)`` -> (configuration at the level run, engine, figures of its memories' data) or
+    None, for the memory estimate (``memory_estimate.check_simulate``) before the trace is read
+    and again with it."""
     from .._lowlevel import EXT_VERSION
     from ..errors import MprtError
     from .system import System
@@ -121,8 +141,14 @@ def run(a, load=None, replay=None) -> int:
                  if level == "auto" else "")
               + (f", {a.sample} of it" if getattr(a, "sample", None) else "")
               + (f", against the baseline {a.baseline}" if getattr(a, "baseline", None) else ""), flush=True)
+        a.machine_config, a.memory_plan = cfg, plan or _simpy_plan
+        if a.source.endswith(".npz"):       # from the file's headers, before its records are read
+            memory_estimate.check_simulate(memory_estimate.file_counts(a.source), a.memory_plan(a, cfg),
+                                           _timeline(a))
         trace, settings, how = (load or _load_source)(a)
         print(how)
+        memory_estimate.check_simulate(memory_estimate.trace_counts(trace), a.memory_plan(a, cfg, trace),
+                                       _timeline(a), loaded=True)
         if replay is None:
             res, extra = System(trace, cfg, timeline=bool(a.plot or a.report)).run(progress=sys.stderr.isatty()), {}
         else:

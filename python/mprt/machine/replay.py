@@ -24,6 +24,7 @@ import dataclasses
 
 from ..errors import TraceError
 from ..trace import IC, PRIMARY, SC
+from ..tracevalid import mark_derived
 
 PAGE_BITS = 14
 PAGE = 1 << PAGE_BITS
@@ -67,13 +68,16 @@ class Costs:
         what the model computes per ray stays the size of the slice."""
         t = self.trace
         if ra is None:
-            return self.model.visit_costs(dataclasses.replace(t, visits=t.visits[a:b]), self.processors)
-        v = np.array(t.visits[a:b])
-        v["ray"] -= ra
-        r = np.array(t.rays[ra:rb])
-        r["id"] -= ra
-        r["parent"] = np.where(r["parent"] >= 0, r["parent"] - ra, -1)
-        return self.model.visit_costs(dataclasses.replace(t, rays=r, visits=v), self.processors)
+            part = dataclasses.replace(t, visits=t.visits[a:b])
+        else:
+            v = np.array(t.visits[a:b])
+            v["ray"] -= ra
+            r = np.array(t.rays[ra:rb])
+            r["id"] -= ra
+            r["parent"] = np.where(r["parent"] >= 0, r["parent"] - ra, -1)
+            part = dataclasses.replace(t, rays=r, visits=v)
+        mark_derived(part, t)   # whole trees of a checked trace, ids from 0: in range too
+        return self.model.visit_costs(part, self.processors)
 
     def slice(self, lo, hi):
         if self.model is None:

@@ -8,6 +8,7 @@ import simpy
 from simpy.core import EmptySchedule
 
 from ..trace import RAY_KINDS
+from ..tracevalid import check_trace
 from .config import SUBTASKS, SystemConfig
 from .errors import ConfigError, DeadlockError
 from .memory import Cache, DataLayout, GlobalMemory, LocalMemory, StageMemory
@@ -26,6 +27,7 @@ class System:
 
     def __init__(self, trace, config: SystemConfig, cost_model=None, costs=None, packet_flits=None,
                  record: bool = False, timeline: bool = False):
+        check_trace(trace)          # a trace built in memory: its ranges before the model reads it
         self.config = config
         self.trace = trace
         self.env = simpy.Environment()
