@@ -3,7 +3,8 @@ give the same traces, images, hits and counters as the walk testing one primitiv
 
 Grids read two environment variables when they are made: MPRT_IC_PACK=0 (no packing: one at a
 time, as before) and MPRT_IC_SIMD=0 (the portable C99 block test instead of the AVX2 one the
-processor may offer).  Each comparison runs the same work on grids made under each."""
+processor may offer); by default the AVX2 block test, or no packing without AVX2.  Each comparison
+runs the same work on grids made under each."""
 import os
 
 import numpy as np

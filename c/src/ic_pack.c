@@ -164,6 +164,10 @@ void mprt__ic_pack_build(mprt_grid *g, size_t max_bytes)
     void *mem;
     memset(p, 0, sizeof *p);
     if (g->ic.ntri == 0 || env_off("MPRT_IC_PACK")) return;
+    /* without AVX2, the portable block test only when asked for: it computes
+     * every lane, mailboxed and empty ones too, and measured slower than the
+     * one-at-a-time walk (studies/03_bench/README.md) */
+    if (!env_off("MPRT_IC_SIMD") && !mprt__pack_test_avx2()) return;
     for (v = 0; v < nvox; v++)
         if (has_triangle(g, v)) nb += (g->start[v + 1] - g->start[v] + MPRT__PACK_W - 1) / MPRT__PACK_W;
     bytes = nb * MPRT__PACK_BLOCK * sizeof(real) + (size_t)(nvox + 1) * sizeof *p->first;

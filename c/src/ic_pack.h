@@ -17,11 +17,14 @@
  * hits and ties are those of the one-at-a-time walk.
  *
  * Chosen once per grid, when it is made: the AVX2 copy (x86-64 with GCC or
- * clang, double geometry, where the processor has AVX2), else the portable
- * C99 copy (plain loops over the lanes).  The environment can ask for less:
- * MPRT_IC_PACK=0 no packing (the walk tests one primitive at a time, as
- * before), MPRT_IC_SIMD=0 the portable copy.  Every choice gives the same
- * bits (tests/c/test_ic_pack.c, tests/test_ic_pack.py). */
+ * clang, double geometry, where the processor has AVX2); else no packing
+ * (the walk tests one primitive at a time, in plain C99, as before: the
+ * portable copy below computes every lane, mailboxed and empty ones too,
+ * and measured 10% slower than that on tetra).  The environment can choose:
+ * MPRT_IC_PACK=0 no packing, MPRT_IC_SIMD=0 the portable C99 block test
+ * (plain loops over the lanes), the one the tests run beside the others.
+ * Every choice gives the same bits (tests/c/test_ic_pack.c,
+ * tests/test_ic_pack.py). */
 #ifndef MPRT_IC_PACK_H
 #define MPRT_IC_PACK_H
 
@@ -56,8 +59,9 @@ struct mprt_grid;
 /* Pack the triangles of g's lists (after the grid is built), as the
  * environment and the processor allow; packing is skipped (kind NONE, the
  * walk then tests one at a time, with the same results) when the grid has
- * no triangle, when the blocks would take more than max_bytes / 4, or when
- * memory runs out. */
+ * no triangle, without AVX2 unless MPRT_IC_SIMD=0 asks for the portable
+ * copy, when the blocks would take more than max_bytes / 4, or when memory
+ * runs out. */
 void mprt__ic_pack_build(struct mprt_grid *g, size_t max_bytes);
 void mprt__ic_pack_free(mprt__ic_pack *p);
 
