@@ -3,8 +3,8 @@ give the same traces, images, hits and counters as the walk testing one primitiv
 
 Grids read two environment variables when they are made: MPRT_IC_PACK=0 (no packing: one at a
 time, as before) and MPRT_IC_SIMD=0 (the portable C99 block test instead of the AVX2 one the
-processor may offer); by default the AVX2 block test, or no packing without AVX2.  Each comparison
-runs the same work on grids made under each."""
+processor may offer, and the portable ball filter for spheres, cylinders and cones); by default the
+AVX2 copies, or no packing without AVX2.  Each comparison runs the same work on grids made under each."""
 import os
 
 import numpy as np
@@ -50,11 +50,13 @@ def test_golden_trace_regenerates_one_at_a_time_and_portable(fname, monkeypatch)
         assert np.array_equal(t.rays, gold.rays) and np.array_equal(t.visits, gold.visits), env
 
 
-@pytest.mark.parametrize("name,size", [("tetra", 2), ("mount", 2), ("mount", 1)])
-@pytest.mark.parametrize("tris", [False, True])
+@pytest.mark.parametrize("name,size,tris", [("tetra", 2, False), ("tetra", 2, True), ("mount", 2, False),
+                                            ("mount", 2, True), ("mount", 1, True), ("tree", 2, False),
+                                            ("balls", 1, False), ("rings", 1, False)])
 def test_rays_hit_and_count_the_same(name, size, tris, monkeypatch):
     """intersect gives the same hits, distances (bits) and counters on eye rays and random rays, on cubic and
-    uneven grids; the scene's triangles alone and with its spheres (mount) in the same voxels."""
+    uneven grids: the scene's triangles alone and with its spheres (mount) in the same voxels, and spheres,
+    cones and cylinders (the ball filter) without triangles (tree, balls, rings)."""
     scene = mprt.Scene.spd(name, size)
     rng = np.random.default_rng(5)
     st = scene.grid(1).stats()
@@ -72,14 +74,15 @@ def test_rays_hit_and_count_the_same(name, size, tris, monkeypatch):
         for label in ("portable", "default"):
             t, p, c = res[label]
             assert np.array_equal(t.view(np.int64), t0.view(np.int64)) and np.array_equal(p, p0) and c == c0, (n, label)
-        assert c0["tests"]["polygon"] > 1000 and (p0 >= 0).sum() > 500
+        assert sum(c0["tests"].values()) > 1000 and (p0 >= 0).sum() > 500
 
 
 @pytest.mark.parametrize("rules", ["paper", "spd"])
-def test_renders_and_traces_are_the_same(rules, monkeypatch):
+@pytest.mark.parametrize("name", ["mount", "balls"])
+def test_renders_and_traces_are_the_same(name, rules, monkeypatch):
     """Renders (shadow rays stop at their first hit in list order) with and without the mailbox, on one and two
     threads, and whole traces, are identical: image bits and every counter."""
-    scene = mprt.Scene.spd("mount", 2)
+    scene = mprt.Scene.spd(name, 2 if name == "mount" else 1)
     out = {}
     for label, env in (("scalar", SCALAR), ("portable", PORTABLE), ("default", DEFAULT)):
         g = grid_under(monkeypatch, env, scene, (20, 20, 20))

@@ -60,6 +60,18 @@ uint32_t mprt__pack_test_portable(const real *blocks, unsigned nblocks, const mp
     return hits;
 }
 
+uint32_t mprt__ball_filter_portable(const mprt__ball *balls, const int32_t *ids, unsigned n, const mprt__ray *ray,
+                                    real dd)
+{
+    uint32_t miss = 0;
+    unsigned i;
+    for (i = 0; i < n; i++) {
+        const mprt__ball *b = &balls[ids[i]];
+        if (mprt__line_misses(vsub(ray->o, b->c), ray->d, dd, b->r2)) miss |= (uint32_t)1 << i;
+    }
+    return miss;
+}
+
 /* ---- The AVX2 copy: four lanes in one register, the same operations ---------- */
 
 #ifdef MPRT__PACK_HAVE_AVX2
@@ -121,13 +133,53 @@ TARGET_AVX2 static uint32_t pack_test_avx2(const real *blocks, unsigned nblocks,
     return hits;
 }
 
-mprt__pack_test_fn mprt__pack_test_avx2(void)
+/* mprt__line_misses for four balls at a time, each loaded whole (c and r2:
+ * 32 bytes) and the four transposed into x, y, z and r2 registers. */
+TARGET_AVX2 static uint32_t ball_filter_avx2(const mprt__ball *balls, const int32_t *ids, unsigned n,
+                                             const mprt__ray *ray, real dd)
+{
+    const __m256d ox = _mm256_set1_pd(ray->o.x), oy = _mm256_set1_pd(ray->o.y), oz = _mm256_set1_pd(ray->o.z);
+    const __m256d dx = _mm256_set1_pd(ray->d.x), dy = _mm256_set1_pd(ray->d.y), dz = _mm256_set1_pd(ray->d.z);
+    const __m256d vdd = _mm256_set1_pd(dd), c107 = _mm256_set1_pd(R(1.07));
+    const __m256d k = _mm256_set1_pd(R(4096.0) * REAL_EPS * REAL_EPS);
+    uint32_t miss = 0;
+    unsigned i;
+    for (i = 0; i < n; i += 4) {
+        __m256d b[4], t0, t1, t2, t3, mx, my, mz, r2, cx, cy, cz, lhs, rhs;
+        unsigned j;
+        for (j = 0; j < 4; j++)
+            b[j] = i + j < n ? _mm256_loadu_pd(&balls[ids[i + j]].c.x) : _mm256_setzero_pd();
+        t0 = _mm256_unpacklo_pd(b[0], b[1]); /* x0 x1 z0 z1 */
+        t1 = _mm256_unpackhi_pd(b[0], b[1]); /* y0 y1 r0 r1 */
+        t2 = _mm256_unpacklo_pd(b[2], b[3]);
+        t3 = _mm256_unpackhi_pd(b[2], b[3]);
+        mx = _mm256_sub_pd(ox, _mm256_permute2f128_pd(t0, t2, 0x20));
+        mz = _mm256_sub_pd(oz, _mm256_permute2f128_pd(t0, t2, 0x31));
+        my = _mm256_sub_pd(oy, _mm256_permute2f128_pd(t1, t3, 0x20));
+        r2 = _mm256_permute2f128_pd(t1, t3, 0x31);
+        /* c = om x d; |c|^2 > dd (1.07 r2 + 4096 eps^2 |om|^2) */
+        cx = _mm256_sub_pd(_mm256_mul_pd(my, dz), _mm256_mul_pd(mz, dy));
+        cy = _mm256_sub_pd(_mm256_mul_pd(mz, dx), _mm256_mul_pd(mx, dz));
+        cz = _mm256_sub_pd(_mm256_mul_pd(mx, dy), _mm256_mul_pd(my, dx));
+        lhs = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(cx, cx), _mm256_mul_pd(cy, cy)), _mm256_mul_pd(cz, cz));
+        rhs = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(mx, mx), _mm256_mul_pd(my, my)), _mm256_mul_pd(mz, mz));
+        rhs = _mm256_mul_pd(vdd, _mm256_add_pd(_mm256_mul_pd(c107, r2), _mm256_mul_pd(k, rhs)));
+        miss |= (uint32_t)_mm256_movemask_pd(_mm256_cmp_pd(lhs, rhs, _CMP_GT_OQ)) << i;
+    }
+    return n < 32 ? miss & (((uint32_t)1 << n) - 1) : miss;
+}
+
+static int have_avx2(void)
 {
     __builtin_cpu_init();
-    return __builtin_cpu_supports("avx2") ? pack_test_avx2 : NULL;
+    return __builtin_cpu_supports("avx2") != 0;
 }
+
+mprt__pack_test_fn mprt__pack_test_avx2(void) { return have_avx2() ? pack_test_avx2 : NULL; }
+mprt__ball_filter_fn mprt__ball_filter_avx2(void) { return have_avx2() ? ball_filter_avx2 : NULL; }
 #else
 mprt__pack_test_fn mprt__pack_test_avx2(void) { return NULL; }
+mprt__ball_filter_fn mprt__ball_filter_avx2(void) { return NULL; }
 #endif
 
 /* ---- Packing ------------------------------------------------------------------ */
@@ -162,12 +214,15 @@ void mprt__ic_pack_build(mprt_grid *g, size_t max_bytes)
     size_t nb = 0, bytes;
     long long v;
     void *mem;
+    const int portable = env_off("MPRT_IC_SIMD");
     memset(p, 0, sizeof *p);
-    if (g->ic.ntri == 0 || env_off("MPRT_IC_PACK")) return;
-    /* without AVX2, the portable block test only when asked for: it computes
-     * every lane, mailboxed and empty ones too, and measured slower than the
-     * one-at-a-time walk (studies/03_bench/README.md) */
-    if (!env_off("MPRT_IC_SIMD") && !mprt__pack_test_avx2()) return;
+    /* without AVX2, the portable copies only when asked for: they compute
+     * every lane, mailboxed and empty ones too, and the block test measured
+     * slower than the one-at-a-time walk (studies/03_bench/README.md) */
+    if (env_off("MPRT_IC_PACK") || (!portable && !mprt__pack_test_avx2())) return;
+    if (g->scene->nprims > g->scene->npolygons) /* spheres, cylinders or cones */
+        p->filter = portable ? mprt__ball_filter_portable : mprt__ball_filter_avx2();
+    if (g->ic.ntri == 0) return;
     for (v = 0; v < nvox; v++)
         if (has_triangle(g, v)) nb += (g->start[v + 1] - g->start[v] + MPRT__PACK_W - 1) / MPRT__PACK_W;
     bytes = nb * MPRT__PACK_BLOCK * sizeof(real) + (size_t)(nvox + 1) * sizeof *p->first;
@@ -207,10 +262,6 @@ void mprt__ic_pack_build(mprt_grid *g, size_t max_bytes)
         nb += (g->start[v + 1] - k0 + MPRT__PACK_W - 1) / MPRT__PACK_W;
     }
     p->first[nvox] = (uint32_t)nb;
-    p->kind = MPRT__PACK_PORTABLE;
-    p->test = mprt__pack_test_portable;
-    if (!env_off("MPRT_IC_SIMD") && mprt__pack_test_avx2()) {
-        p->kind = MPRT__PACK_AVX2;
-        p->test = mprt__pack_test_avx2();
-    }
+    p->kind = portable ? MPRT__PACK_PORTABLE : MPRT__PACK_AVX2;
+    p->test = portable ? mprt__pack_test_portable : mprt__pack_test_avx2();
 }

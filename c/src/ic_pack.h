@@ -28,7 +28,7 @@
 #ifndef MPRT_IC_PACK_H
 #define MPRT_IC_PACK_H
 
-#include "mprt_internal.h"
+#include "ic.h"
 
 #include <stddef.h>
 #include <stdint.h>
@@ -44,6 +44,18 @@
 typedef uint32_t (*mprt__pack_test_fn)(const real *blocks, unsigned nblocks, const mprt__ray *ray, real tmin,
                                        real tmax, real *tt);
 
+/* The ball filter: for the n (<= MPRT__FILTER_MAX) primitives ids[0 .. n)
+ * of a voxel's list, bit i set when ids[i]'s ball (ic.h: a sphere, a
+ * cylinder's or a cone's bounding ball; zeros for polygons, whose bits mean
+ * nothing) certainly misses the ray: mprt__line_misses, computed with the
+ * same operations in the same order (for a sphere on o - c, for a cone on
+ * c - o: the same bits, a negated difference giving a negated cross
+ * product).  IC's test of such a primitive is counted and returns no hit
+ * without more (ic.h, mprt__ic_test), so the walk counts it and goes on. */
+#define MPRT__FILTER_MAX 32
+typedef uint32_t (*mprt__ball_filter_fn)(const mprt__ball *balls, const int32_t *ids, unsigned n,
+                                         const mprt__ray *ray, real dd);
+
 enum { MPRT__PACK_NONE, MPRT__PACK_PORTABLE, MPRT__PACK_AVX2 };
 
 typedef struct {
@@ -52,6 +64,7 @@ typedef struct {
     size_t nblocks;
     mprt__pack_test_fn test;  /* the block test chosen */
     int kind;                 /* MPRT__PACK_NONE (first and blocks NULL), _PORTABLE or _AVX2 */
+    mprt__ball_filter_fn filter; /* NULL, or the ball filter for lists without packed triangles */
 } mprt__ic_pack;
 
 struct mprt_grid;
@@ -70,5 +83,8 @@ void mprt__ic_pack_free(mprt__ic_pack *p);
 uint32_t mprt__pack_test_portable(const real *blocks, unsigned nblocks, const mprt__ray *ray, real tmin, real tmax,
                                   real *tt);
 mprt__pack_test_fn mprt__pack_test_avx2(void);
+uint32_t mprt__ball_filter_portable(const mprt__ball *balls, const int32_t *ids, unsigned n, const mprt__ray *ray,
+                                    real dd);
+mprt__ball_filter_fn mprt__ball_filter_avx2(void);
 
 #endif

@@ -99,20 +99,35 @@ WALK_INLINE int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const
                     real tmax, int shadow, int accept_listed, mprt__hit *best, mailbox *mb, mprt__visit *ic,
                     mprt__sink *sink)
 {
-    uint32_t k, end = g->start[voxel + 1];
+    uint32_t k, end = g->start[voxel + 1], miss = 0, at = MPRT__FILTER_MAX;
+    int filtering;
     if (g->pack.first) {
         const uint32_t block = g->pack.first[voxel];
         if (block != g->pack.first[voxel + 1])
             return ic_visit_packed(g, voxel, block, t_exit, ray, dd, tmin, tmax, shadow, accept_listed, best, mb, ic,
                                    sink);
     }
-    for (k = g->start[voxel]; k < end; k++) {
+    filtering = g->pack.filter && end - g->start[voxel] >= 2; /* else miss stays 0 */
+    for (k = g->start[voxel]; k < end; k++, at++) {
         int32_t id = g->ids[k];
         real t;
         real limit = shadow ? tmax : best->t;
+        if (filtering && at == MPRT__FILTER_MAX) { /* the ball filter on the next stretch of the list (ic_pack.h) */
+            const uint32_t n = end - k < MPRT__FILTER_MAX ? end - k : MPRT__FILTER_MAX;
+            miss = g->pack.filter(g->ic.ball, g->ids + k, n, ray, dd);
+            at = 0;
+        }
         if (mb) {
             if (mb->id[id & (MAILBOX_SIZE - 1)] == id) continue;
             mb->id[id & (MAILBOX_SIZE - 1)] = id;
+        }
+        if ((miss >> at) & 1) {
+            /* mprt__ic_test's count of a sphere, cylinder or cone whose ball the ray misses, and no hit */
+            const uint32_t kind = g->ic.ref[id] & ((1u << MPRT__IC_KIND_BITS) - 1);
+            if (kind != MPRT__IC_TRIANGLE && kind != MPRT__IC_POLYGON) {
+                ic->tests[mprt__ic_scene_kind(&g->ic, id)]++;
+                continue;
+            }
         }
         if (!mprt__ic_test(&g->ic, g->scene, id, ray, dd, tmin, limit, &t, ic->tests, &ic->vertices)) continue;
         if (g->scene->prims[id].kind != mprt__ic_scene_kind(&g->ic, id)) {

@@ -4,12 +4,15 @@
  *    bit for bit, on rays aimed at a mesh's shared vertices and edges
  *    (lying on voxel planes, where the shear's zeros have signs) and at
  *    random ones; dummy lanes never hit.
+ *  - The ball filter (ic_pack.h) decides as mprt__line_misses for every
+ *    sphere, cylinder and cone in every list.
  *  - Walks on grids made without packing (MPRT_IC_PACK=0), with the
  *    portable copy (MPRT_IC_SIMD=0) and with the default (AVX2 where the
  *    processor has it, else no packing) give the same
  *    nearest hits, t and counters (tests by kind, vertices, visits), with
  *    and without the mailbox (renders), on triangles mixed with spheres,
- *    quads and cones in one voxel, and on a mesh. */
+ *    quads and cones in one voxel, on a mesh, and on spheres, quads,
+ *    cylinders and cones alone (the ball filter without packed triangles). */
 #include "check.h"
 #include "geom.h"
 #include "grid.h"
@@ -21,7 +24,8 @@
 
 /* A triangle mesh over [0, 4]^2 at heights from a few values, its vertices on
  * the voxel planes of a 4x4x4 grid over [0, 4]^3 (corners at z 0 and 4 too),
- * plus, with mixed, spheres, quads and cones among the triangles. */
+ * plus, with mixed 1, spheres, quads and cones among the triangles; with
+ * mixed 2 those alone (more of them), no triangle. */
 static mprt_scene *mesh_scene(int mixed, rng *r)
 {
     mprt_scene *s;
@@ -40,9 +44,11 @@ static mprt_scene *mesh_scene(int mixed, rng *r)
             double z00 = (i + j) % 3, z10 = (i + 1 + j) % 3, z01 = (i + j + 1) % 3, z11 = (i + j + 2) % 3;
             double a[9] = {i, j, z00, i + 1, j, z10, i + 1, j + 1, z11};
             double b[9] = {i, j, z00, i + 1, j + 1, z11, i, j + 1, z01};
-            CHECK(mprt_scene_add_polygon(s, 3, a, NULL) == MPRT_OK);
-            CHECK(mprt_scene_add_polygon(s, 3, b, NULL) == MPRT_OK);
-            if (mixed && (i + j) % 2 == 0) {
+            if (mixed < 2) {
+                CHECK(mprt_scene_add_polygon(s, 3, a, NULL) == MPRT_OK);
+                CHECK(mprt_scene_add_polygon(s, 3, b, NULL) == MPRT_OK);
+            }
+            if (mixed == 2 || (mixed && (i + j) % 2 == 0)) {
                 double c[3] = {i + 0.5, j + 0.5, 1.5}, q[12] = {i, j, 3, i + 1, j, 3, i + 1, j + 1, 3, i, j + 1, 3};
                 double base[3] = {i + 0.2, j + 0.3, 0.5}, apex[3] = {i + 0.7, j + 0.6, 2.5};
                 CHECK(mprt_scene_add_sphere(s, c, rnd_in(r, 0.1, 0.6)) == MPRT_OK);
@@ -50,7 +56,7 @@ static mprt_scene *mesh_scene(int mixed, rng *r)
                 CHECK(mprt_scene_add_cone(s, base, 0.3, apex, (i + j) % 4 ? 0.1 : 0.3) == MPRT_OK);
             }
         }
-    {   /* corners at the box's top, so that the grid is [0, 4]^3 */
+    if (mixed < 2) { /* corners at the box's top, so that the grid is [0, 4]^3 */
         double t[9] = {0, 0, 4, 0.5, 0, 4, 0, 0.5, 4};
         CHECK(mprt_scene_add_polygon(s, 3, t, NULL) == MPRT_OK);
     }
@@ -121,6 +127,46 @@ static void lanes_agree(const mprt_grid *g, mprt__pack_test_fn fn, rng *r, const
     CHECK_MSG(hits > 1000, "%s: only %lld hits", name, hits);
 }
 
+/* The ball filter fn on every voxel's list of g against mprt__line_misses. */
+static void filter_agrees(const mprt_grid *g, mprt__ball_filter_fn fn, rng *r, const char *name)
+{
+    long long differ = 0, misses = 0, balls = 0;
+    int i;
+    for (i = 0; i < NRAYS; i++) {
+        double o[3], d[3];
+        mprt__ray ray;
+        real dd;
+        long long v;
+        aim(r, i, o, d);
+        ray = mkray(vd(o[0], o[1], o[2]), vd(d[0], d[1], d[2]));
+        dd = vdot(ray.d, ray.d);
+        for (v = 0; v < g->voxels; v++) {
+            uint32_t k, n;
+            for (k = g->start[v]; k < g->start[v + 1]; k += n) {
+                uint32_t got, j;
+                n = g->start[v + 1] - k < MPRT__FILTER_MAX ? g->start[v + 1] - k : MPRT__FILTER_MAX;
+                got = fn(g->ic.ball, g->ids + k, n, &ray, dd);
+                for (j = 0; j < n; j++) {
+                    const int32_t id = g->ids[k + j];
+                    const mprt__ball *b = &g->ic.ball[id];
+                    const int kind = g->scene->prims[id].kind;
+                    /* a sphere's test subtracts c from o, a cone's o from c: the same decision */
+                    int want = mprt__line_misses(kind == MPRT_SPHERE ? vsub(ray.o, b->c) : vsub(b->c, ray.o), ray.d,
+                                                 dd, b->r2);
+                    if (kind == MPRT_POLYGON) continue;
+                    balls++;
+                    misses += want;
+                    if ((int)((got >> j) & 1) != want && differ++ < 5)
+                        CHECK_MSG(0, "%s: ray %d voxel %lld position %u: %d, mprt__line_misses %d", name, i, v, j,
+                                  (int)((got >> j) & 1), want);
+                }
+            }
+        }
+    }
+    CHECK_MSG(differ == 0, "%s: %lld of %lld balls differ", name, differ, balls);
+    CHECK_MSG(misses > 1000 && misses < balls - 1000, "%s: %lld misses of %lld", name, misses, balls);
+}
+
 static mprt_grid *grid_with(const mprt_scene *s, int n, const char *pack, const char *simd)
 {
     mprt_grid *g = NULL;
@@ -150,6 +196,16 @@ static void test_lanes(void)
         mprt_grid_destroy(g);
         mprt_scene_destroy(s);
     }
+    {
+        mprt_scene *s = mesh_scene(2, &r);
+        mprt_grid *g = grid_with(s, 4, NULL, "0");
+        mprt__ball_filter_fn avx2 = mprt__ball_filter_avx2();
+        CHECK(g->pack.kind == MPRT__PACK_NONE && g->pack.filter == mprt__ball_filter_portable);
+        filter_agrees(g, mprt__ball_filter_portable, &r, "portable filter");
+        if (avx2) filter_agrees(g, avx2, &r, "avx2 filter");
+        mprt_grid_destroy(g);
+        mprt_scene_destroy(s);
+    }
 }
 
 #define NQ 4000
@@ -172,7 +228,7 @@ static void test_walks_agree(void)
     int mixed, n, i, m;
     rng_seed(&r, 9);
     for (i = 0; i < NQ; i++) aim(&r, i, o + 3 * i, d + 3 * i);
-    for (mixed = 0; mixed < 2; mixed++) {
+    for (mixed = 0; mixed < 3; mixed++) {
         mprt_scene *s = mesh_scene(mixed, &r);
         for (n = 1; n <= 9; n += 4) {
             mprt_grid *g[3];
@@ -180,8 +236,10 @@ static void test_walks_agree(void)
             g[0] = grid_with(s, n, "0", NULL);
             g[1] = grid_with(s, n, NULL, "0");
             g[2] = grid_with(s, n, NULL, NULL);
-            CHECK(g[0]->pack.kind == MPRT__PACK_NONE && g[1]->pack.kind == MPRT__PACK_PORTABLE);
-            CHECK(g[2]->pack.kind == (mprt__pack_test_avx2() ? MPRT__PACK_AVX2 : MPRT__PACK_NONE));
+            CHECK(g[0]->pack.kind == MPRT__PACK_NONE && !g[0]->pack.filter);
+            CHECK(g[1]->pack.kind == (mixed < 2 ? MPRT__PACK_PORTABLE : MPRT__PACK_NONE));
+            CHECK(g[2]->pack.kind == (mixed < 2 && mprt__pack_test_avx2() ? MPRT__PACK_AVX2 : MPRT__PACK_NONE));
+            CHECK((g[1]->pack.filter != NULL) == (mixed > 0));
             for (m = 0; m < 3; m++) c[m] = walk(g[m], o, d, t[m], prim[m]);
             for (m = 1; m < 3; m++) {
                 CHECK_MSG(memcmp(t[m], t[0], sizeof t[0]) == 0 && memcmp(prim[m], prim[0], sizeof prim[0]) == 0,
@@ -190,6 +248,7 @@ static void test_walks_agree(void)
                           n, mixed, g[m]->pack.kind);
             }
             CHECK(c[0].tests[MPRT_POLYGON] > 0 && (!mixed || (c[0].tests[MPRT_SPHERE] > 0 && c[0].tests[MPRT_CONE] > 0)));
+            CHECK(mixed < 2 || c[0].tests[MPRT_CYLINDER] > 0);
             /* renders: shadow rays (first hit in list order), with and without the mailbox */
             {
                 int mailbox;
