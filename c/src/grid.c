@@ -806,7 +806,7 @@ static int create(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes,
     if ((st = jump_threshold(g)) != MPRT_OK) return st;
     st = build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES, reference);
     if (st == MPRT_OK) {
-        mprt__ic_pack_build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES);
+        mprt__ic_pack_choose(g);
         /* The scene now refuses changes until this grid is destroyed */
         mprt__scene_count_grid(s, +1);
         g->counted = 1;

@@ -34,7 +34,7 @@ struct mprt_grid {
                         * origin on every axis (runs of the walk's sums are short before) */
     int32_t *ids;      /* primitive ids, voxel by voxel */
     mprt__ic ic;       /* the primitives as IC tests them (ic.h) */
-    mprt__ic_pack pack; /* ... and each voxel's triangles in blocks, for tests several at a time (ic_pack.h) */
+    mprt__ic_pack pack; /* ... and its tests several at a time (ic_pack.h) */
     long long refs;
     int listing;       /* mprt_listing */
     int failed;

@@ -1,6 +1,7 @@
-/* ic_pack.c: each voxel's triangles packed in blocks, and the block tests
- * (ic_pack.h): a portable C99 copy and, where the compiler and processor
- * allow, an AVX2 copy chosen at run time.
+/* ic_pack.c: the tests of several triangles, and the ball filter of several
+ * spheres, cylinders or cones, at a time (ic_pack.h): portable C99 copies
+ * and, where the compiler and processor allow, AVX2 copies chosen at run
+ * time.
  *
  * The shear: mprt__tri_hit computes a vertex's shear coordinates as dot
  * products with the ray's rows mx and my (mprt__ray), whose terms are
@@ -20,12 +21,51 @@
 #include <immintrin.h>
 #endif
 
+/* Field f (0..12: v0 xyz, v1 xyz, v2 xyz, normal xyz, d) of a triangle's record. */
+static real tri_field(const mprt__tri *t, int f)
+{
+    return f < 9 ? vget(t->v[f / 3], f % 3) : f < 12 ? vget(t->normal, f - 9) : t->d;
+}
+
+/* ---- The portable copies ------------------------------------------------------ */
+
+uint32_t mprt__pack_test_portable(const mprt__tri *tri, const uint32_t *index, unsigned n, const mprt__ray *ray,
+                                  real tmin, real tmax, real *tt)
+{
+    const vec3 o = ray->o, d = ray->d;
+    const int kx = ray->kx, ky = ray->ky, kz = ray->kz;
+    const real ox = vget(o, kx), oy = vget(o, ky), oz = vget(o, kz), sx = ray->sx, sy = ray->sy;
+    uint32_t hits = 0;
+    unsigned i;
+    for (i = 0; i < n; i++) {
+        const mprt__tri *p = &tri[index[i]];
+        const real nx = p->normal.x, ny = p->normal.y, nz = p->normal.z;
+        real x[3], y[3], dn, t;
+        int v;
+        /* mprt__tri_hit's operations, in its order (ic.h), but for the shear (see the top) */
+        dn = nx * d.x + ny * d.y + nz * d.z;
+        if (dn == 0) continue;
+        for (v = 0; v < 3; v++) {
+            const real qz = tri_field(p, 3 * v + kz) - oz;
+            x[v] = (tri_field(p, 3 * v + kx) - ox) + qz * sx;
+            y[v] = (tri_field(p, 3 * v + ky) - oy) + qz * sy;
+        }
+        if (mprt__edge_winding(x[2], y[2], x[0], y[0]) + mprt__edge_winding(x[0], y[0], x[1], y[1]) +
+                mprt__edge_winding(x[1], y[1], x[2], y[2]) == 0)
+            continue;
+        t = (p->d - (nx * o.x + ny * o.y + nz * o.z)) / dn;
+        if (!(t > tmin && t <= tmax)) continue;
+        tt[i] = t;
+        hits |= (uint32_t)1 << i;
+    }
+    return hits;
+}
+
 /* Field f (0..12, MPRT__PACK_FIELDS) of lane j in block B. */
 #define FIELD(B, f, j) ((B)[(f) * MPRT__PACK_W + (j)])
 
-/* ---- The portable copy ---------------------------------------------------- */
-
-uint32_t mprt__pack_test_portable(const real *blocks, unsigned nblocks, const mprt__ray *ray, real tmin, real tmax,
+/* The blocks' test (ic_pack.h), lane by lane. */
+uint32_t mprt__block_test_portable(const real *blocks, unsigned nblocks, const mprt__ray *ray, real tmin, real tmax,
                                   real *tt)
 {
     const vec3 o = ray->o, d = ray->d;
@@ -90,8 +130,69 @@ TARGET_AVX2 static inline void edge_avx2(__m256d ax, __m256d ay, __m256d bx, __m
     *down = _mm256_add_epi64(*down, _mm256_castpd_si256(w));
 }
 
-TARGET_AVX2 static uint32_t pack_test_avx2(const real *blocks, unsigned nblocks, const mprt__ray *ray, real tmin,
-                                           real tmax, real *tt)
+/* A 4x4 transpose: r[j] = lane j of each of a[0..3]. */
+TARGET_AVX2 static inline void transpose4(const __m256d a[4], __m256d r[4])
+{
+    const __m256d t0 = _mm256_unpacklo_pd(a[0], a[1]), t1 = _mm256_unpackhi_pd(a[0], a[1]);
+    const __m256d t2 = _mm256_unpacklo_pd(a[2], a[3]), t3 = _mm256_unpackhi_pd(a[2], a[3]);
+    r[0] = _mm256_permute2f128_pd(t0, t2, 0x20);
+    r[1] = _mm256_permute2f128_pd(t1, t3, 0x20);
+    r[2] = _mm256_permute2f128_pd(t0, t2, 0x31);
+    r[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
+}
+
+TARGET_AVX2 static uint32_t pack_test_avx2(const mprt__tri *tri, const uint32_t *index, unsigned n,
+                                           const mprt__ray *ray, real tmin, real tmax, real *tt)
+{
+    static const mprt__tri none; /* a zero normal: a lane that never hits */
+    const __m256d ox = _mm256_set1_pd(ray->o.x), oy = _mm256_set1_pd(ray->o.y), oz = _mm256_set1_pd(ray->o.z);
+    const __m256d dx = _mm256_set1_pd(ray->d.x), dy = _mm256_set1_pd(ray->d.y), dz = _mm256_set1_pd(ray->d.z);
+    const int kx = ray->kx, ky = ray->ky, kz = ray->kz;
+    const __m256d px = _mm256_set1_pd(vget(ray->o, kx)), py = _mm256_set1_pd(vget(ray->o, ky));
+    const __m256d pz = _mm256_set1_pd(vget(ray->o, kz)), sx = _mm256_set1_pd(ray->sx), sy = _mm256_set1_pd(ray->sy);
+    const __m256d lo = _mm256_set1_pd(tmin), hi = _mm256_set1_pd(tmax), z = _mm256_setzero_pd();
+    uint32_t hits = 0;
+    unsigned b;
+    for (b = 0; b < n; b += MPRT__PACK_W) {
+        const mprt__tri *p[4];
+        __m256d F[13], a[4], x[3], y[3], dn, t;
+        __m256i up = _mm256_setzero_si256(), down = _mm256_setzero_si256();
+        int v, m, j;
+        for (j = 0; j < 4; j++) p[j] = b + (unsigned)j < n ? &tri[index[b + (unsigned)j]] : &none;
+        /* the records (13 reals each) as three rows of four and d, transposed: F[f] = field f of the four */
+        for (j = 0; j < 4; j++) a[j] = _mm256_loadu_pd(&p[j]->v[0].x);
+        transpose4(a, F);
+        for (j = 0; j < 4; j++) a[j] = _mm256_loadu_pd(&p[j]->v[1].y);
+        transpose4(a, F + 4);
+        for (j = 0; j < 4; j++) a[j] = _mm256_loadu_pd(&p[j]->v[2].z);
+        transpose4(a, F + 8);
+        F[12] = _mm256_set_pd(p[3]->d, p[2]->d, p[1]->d, p[0]->d);
+        dn = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(F[9], dx), _mm256_mul_pd(F[10], dy)), _mm256_mul_pd(F[11], dz));
+        for (v = 0; v < 3; v++) {
+            const __m256d qz = _mm256_sub_pd(F[3 * v + kz], pz);
+            x[v] = _mm256_add_pd(_mm256_sub_pd(F[3 * v + kx], px), _mm256_mul_pd(qz, sx));
+            y[v] = _mm256_add_pd(_mm256_sub_pd(F[3 * v + ky], py), _mm256_mul_pd(qz, sy));
+        }
+        edge_avx2(x[2], y[2], x[0], y[0], &up, &down);
+        edge_avx2(x[0], y[0], x[1], y[1], &up, &down);
+        edge_avx2(x[1], y[1], x[2], y[2], &up, &down);
+        /* a winding number (ups less downs) other than 0, and dn != 0 (NaN too, as dn == 0 is false for it) */
+        m = _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(up, down))) ^ 0xf;
+        m &= _mm256_movemask_pd(_mm256_cmp_pd(dn, z, _CMP_NEQ_UQ));
+        if (!m) continue;
+        t = _mm256_div_pd(_mm256_sub_pd(F[12], _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(F[9], ox),
+                                                                           _mm256_mul_pd(F[10], oy)),
+                                                             _mm256_mul_pd(F[11], oz))),
+                          dn);
+        m &= _mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(t, lo, _CMP_GT_OQ), _mm256_cmp_pd(t, hi, _CMP_LE_OQ)));
+        _mm256_storeu_pd(tt + b, t);
+        hits |= (uint32_t)m << b;
+    }
+    return n < 32 ? hits & (((uint32_t)1 << n) - 1) : hits;
+}
+
+TARGET_AVX2 static uint32_t block_test_avx2(const real *blocks, unsigned nblocks, const mprt__ray *ray, real tmin,
+                                            real tmax, real *tt)
 {
     const __m256d ox = _mm256_set1_pd(ray->o.x), oy = _mm256_set1_pd(ray->o.y), oz = _mm256_set1_pd(ray->o.z);
     const __m256d dx = _mm256_set1_pd(ray->d.x), dy = _mm256_set1_pd(ray->d.y), dz = _mm256_set1_pd(ray->d.z);
@@ -176,13 +277,15 @@ static int have_avx2(void)
 }
 
 mprt__pack_test_fn mprt__pack_test_avx2(void) { return have_avx2() ? pack_test_avx2 : NULL; }
+mprt__block_test_fn mprt__block_test_avx2(void) { return have_avx2() ? block_test_avx2 : NULL; }
 mprt__ball_filter_fn mprt__ball_filter_avx2(void) { return have_avx2() ? ball_filter_avx2 : NULL; }
 #else
 mprt__pack_test_fn mprt__pack_test_avx2(void) { return NULL; }
+mprt__block_test_fn mprt__block_test_avx2(void) { return NULL; }
 mprt__ball_filter_fn mprt__ball_filter_avx2(void) { return NULL; }
 #endif
 
-/* ---- Packing ------------------------------------------------------------------ */
+/* ---- The choice ------------------------------------------------------------------ */
 
 /* Whether environment variable name is set to "0" (asks for less). */
 static int env_off(const char *name)
@@ -207,28 +310,20 @@ void mprt__ic_pack_free(mprt__ic_pack *p)
     memset(p, 0, sizeof *p);
 }
 
-void mprt__ic_pack_build(mprt_grid *g, size_t max_bytes)
+/* Each voxel's list in blocks (ic_pack.h), where they fit MPRT__PACK_BUDGET. */
+static void pack_blocks(mprt_grid *g, int portable)
 {
     mprt__ic_pack *p = &g->pack;
     const long long nvox = g->voxels;
     size_t nb = 0, bytes;
     long long v;
     void *mem;
-    const int portable = env_off("MPRT_IC_SIMD");
-    memset(p, 0, sizeof *p);
-    /* without AVX2, the portable copies only when asked for: they compute
-     * every lane, mailboxed and empty ones too, and the block test measured
-     * slower than the one-at-a-time walk (studies/03_bench/README.md) */
-    if (env_off("MPRT_IC_PACK") || (!portable && !mprt__pack_test_avx2())) return;
-    if (g->scene->nprims > g->scene->npolygons) /* spheres, cylinders or cones */
-        p->filter = portable ? mprt__ball_filter_portable : mprt__ball_filter_avx2();
-    if (g->ic.ntri == 0) return;
     for (v = 0; v < nvox; v++)
         if (has_triangle(g, v)) nb += (g->start[v + 1] - g->start[v] + MPRT__PACK_W - 1) / MPRT__PACK_W;
     bytes = nb * MPRT__PACK_BLOCK * sizeof(real) + (size_t)(nvox + 1) * sizeof *p->first;
-    if (nb > 0xffffffffu || bytes > max_bytes / 4) return;
+    if (nb == 0 || bytes > MPRT__PACK_BUDGET) return;
     p->first = malloc((size_t)(nvox + 1) * sizeof *p->first);
-    if (!p->first || posix_memalign(&mem, 64, nb * MPRT__PACK_BLOCK * sizeof(real) + 1) != 0) {
+    if (!p->first || posix_memalign(&mem, 64, nb * MPRT__PACK_BLOCK * sizeof(real)) != 0) {
         free(p->first);
         p->first = NULL;
         return;
@@ -244,24 +339,30 @@ void mprt__ic_pack_build(mprt_grid *g, size_t max_bytes)
         for (k = k0; k < g->start[v + 1]; k++) {
             const uint32_t ref = g->ic.ref[g->ids[k]];
             real *B = p->blocks + (nb + (k - k0) / MPRT__PACK_W) * MPRT__PACK_BLOCK;
-            const int j = (int)((k - k0) % MPRT__PACK_W);
+            const int j = (int)((k - k0) % MPRT__PACK_W), kind = (int)(ref & ((1u << MPRT__IC_KIND_BITS) - 1));
             const mprt__tri *t;
-            int i;
-            if ((ref & ((1u << MPRT__IC_KIND_BITS) - 1)) != MPRT__IC_TRIANGLE) continue; /* zeros: never hits */
+            int f;
+            if (kind != MPRT__IC_TRIANGLE) continue; /* zeros: never hits */
             t = &g->ic.tri[ref >> MPRT__IC_KIND_BITS];
-            for (i = 0; i < 3; i++) {
-                FIELD(B, 3 * i, j) = t->v[i].x;
-                FIELD(B, 3 * i + 1, j) = t->v[i].y;
-                FIELD(B, 3 * i + 2, j) = t->v[i].z;
-            }
-            FIELD(B, 9, j) = t->normal.x;
-            FIELD(B, 10, j) = t->normal.y;
-            FIELD(B, 11, j) = t->normal.z;
-            FIELD(B, 12, j) = t->d;
+            for (f = 0; f < MPRT__PACK_FIELDS; f++) FIELD(B, f, j) = tri_field(t, f);
         }
         nb += (g->start[v + 1] - k0 + MPRT__PACK_W - 1) / MPRT__PACK_W;
     }
     p->first[nvox] = (uint32_t)nb;
+    p->block_test = portable ? mprt__block_test_portable : mprt__block_test_avx2();
+}
+
+void mprt__ic_pack_choose(mprt_grid *g)
+{
+    mprt__ic_pack *p = &g->pack;
+    const int portable = env_off("MPRT_IC_SIMD");
+    memset(p, 0, sizeof *p);
+    /* without AVX2, the portable copies only when asked for: they measured
+     * slower than the one-at-a-time walk (studies/03_bench/README.md) */
+    if (env_off("MPRT_IC_PACK") || (!portable && !mprt__pack_test_avx2())) return;
     p->kind = portable ? MPRT__PACK_PORTABLE : MPRT__PACK_AVX2;
-    p->test = portable ? mprt__pack_test_portable : mprt__pack_test_avx2();
+    if (g->ic.ntri > 0) p->test = portable ? mprt__pack_test_portable : mprt__pack_test_avx2();
+    if (g->ic.ntri > 0 && !env_off("MPRT_IC_BLOCKS")) pack_blocks(g, portable);
+    if (g->scene->nprims > g->scene->npolygons) /* spheres, cylinders or cones */
+        p->filter = portable ? mprt__ball_filter_portable : mprt__ball_filter_avx2();
 }

@@ -1,14 +1,16 @@
-/* test_ic_pack.c: the packed triangles (ic_pack.h) change nothing.
- *  - Every lane of a block test (the portable copy, and the AVX2 copy where
- *    the processor has it) decides as mprt__tri_hit and gives the same t,
- *    bit for bit, on rays aimed at a mesh's shared vertices and edges
- *    (lying on voxel planes, where the shear's zeros have signs) and at
- *    random ones; dummy lanes never hit.
+/* test_ic_pack.c: the tests several at a time (ic_pack.h) change nothing.
+ *  - The triangle test (the portable copy, and the AVX2 copy where the
+ *    processor has it) decides for every triangle of every list as
+ *    mprt__tri_hit and gives the same t, bit for bit, on rays aimed at a
+ *    mesh's shared vertices and edges (lying on voxel planes, where the
+ *    shear's zeros have signs) and at random ones; lanes past n never hit.
  *  - The ball filter (ic_pack.h) decides as mprt__line_misses for every
  *    sphere, cylinder and cone in every list.
- *  - Walks on grids made without packing (MPRT_IC_PACK=0), with the
- *    portable copy (MPRT_IC_SIMD=0) and with the default (AVX2 where the
- *    processor has it, else no packing) give the same
+ *  - So do the blocks' tests, lane by lane.
+ *  - Walks on grids made one at a time (MPRT_IC_PACK=0), with the
+ *    portable copies (MPRT_IC_SIMD=0), with and without blocks
+ *    (MPRT_IC_BLOCKS=0), and with the default (AVX2 where the
+ *    processor has it, else one at a time) give the same
  *    nearest hits, t and counters (tests by kind, vertices, visits), with
  *    and without the mailbox (renders), on triangles mixed with spheres,
  *    quads and cones in one voxel, on a mesh, and on spheres, quads,
@@ -82,13 +84,49 @@ static void aim(rng *r, int i, double o[3], double d[3])
     if (d[0] == 0 && d[1] == 0 && d[2] == 0) d[2] = -1;
 }
 
-/* Every lane of every block of g against mprt__tri_hit, with test fn. */
+/* The triangle test fn on the triangles of every voxel's list of g against mprt__tri_hit. */
 static void lanes_agree(const mprt_grid *g, mprt__pack_test_fn fn, rng *r, const char *name)
 {
     long long differ = 0, hits = 0, lanes = 0;
     int i;
-    CHECK(g->pack.kind != MPRT__PACK_NONE && g->pack.nblocks > 0);
-    if (g->pack.kind == MPRT__PACK_NONE) return;
+    for (i = 0; i < NRAYS; i++) {
+        double o[3], d[3];
+        mprt__ray ray;
+        real tmin = i % 3 == 0 ? (real)rnd_in(r, 0, 1) : 0, tmax = i % 5 == 0 ? (real)rnd_in(r, 1, 3) : (real)INFINITY;
+        long long v;
+        aim(r, i, o, d);
+        ray = mkray(vd(o[0], o[1], o[2]), vd(d[0], d[1], d[2]));
+        for (v = 0; v < g->voxels; v++) {
+            uint32_t index[MPRT__PACK_MAX], k, n = 0, got, j;
+            real tt[MPRT__PACK_MAX];
+            for (k = g->start[v]; k < g->start[v + 1] && n < MPRT__PACK_MAX; k++) {
+                const uint32_t ref = g->ic.ref[g->ids[k]];
+                if ((ref & 7u) == MPRT__IC_TRIANGLE) index[n++] = ref >> MPRT__IC_KIND_BITS;
+            }
+            got = fn(g->ic.tri, index, n, &ray, tmin, tmax, tt);
+            CHECK(n == MPRT__PACK_MAX || (got >> n) == 0);
+            for (j = 0; j < n; j++) {
+                real t = 0;
+                int want = mprt__tri_hit(&g->ic.tri[index[j]], &ray, tmin, tmax, &t), lane = (int)((got >> j) & 1);
+                lanes++;
+                hits += want;
+                if ((lane != want || (want && memcmp(&t, &tt[j], sizeof t) != 0)) && differ++ < 5)
+                    CHECK_MSG(0, "%s: ray %d voxel %lld triangle %u: %d at %.17g, mprt__tri_hit %d at %.17g", name, i,
+                              v, j, lane, (double)tt[j], want, (double)t);
+            }
+        }
+    }
+    CHECK_MSG(differ == 0, "%s: %lld of %lld lanes differ", name, differ, lanes);
+    CHECK_MSG(hits > 1000, "%s: only %lld hits", name, hits);
+}
+
+/* Every lane of every block of g against mprt__tri_hit, with test fn. */
+static void blocks_agree(const mprt_grid *g, mprt__block_test_fn fn, rng *r, const char *name)
+{
+    long long differ = 0, hits = 0, lanes = 0;
+    int i;
+    CHECK(g->pack.first != NULL && g->pack.nblocks > 0);
+    if (!g->pack.first) return;
     for (i = 0; i < NRAYS; i++) {
         double o[3], d[3];
         mprt__ray ray;
@@ -144,16 +182,20 @@ static void filter_agrees(const mprt_grid *g, mprt__ball_filter_fn fn, rng *r, c
             uint32_t k, n;
             for (k = g->start[v]; k < g->start[v + 1]; k += n) {
                 uint32_t got, j;
-                n = g->start[v + 1] - k < MPRT__FILTER_MAX ? g->start[v + 1] - k : MPRT__FILTER_MAX;
-                got = fn(g->ic.ball, g->ids + k, n, &ray, dd);
-                for (j = 0; j < n; j++) {
-                    const int32_t id = g->ids[k + j];
+                int32_t ids[MPRT__PACK_MAX];
+                uint32_t m = 0;
+                n = g->start[v + 1] - k < MPRT__PACK_MAX ? g->start[v + 1] - k : MPRT__PACK_MAX;
+                for (j = 0; j < n; j++)
+                    if (g->scene->prims[g->ids[k + j]].kind != MPRT_POLYGON) ids[m++] = g->ids[k + j];
+                got = fn(g->ic.ball, ids, m, &ray, dd);
+                CHECK(m == MPRT__PACK_MAX || (got >> m) == 0);
+                for (j = 0; j < m; j++) {
+                    const int32_t id = ids[j];
                     const mprt__ball *b = &g->ic.ball[id];
                     const int kind = g->scene->prims[id].kind;
                     /* a sphere's test subtracts c from o, a cone's o from c: the same decision */
                     int want = mprt__line_misses(kind == MPRT_SPHERE ? vsub(ray.o, b->c) : vsub(b->c, ray.o), ray.d,
                                                  dd, b->r2);
-                    if (kind == MPRT_POLYGON) continue;
                     balls++;
                     misses += want;
                     if ((int)((got >> j) & 1) != want && differ++ < 5)
@@ -167,9 +209,11 @@ static void filter_agrees(const mprt_grid *g, mprt__ball_filter_fn fn, rng *r, c
     CHECK_MSG(misses > 1000 && misses < balls - 1000, "%s: %lld misses of %lld", name, misses, balls);
 }
 
-static mprt_grid *grid_with(const mprt_scene *s, int n, const char *pack, const char *simd)
+static mprt_grid *grid_with(const mprt_scene *s, int n, const char *pack, const char *simd, const char *blocks)
 {
     mprt_grid *g = NULL;
+    if (blocks) setenv("MPRT_IC_BLOCKS", blocks, 1);
+    else unsetenv("MPRT_IC_BLOCKS");
     if (pack) setenv("MPRT_IC_PACK", pack, 1);
     else unsetenv("MPRT_IC_PACK");
     if (simd) setenv("MPRT_IC_SIMD", simd, 1);
@@ -177,6 +221,7 @@ static mprt_grid *grid_with(const mprt_scene *s, int n, const char *pack, const 
     CHECK(mprt_grid_create(s, n, n, n, 0, &g) == MPRT_OK);
     unsetenv("MPRT_IC_PACK");
     unsetenv("MPRT_IC_SIMD");
+    unsetenv("MPRT_IC_BLOCKS");
     return g;
 }
 
@@ -187,20 +232,22 @@ static void test_lanes(void)
     rng_seed(&r, 5);
     for (mixed = 0; mixed < 2; mixed++) {
         mprt_scene *s = mesh_scene(mixed, &r);
-        mprt_grid *g = grid_with(s, 4, NULL, "0");
+        mprt_grid *g = grid_with(s, 4, NULL, "0", NULL);
         mprt__pack_test_fn avx2 = mprt__pack_test_avx2();
-        CHECK(g->pack.kind == MPRT__PACK_PORTABLE);
+        CHECK(g->pack.kind == MPRT__PACK_PORTABLE && g->pack.test == mprt__pack_test_portable);
         lanes_agree(g, mprt__pack_test_portable, &r, "portable");
         if (avx2) lanes_agree(g, avx2, &r, "avx2");
+        blocks_agree(g, mprt__block_test_portable, &r, "portable blocks");
+        if (mprt__block_test_avx2()) blocks_agree(g, mprt__block_test_avx2(), &r, "avx2 blocks");
         else printf("test_ic_pack: no AVX2 copy in this build or on this processor; the portable copy alone\n");
         mprt_grid_destroy(g);
         mprt_scene_destroy(s);
     }
     {
         mprt_scene *s = mesh_scene(2, &r);
-        mprt_grid *g = grid_with(s, 4, NULL, "0");
+        mprt_grid *g = grid_with(s, 4, NULL, "0", NULL);
         mprt__ball_filter_fn avx2 = mprt__ball_filter_avx2();
-        CHECK(g->pack.kind == MPRT__PACK_NONE && g->pack.filter == mprt__ball_filter_portable);
+        CHECK(g->pack.test == NULL && g->pack.filter == mprt__ball_filter_portable);
         filter_agrees(g, mprt__ball_filter_portable, &r, "portable filter");
         if (avx2) filter_agrees(g, avx2, &r, "avx2 filter");
         mprt_grid_destroy(g);
@@ -209,6 +256,7 @@ static void test_lanes(void)
 }
 
 #define NQ 4000
+#define NG 5 /* one at a time; portable; default; portable and default without blocks */
 
 /* Intersect NQ rays on g; returns the counters. */
 static mprt_counters walk(mprt_grid *g, const double *o, const double *d, double *t, int32_t *prim)
@@ -221,9 +269,9 @@ static mprt_counters walk(mprt_grid *g, const double *o, const double *d, double
 
 static void test_walks_agree(void)
 {
-    static double o[3 * NQ], d[3 * NQ], t[3][NQ];
-    static int32_t prim[3][NQ];
-    static float img[3][3 * 40 * 40];
+    static double o[3 * NQ], d[3 * NQ], t[NG][NQ];
+    static int32_t prim[NG][NQ];
+    static float img[NG][3 * 40 * 40];
     rng r;
     int mixed, n, i, m;
     rng_seed(&r, 9);
@@ -231,17 +279,20 @@ static void test_walks_agree(void)
     for (mixed = 0; mixed < 3; mixed++) {
         mprt_scene *s = mesh_scene(mixed, &r);
         for (n = 1; n <= 9; n += 4) {
-            mprt_grid *g[3];
-            mprt_counters c[3];
-            g[0] = grid_with(s, n, "0", NULL);
-            g[1] = grid_with(s, n, NULL, "0");
-            g[2] = grid_with(s, n, NULL, NULL);
-            CHECK(g[0]->pack.kind == MPRT__PACK_NONE && !g[0]->pack.filter);
-            CHECK(g[1]->pack.kind == (mixed < 2 ? MPRT__PACK_PORTABLE : MPRT__PACK_NONE));
-            CHECK(g[2]->pack.kind == (mixed < 2 && mprt__pack_test_avx2() ? MPRT__PACK_AVX2 : MPRT__PACK_NONE));
+            mprt_grid *g[NG];
+            mprt_counters c[NG];
+            g[0] = grid_with(s, n, "0", NULL, NULL);
+            g[1] = grid_with(s, n, NULL, "0", NULL);
+            g[2] = grid_with(s, n, NULL, NULL, NULL);
+            g[3] = grid_with(s, n, NULL, "0", "0");
+            g[4] = grid_with(s, n, NULL, NULL, "0");
+            CHECK((g[1]->pack.first != NULL) == (mixed < 2) && !g[3]->pack.first && !g[4]->pack.first);
+            CHECK(g[0]->pack.kind == MPRT__PACK_NONE && !g[0]->pack.test && !g[0]->pack.filter);
+            CHECK(g[1]->pack.kind == MPRT__PACK_PORTABLE && (g[1]->pack.test != NULL) == (mixed < 2));
+            CHECK(g[2]->pack.kind == (mprt__pack_test_avx2() ? MPRT__PACK_AVX2 : MPRT__PACK_NONE));
             CHECK((g[1]->pack.filter != NULL) == (mixed > 0));
-            for (m = 0; m < 3; m++) c[m] = walk(g[m], o, d, t[m], prim[m]);
-            for (m = 1; m < 3; m++) {
+            for (m = 0; m < NG; m++) c[m] = walk(g[m], o, d, t[m], prim[m]);
+            for (m = 1; m < NG; m++) {
                 CHECK_MSG(memcmp(t[m], t[0], sizeof t[0]) == 0 && memcmp(prim[m], prim[0], sizeof prim[0]) == 0,
                           "grid %d, mixed %d, pack kind %d: hits differ", n, mixed, g[m]->pack.kind);
                 CHECK_MSG(memcmp(&c[m], &c[0], sizeof c[0]) == 0, "grid %d, mixed %d, pack kind %d: counters differ",
@@ -257,11 +308,11 @@ static void test_walks_agree(void)
                     mprt_render_desc_init(&rd);
                     rd.width = rd.height = 40;
                     rd.mailbox = mailbox;
-                    for (m = 0; m < 3; m++) {
+                    for (m = 0; m < NG; m++) {
                         memset(&c[m], 0, sizeof c[m]);
                         CHECK(mprt_grid_render(g[m], &rd, img[m], 3 * 40 * 40, &c[m]) == MPRT_OK);
                     }
-                    for (m = 1; m < 3; m++) {
+                    for (m = 1; m < NG; m++) {
                         CHECK(memcmp(img[m], img[0], sizeof img[0]) == 0);
                         CHECK_MSG(memcmp(&c[m], &c[0], sizeof c[0]) == 0, "render, grid %d, mailbox %d: counters differ",
                                   n, mailbox);
@@ -269,32 +320,15 @@ static void test_walks_agree(void)
                     CHECK(c[0].shadow_rays > 0);
                 }
             }
-            for (m = 0; m < 3; m++) mprt_grid_destroy(g[m]);
+            for (m = 0; m < NG; m++) mprt_grid_destroy(g[m]);
         }
         mprt_scene_destroy(s);
     }
-}
-
-/* A grid's packing gives way to its memory bound (and the walk is the same without it). */
-static void test_pack_skipped_when_large(void)
-{
-    rng r;
-    mprt_scene *s;
-    mprt_grid *g = NULL;
-    rng_seed(&r, 3);
-    s = mesh_scene(0, &r);
-    setenv("MPRT_IC_SIMD", "0", 1); /* packing wherever it fits */
-    CHECK(mprt_grid_create(s, 8, 8, 8, 1 << 14, &g) == MPRT_OK);
-    unsetenv("MPRT_IC_SIMD");
-    CHECK(g->pack.kind == MPRT__PACK_NONE && g->pack.first == NULL);
-    mprt_grid_destroy(g);
-    mprt_scene_destroy(s);
 }
 
 int main(void)
 {
     RUN(test_lanes);
     RUN(test_walks_agree);
-    RUN(test_pack_skipped_when_large);
     return CHECK_DONE();
 }
