@@ -1,10 +1,11 @@
-"""Testing a voxel's triangles several at a time changes nothing: the packed blocks (c/src/ic_pack.h)
-give the same traces, images, hits and counters as the walk testing one primitive at a time.
+"""Testing a voxel's primitives several at a time changes nothing: the tests of c/src/ic_pack.h give
+the same traces, images, hits and counters as the walk testing one primitive at a time.
 
-Grids read two environment variables when they are made: MPRT_IC_PACK=0 (no packing: one at a
-time, as before) and MPRT_IC_SIMD=0 (the portable C99 block test instead of the AVX2 one the
-processor may offer, and the portable ball filter for spheres, cylinders and cones); by default the
-AVX2 copies, or no packing without AVX2.  Each comparison runs the same work on grids made under each."""
+Grids read three environment variables when they are made: MPRT_IC_PACK=0 (one at a time, as
+before), MPRT_IC_BLOCKS=0 (triangles from IC's records, never from per-voxel blocks) and
+MPRT_IC_SIMD=0 (the portable C99 copies instead of the AVX2 ones the processor may offer); by
+default the AVX2 copies, or one at a time without AVX2.  Each comparison runs the same work on
+grids made under each."""
 import os
 
 import numpy as np
@@ -15,7 +16,8 @@ import mprt
 GOLDEN = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "golden")
 GOLDEN_FILES = sorted(f for f in os.listdir(GOLDEN) if f.endswith(".npz"))
 SCALAR, PORTABLE, DEFAULT = {"MPRT_IC_PACK": "0"}, {"MPRT_IC_SIMD": "0"}, {}
-VARIABLES = ("MPRT_IC_PACK", "MPRT_IC_SIMD")
+RECORDS = {"MPRT_IC_BLOCKS": "0"}  # the triangles from IC's records, never from per-voxel blocks
+VARIABLES = ("MPRT_IC_PACK", "MPRT_IC_SIMD", "MPRT_IC_BLOCKS")
 
 
 def grid_under(monkeypatch, env: dict, scene, n):
@@ -44,7 +46,7 @@ def test_golden_trace_regenerates_one_at_a_time_and_portable(fname, monkeypatch)
     m = gold.meta
     name, size = m["scene"].split(":")
     scene = mprt.Scene.spd(name, int(size))
-    for env in (SCALAR, PORTABLE):
+    for env in (SCALAR, PORTABLE, RECORDS):
         grid = grid_under(monkeypatch, env, scene, tuple(m["grid"]))
         _, t = grid.trace(m["width"], m["height"], rules=m["rules"], threshold=m["threshold"], tile=m["tile"])
         assert np.array_equal(t.rays, gold.rays) and np.array_equal(t.visits, gold.visits), env
@@ -69,9 +71,10 @@ def test_rays_hit_and_count_the_same(name, size, tris, monkeypatch):
         scene = triangles_only(scene)
     for n in ((7, 7, 7), (24, 24, 24), (40, 17, 29)):
         res = {label: grid_under(monkeypatch, env, scene, n).intersect(o, d, return_counters=True)
-               for label, env in (("scalar", SCALAR), ("portable", PORTABLE), ("default", DEFAULT))}
+               for label, env in (("scalar", SCALAR), ("portable", PORTABLE), ("default", DEFAULT),
+                                  ("records", RECORDS), ("portable records", dict(PORTABLE, **RECORDS)))}
         t0, p0, c0 = res["scalar"]
-        for label in ("portable", "default"):
+        for label in ("portable", "default", "records", "portable records"):
             t, p, c = res[label]
             assert np.array_equal(t.view(np.int64), t0.view(np.int64)) and np.array_equal(p, p0) and c == c0, (n, label)
         assert sum(c0["tests"].values()) > 1000 and (p0 >= 0).sum() > 500
@@ -84,12 +87,12 @@ def test_renders_and_traces_are_the_same(name, rules, monkeypatch):
     threads, and whole traces, are identical: image bits and every counter."""
     scene = mprt.Scene.spd(name, 2 if name == "mount" else 1)
     out = {}
-    for label, env in (("scalar", SCALAR), ("portable", PORTABLE), ("default", DEFAULT)):
+    for label, env in (("scalar", SCALAR), ("portable", PORTABLE), ("default", DEFAULT), ("records", RECORDS)):
         g = grid_under(monkeypatch, env, scene, (20, 20, 20))
         out[label] = ([g.render(40, 40, rules=rules, mailbox=mb, threads=th) for mb in (False, True) for th in (1, 2)],
                       g.trace(24, 24, rules=rules, tile=8)[1])
     renders0, trace0 = out["scalar"]
-    for label in ("portable", "default"):
+    for label in ("portable", "default", "records"):
         renders, trace = out[label]
         for (img, c), (img0, c0) in zip(renders, renders0):
             assert np.array_equal(img, img0) and c == c0, label
