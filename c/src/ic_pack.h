@@ -53,7 +53,8 @@ typedef uint32_t (*mprt__pack_test_fn)(const mprt__tri *tri, const uint32_t *ind
 #define MPRT__PACK_FIELDS 13  /* v0 xyz, v1 xyz, v2 xyz, normal xyz, d */
 #define MPRT__PACK_BLOCK (MPRT__PACK_W * MPRT__PACK_FIELDS) /* reals per block */
 #define MPRT__PACK_CHUNK 8    /* blocks one call tests at most */
-#define MPRT__PACK_BUDGET ((size_t)4 << 20) /* bytes: this machine's L2 (studies/03_bench/README.md) */
+#define MPRT__PACK_BUDGET ((size_t)4 << 20) /* bytes: tetra's 2.7 MB at 24^3 paid, 8.9 MB at 48^3 did not
+                                            * (studies/03_bench/README.md; the L2 of the 2 cores measured) */
 
 /* Test blocks [0, nblocks) (nblocks <= MPRT__PACK_CHUNK): bit i of the
  * result is set when lane i hits, and then tt[i] holds its t. */
