@@ -87,14 +87,19 @@ demo: $(VENV)/.installed mprt
 
 # make bench: this checkout against BEFORE (a git revision, default main), built
 # from a clean export into $(B)/before; BEFORE= (empty) benchmarks this checkout alone.
+# Where setup.py cannot build the export (a setuptools that rejects its pyproject.toml),
+# the extensions are compiled with cffi directly, as asan-py does.
 BEFORE ?= main
 bench: $(VENV)/.installed
 	@$(PY) -m pip install -q embreex || echo "make bench: embreex could not be installed; the bench runs without the Embree columns" >&2
 	@if [ -n "$(BEFORE)" ]; then \
 	    rm -rf $(B)/before && mkdir -p $(B)/before && git archive $(BEFORE) | tar -x -C $(B)/before && \
-	    (cd $(B)/before && $(abspath $(PY)) setup.py -q build_ext --inplace > build_ext.log 2>&1) || \
+	    (cd $(B)/before && { $(abspath $(PY)) setup.py -q build_ext --inplace > build_ext.log 2>&1 || \
+	        { ln -sfn ../c python/c && $(abspath $(PY)) -c "import sys; sys.path.insert(0, 'python/mprt'); import _build; \
+	        [getattr(_build, f).compile(tmpdir='python') for f in ('ffi', 'ffi32') if hasattr(_build, f)]" >> build_ext.log 2>&1; }; }) || \
 	    { echo "could not build $(BEFORE) in $(B)/before (see $(B)/before/build_ext.log)" >&2; exit 1; }; fi
 	$(PY) studies/03_bench/run.py $(if $(BEFORE),--before $(B)/before/python) $(BENCH_ARGS)
+	$(PY) studies/03_bench/embree.py $(if $(BEFORE),--before $(B)/before/python)
 
 # The C tests under AddressSanitizer and UndefinedBehaviorSanitizer.
 asan:

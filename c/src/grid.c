@@ -62,6 +62,7 @@ void mprt_grid_destroy(mprt_grid *g)
     free(g->ic.ref);
     free(g->ic.ball);
     free(g->ic.tri);
+    mprt__ic_pack_free(&g->pack);
     pthread_mutex_destroy(&g->errlock);
     free(g);
 }
@@ -837,6 +838,7 @@ static int create(const mprt_scene *s, int nx, int ny, int nz, size_t max_bytes,
     if ((st = jump_threshold(g)) != MPRT_OK) return st;
     st = build(g, max_bytes ? max_bytes : DEFAULT_MAX_BYTES, reference);
     if (st == MPRT_OK) {
+        mprt__ic_pack_choose(g);
         /* The scene now refuses changes until this grid is destroyed */
         mprt__scene_count_grid(s, +1);
         g->counted = 1;

@@ -3,6 +3,7 @@
 #define MPRT_GRID_H
 
 #include "ic.h"
+#include "ic_pack.h"
 #include "mprt_internal.h"
 
 #include <pthread.h>
@@ -33,6 +34,7 @@ struct mprt_grid {
                         * origin on every axis (runs of the walk's sums are short before) */
     int32_t *ids;      /* primitive ids, voxel by voxel */
     mprt__ic ic;       /* the primitives as IC tests them (ic.h) */
+    mprt__ic_pack pack; /* ... and its tests several at a time (ic_pack.h) */
     long long refs;
     int listing;       /* mprt_listing */
     int failed;

@@ -33,11 +33,168 @@ typedef struct {
  * return 1 on any hit in (tmin, tmax].  Otherwise update the nearest hit
  * *best and return 1 when it lies within this voxel's stretch, or with
  * accept_listed wherever it lies (accepted). */
+/* ic_visit for a voxel whose triangles are packed (ic_pack.h): the blocks
+ * are tested a chunk at a time, then the list is gone through in order as
+ * ic_visit goes through it, each triangle's test counted and its result
+ * taken from its lane only where ic_visit would test it (the mailbox, a
+ * shadow ray's first hit), so that counts, hits and ties stay the same.  A
+ * lane's hit lies in (tmin, tmax]; the limit the walk has reached
+ * (best->t, at most tmax) is applied here, in list order. */
+WALK_INLINE int ic_visit_packed(const mprt_grid *g, long long voxel, uint32_t block, real t_exit,
+                                const mprt__ray *ray, real dd, real tmin, real tmax, int shadow, int accept_listed,
+                                mprt__hit *best, mailbox *mb, mprt__visit *ic, mprt__sink *sink)
+{
+    const uint32_t end = g->start[voxel + 1];
+    const real *blocks = g->pack.blocks + (size_t)block * MPRT__PACK_BLOCK;
+    uint32_t k = g->start[voxel];
+    int32_t ntri = 0; /* triangles tested: added to ic's counts once, at the end */
+    real tt[MPRT__PACK_CHUNK * MPRT__PACK_W];
+    while (k < end) {
+        uint32_t j, n = end - k, hits;
+        unsigned nb;
+        if (n > MPRT__PACK_CHUNK * MPRT__PACK_W) n = MPRT__PACK_CHUNK * MPRT__PACK_W;
+        nb = (n + MPRT__PACK_W - 1) / MPRT__PACK_W;
+        hits = g->pack.block_test(blocks, nb, ray, tmin, tmax, tt);
+        blocks += (size_t)nb * MPRT__PACK_BLOCK;
+        for (j = 0; j < n; j++, k++) {
+            int32_t id = g->ids[k];
+            real t;
+            real limit = shadow ? tmax : best->t;
+            if (mb) {
+                if (mb->id[id & (MAILBOX_SIZE - 1)] == id) continue;
+                mb->id[id & (MAILBOX_SIZE - 1)] = id;
+            }
+            if ((g->ic.ref[id] & ((1u << MPRT__IC_KIND_BITS) - 1)) == MPRT__IC_TRIANGLE) {
+                /* mprt__ic_test's count of a triangle, and its result from the lane */
+                ntri++;
+                if (!((hits >> j) & 1)) continue;
+                t = tt[j];
+                if (!(t <= limit)) continue;
+            } else if (!mprt__ic_test(&g->ic, g->scene, id, ray, dd, tmin, limit, &t, ic->tests, &ic->vertices)) {
+                continue;
+            }
+            if (g->scene->prims[id].kind != mprt__ic_scene_kind(&g->ic, id)) {
+                sink->bad_prim = id;
+                continue;
+            }
+            if (shadow) {
+                best->t = t;
+                best->prim = id;
+                ic->tests[MPRT_POLYGON] += ntri;
+                ic->vertices += 3 * ntri;
+                return 1;
+            }
+            if (t < best->t || (t == best->t && id < best->prim)) {
+                best->t = t;
+                best->prim = id;
+            }
+        }
+    }
+    ic->tests[MPRT_POLYGON] += ntri;
+    ic->vertices += 3 * ntri;
+    return !shadow && best->prim >= 0 && (accept_listed || best->t <= t_exit);
+}
+
+/* ic_visit with tests several at a time (ic_pack.h): a stretch of the list
+ * at a time, first through the mailbox in list order, gathering the
+ * triangles and the balls; then the triangles tested and the balls
+ * filtered; then the stretch again in list order, each test counted and its
+ * result taken as ic_visit takes it (the limit best->t in order, a shadow
+ * ray's first hit), so that counts, hits and ties stay the same.  A
+ * triangle's hit from its lane lies in (tmin, tmax]; the limit, at most
+ * tmax, is applied here. */
+enum { IC_SKIP, IC_TRIANGLE, IC_BALL, IC_ONE };
+
+WALK_INLINE int ic_visit_several(const mprt_grid *g, long long voxel, real t_exit, const mprt__ray *ray, real dd,
+                                 real tmin, real tmax, int shadow, int accept_listed, mprt__hit *best, mailbox *mb,
+                                 mprt__visit *ic, mprt__sink *sink)
+{
+    const uint32_t end = g->start[voxel + 1];
+    uint32_t k = g->start[voxel];
+    int32_t ntests = 0; /* triangles tested: added to ic's counts once, at the end */
+    for (; k < end; k += MPRT__PACK_MAX) {
+        const uint32_t n = end - k < MPRT__PACK_MAX ? end - k : MPRT__PACK_MAX;
+        uint32_t tri_index[MPRT__PACK_MAX], j, ntri = 0, nball = 0, thits = 0, bmiss = 0;
+        int32_t ball_id[MPRT__PACK_MAX];
+        unsigned char how[MPRT__PACK_MAX], lane[MPRT__PACK_MAX];
+        real tt[MPRT__PACK_MAX];
+        for (j = 0; j < n; j++) {
+            const int32_t id = g->ids[k + j];
+            const uint32_t ref = g->ic.ref[id], kind = ref & ((1u << MPRT__IC_KIND_BITS) - 1);
+            if (mb) {
+                if (mb->id[id & (MAILBOX_SIZE - 1)] == id) {
+                    how[j] = IC_SKIP;
+                    continue;
+                }
+                mb->id[id & (MAILBOX_SIZE - 1)] = id;
+            }
+            if (kind == MPRT__IC_TRIANGLE && g->pack.test) {
+                how[j] = IC_TRIANGLE;
+                lane[j] = (unsigned char)ntri;
+                tri_index[ntri++] = ref >> MPRT__IC_KIND_BITS;
+            } else if (kind != MPRT__IC_TRIANGLE && kind != MPRT__IC_POLYGON && g->pack.filter) {
+                how[j] = IC_BALL;
+                lane[j] = (unsigned char)nball;
+                ball_id[nball++] = id;
+            } else {
+                how[j] = IC_ONE;
+            }
+        }
+        if (ntri) thits = g->pack.test(g->ic.tri, tri_index, ntri, ray, tmin, tmax, tt);
+        if (nball) bmiss = g->pack.filter(g->ic.ball, ball_id, nball, ray, dd);
+        for (j = 0; j < n; j++) {
+            const int32_t id = g->ids[k + j];
+            real t;
+            real limit = shadow ? tmax : best->t;
+            if (how[j] == IC_SKIP) continue;
+            if (how[j] == IC_TRIANGLE) {
+                /* mprt__ic_test's count of a triangle, and its result from the lane */
+                ntests++;
+                if (!((thits >> lane[j]) & 1)) continue;
+                t = tt[lane[j]];
+                if (!(t <= limit)) continue;
+            } else if (how[j] == IC_BALL && ((bmiss >> lane[j]) & 1)) {
+                /* mprt__ic_test's count of a sphere, cylinder or cone whose ball the ray misses, and no hit */
+                ic->tests[mprt__ic_scene_kind(&g->ic, id)]++;
+                continue;
+            } else if (!mprt__ic_test(&g->ic, g->scene, id, ray, dd, tmin, limit, &t, ic->tests, &ic->vertices)) {
+                continue;
+            }
+            if (g->scene->prims[id].kind != mprt__ic_scene_kind(&g->ic, id)) {
+                sink->bad_prim = id;
+                continue;
+            }
+            if (shadow) {
+                best->t = t;
+                best->prim = id;
+                ic->tests[MPRT_POLYGON] += ntests;
+                ic->vertices += 3 * ntests;
+                return 1;
+            }
+            if (t < best->t || (t == best->t && id < best->prim)) {
+                best->t = t;
+                best->prim = id;
+            }
+        }
+    }
+    ic->tests[MPRT_POLYGON] += ntests;
+    ic->vertices += 3 * ntests;
+    return !shadow && best->prim >= 0 && (accept_listed || best->t <= t_exit);
+}
+
 WALK_INLINE int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const mprt__ray *ray, real dd, real tmin,
                     real tmax, int shadow, int accept_listed, mprt__hit *best, mailbox *mb, mprt__visit *ic,
                     mprt__sink *sink)
 {
     uint32_t k, end = g->start[voxel + 1];
+    if (g->pack.first) {
+        const uint32_t block = g->pack.first[voxel];
+        if (block != g->pack.first[voxel + 1])
+            return ic_visit_packed(g, voxel, block, t_exit, ray, dd, tmin, tmax, shadow, accept_listed, best, mb, ic,
+                                   sink);
+    }
+    if ((g->pack.test || g->pack.filter) && end - g->start[voxel] >= 2)
+        return ic_visit_several(g, voxel, t_exit, ray, dd, tmin, tmax, shadow, accept_listed, best, mb, ic, sink);
     for (k = g->start[voxel]; k < end; k++) {
         int32_t id = g->ids[k];
         real t;
