@@ -177,6 +177,7 @@ struct mprt_replay {
     /* level 3: the memories (replay_memory.c) */
     struct mprt__mem *mem;       /* the data of mprt_replay_set_memory, and a run's caches and ports */
     int mem_on;                  /* this run models a memory: start() adds stalls */
+    const int32_t *mem_key;      /* ... then each visit's memory key (-1: it reads none), else NULL */
     int64_t mem_bound;           /* the most cycles this run's stalls can add */
 };
 

@@ -218,6 +218,7 @@ void mprt__replay_memory_free_run(mprt_replay *r)
     int t;
     r->mem_on = 0;
     r->mem_bound = 0;
+    r->mem_key = NULL;
     if (!r->mem) return;
     for (t = 0; t < 2; t++) {
         memory *m = &r->mem->m[t];
@@ -305,6 +306,7 @@ int mprt__replay_memory_build(mprt_replay *r)
                         "the visits' cycles, could exceed 2^62 cycles", t, (long long)m->reads, (long long)each);
         r->mem_bound += m->reads * each;
         r->mem_on = 1;
+        r->mem_key = r->mem->key;
     }
     return MPRT_OK;
 }
