@@ -283,18 +283,6 @@ static void prefetch_tree(const mprt_replay *r, int64_t t)
     }
 }
 
-/* Each stage's busy cycles by now, at tree t's admission. */
-static void note_busy(mprt_replay *r, int64_t t)
-{
-    int64_t *b = r->tree_busy + t * r->cfg.nstages;
-    int i;
-    memset(b, 0, (size_t)r->cfg.nstages * sizeof *b);
-    for (i = 0; i < r->nproc; i++) {
-        const proc *p = &r->procs[i];
-        b[r->nodes[p->node].stage] += p->busy - (p->until > r->now ? p->until - r->now : 0);
-    }
-}
-
 static void dis_admit(mprt_replay *r, int pe)
 {
     pe_t *e = &r->pes[pe];
@@ -310,7 +298,7 @@ static void dis_admit(mprt_replay *r, int pe)
         prefetch_tree(r, r->cfg.dis == MPRT_DIS_DYNAMIC ? r->shared_next : e->next);
         r->tree_pe[t] = pe;
         r->tree_admit[t] = r->now;
-        if (r->record_busy) note_busy(r, t);
+        if (r->record_busy) mprt__replay_note_busy(r, t);
         e->live++;
         if (e->live > e->max_live) e->max_live = e->live;
         e->admitted++;

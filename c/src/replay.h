@@ -220,6 +220,8 @@ void mprt__replay_loop(mprt_replay *r);
  * processor; idle), offer a freed send slot of src to its blocked processors,
  */
 void mprt__replay_start_on(mprt_replay *r, node *nd, int k, int64_t x);
+/* The busy record (replay_run.c): each stage's busy cycles by now, at tree t's admission. */
+void mprt__replay_note_busy(mprt_replay *r, int64_t t);
 void mprt__replay_send_freed(mprt_replay *r, node *src);
 
 /* The ring (replay_ring.c): made for a run, a packet sent (0: the send FIFO is
