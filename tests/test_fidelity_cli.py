@@ -102,3 +102,21 @@ def test_bad_options_exit_2(tmp_path, capsys, args, msg):
         raise SystemExit(rc)
     assert e.value.code == 2
     assert msg in capsys.readouterr().err
+
+
+def test_the_probe_samples_whole_trees_from_stretches_of_the_file():
+    """The phase estimate's sample reads only stretches of the trace: whole trees, renumbered,
+    a valid trace of about 1/PROBE_RUNS of the visits that the compiled replay takes."""
+    import numpy as np
+
+    from mprt import tracecheck
+    from mprt.fidelity import cli as fcli
+    from mprt.fidelity.compiled import Compiled, costs_for
+
+    t = mprt.load_trace(BALLS)
+    s = fcli._probe_sample(t)
+    assert s is not None and 0 < len(s.visits) <= len(t.visits) // fcli.PROBE_RUNS
+    tracecheck.check(s)                                     # ids 0..n-1, whole trees, parents renumbered
+    assert np.array_equal(s.rays["id"], np.arange(len(s.rays)))
+    cfg = builtin("3mppe")
+    assert Compiled(s, costs_for(s, cfg)).cycles(cfg) > 0

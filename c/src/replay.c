@@ -45,6 +45,13 @@
 #define PREFETCH(p) ((void)(p))
 #endif
 
+/* Visit x's record, and its memory key at level 3, fetched ahead of its start. */
+INLINE void prefetch_visit(const mprt_replay *r, int64_t x)
+{
+    PREFETCH(v_addr(r, x));
+    if (r->mem_key) PREFETCH(&r->mem_key[x]);
+}
+
 
 INLINE node *node_of(mprt_replay *r, int pe, int stage) { return &r->nodes[pe * r->cfg.nstages + stage]; }
 
@@ -77,7 +84,7 @@ INLINE void start(mprt_replay *r, int i, int64_t j)
             p->next = (int64_t)((w >> 34) << 10 | (w & 1023));
         }
         PREFETCH(v_addr(r, j + 4));
-        if (r->mem_on) {         /* level 3: the data it reads (replay_memory.c) */
+        if (r->mem_on && r->mem_key[j] != -1) {      /* level 3: the data it reads (replay_memory.c) */
             int64_t s = mprt__replay_stall(r, i, j);
             d += s;
             p->stall += s;
@@ -145,7 +152,7 @@ INLINE int node_room(mprt_replay *r, node *nd)
  * FIFO; per replica: the replica assigned, idle or not. */
 INLINE void accept(mprt_replay *r, node *nd, int64_t x)
 {
-    if (x >= 0) PREFETCH(v_addr(r, x));
+    if (x >= 0) prefetch_visit(r, x);
     if (nd->feed)
         give_copy(r, nd, assign(r, nd, 1, 1), x, 0);
     else if (nd->nidle)
@@ -159,7 +166,7 @@ INLINE void accept(mprt_replay *r, node *nd, int64_t x)
 INLINE int net_send(mprt_replay *r, node *src, int64_t x, int g)
 {
     node *dst = sibling(src, g);
-    PREFETCH(v_addr(r, x));
+    prefetch_visit(r, x);
     if (r->cfg.ring) return mprt__ring_send(r, src, x, g);
     if (src->sf.q.len == 0) {
         if (dst->feed) {
@@ -186,7 +193,7 @@ INLINE int net_send(mprt_replay *r, node *src, int64_t x, int g)
 INLINE int output(mprt_replay *r, node *src, int64_t x, int g)
 {
     if (g == src->stage) {
-        PREFETCH(v_addr(r, x));
+        prefetch_visit(r, x);
         if (src->feed)
             give_copy(r, src, assign(r, src, 1, 0), x, 1);
         else if (src->nidle)
@@ -269,17 +276,10 @@ static void prefetch_tree(const mprt_replay *r, int64_t t)
     b = (const char *)v_addr(r, t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv);
     if (b - a > TREE_PREFETCH) b = a + TREE_PREFETCH;
     for (; a < b; a += 64) PREFETCH(a);
-}
-
-/* Each stage's busy cycles by now, at tree t's admission. */
-static void note_busy(mprt_replay *r, int64_t t)
-{
-    int64_t *b = r->tree_busy + t * r->cfg.nstages;
-    int i;
-    memset(b, 0, (size_t)r->cfg.nstages * sizeof *b);
-    for (i = 0; i < r->nproc; i++) {
-        const proc *p = &r->procs[i];
-        b[r->nodes[p->node].stage] += p->busy - (p->until > r->now ? p->until - r->now : 0);
+    if (r->mem_key) {            /* and their memory keys */
+        int64_t j = r->tree_first[t], e = t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv;
+        if (e - j > TREE_PREFETCH / 4) e = j + TREE_PREFETCH / 4;
+        for (; j < e; j += 16) PREFETCH(&r->mem_key[j]);
     }
 }
 
@@ -298,7 +298,7 @@ static void dis_admit(mprt_replay *r, int pe)
         prefetch_tree(r, r->cfg.dis == MPRT_DIS_DYNAMIC ? r->shared_next : e->next);
         r->tree_pe[t] = pe;
         r->tree_admit[t] = r->now;
-        if (r->record_busy) note_busy(r, t);
+        if (r->record_busy) mprt__replay_note_busy(r, t);
         e->live++;
         if (e->live > e->max_live) e->max_live = e->live;
         e->admitted++;
@@ -461,10 +461,16 @@ void mprt__replay_loop(mprt_replay *r)
         int i = -1;
         if (r->nheap) {
             if (r->small) {
-                int k;
-                if (r->pmin < 0)
-                    for (r->pmin = 0, k = 1; k < r->nproc; k++)
-                        r->pmin = r->heap_t[k] < r->heap_t[r->pmin] ? k : r->pmin;
+                if (r->pmin < 0) {
+                    const int64_t *h = r->heap_t;
+                    int64_t low = h[0];
+                    int k, n = r->nproc, m = 0;
+                    for (k = 1; k < n; k++) {
+                        m = h[k] < low ? k : m;
+                        low = h[k] < low ? h[k] : low;
+                    }
+                    r->pmin = m;
+                }
                 i = r->pmin;
                 t = r->heap_t[i] >> SMALL_SHIFT;
             } else {

@@ -93,6 +93,7 @@ typedef struct {
     int phase;                   /* RING_HOP, RING_CLAIM (header at its destination), RING_BODY */
     int copy;                    /* the replica whose receive slot it claimed (a per-replica feed) */
     int event;                   /* pending: RING_ARRIVE (a hop ends) or RING_BODY_DONE */
+    int held[RING_MAX + 1];      /* the buffers it holds, by hop (node x RING_MAX + class) */
 } ring_packet;
 
 /* The ring of one PE. */
@@ -102,7 +103,9 @@ typedef struct {
     unsigned busy;               /* links held (bit n: link n) */
     unsigned ready;              /* nodes whose send FIFO holds a packet not in the network */
     int64_t link_cycles[RING_MAX];
-    int buf[RING_MAX][RING_MAX]; /* node, class: the packet holding it (its source), -1 free */
+    int buf[RING_MAX * RING_MAX]; /* node x RING_MAX + class: the packet holding it (its source), -1 free */
+    int nxt[RING_MAX];           /* the node after node n */
+    int cls[RING_MAX + 1];       /* the buffer class a header takes after h hops */
     int injected[RING_MAX];      /* node n's packet is in the network */
     int writer[RING_MAX];        /* node n's receive FIFO is being written by this packet, -1 none */
     int waiting[RING_MAX];       /* packets waiting for a grant, in the order they began to wait */
@@ -164,7 +167,7 @@ struct mprt_replay {
     ring_t *rings;               /* per PE */
     int64_t *rq_t;               /* pending ring events in the order they run (time, then first
                                   * scheduled first: after the processors' of the same time), */
-    int32_t *rq_s;               /* ... their packets (PE x RING_MAX + source node), */
+    int32_t *rq_s;               /* ... their packets (PE x 4 + source node), */
     size_t rq_head, rq_len, rq_mask;  /* ... a circular list of rq_mask + 1 entries */
     uint16_t *pflits;            /* per visit: flits of the packet that starts it (mprt_replay_set_flits) */
     uint8_t *child_kind;         /* per child[] entry: the ray's kind (kept by the load for set_flits) */
@@ -174,8 +177,15 @@ struct mprt_replay {
     /* level 3: the memories (replay_memory.c) */
     struct mprt__mem *mem;       /* the data of mprt_replay_set_memory, and a run's caches and ports */
     int mem_on;                  /* this run models a memory: start() adds stalls */
+    const int32_t *mem_key;      /* ... then each visit's memory key (-1: it reads none), else NULL */
     int64_t mem_bound;           /* the most cycles this run's stalls can add */
 };
+
+/* The replay's internal functions are called only within the library: hidden, so
+ * that calls between its files are direct (no PLT in a shared build). */
+#if defined(__GNUC__)
+#pragma GCC visibility push(hidden)
+#endif
 
 /* Set r's message (printf-style) and return status. */
 int mprt__replay_fail(mprt_replay *r, int status, const char *fmt, ...)
@@ -210,6 +220,8 @@ void mprt__replay_loop(mprt_replay *r);
  * processor; idle), offer a freed send slot of src to its blocked processors,
  */
 void mprt__replay_start_on(mprt_replay *r, node *nd, int k, int64_t x);
+/* The busy record (replay_run.c): each stage's busy cycles by now, at tree t's admission. */
+void mprt__replay_note_busy(mprt_replay *r, int64_t t);
 void mprt__replay_send_freed(mprt_replay *r, node *src);
 
 /* The ring (replay_ring.c): made for a run, a packet sent (0: the send FIFO is
@@ -227,6 +239,10 @@ INLINE void ring_freed(mprt_replay *r, int pe)
     if (r->rings[pe].claiming) mprt__ring_kick(r, pe);
 }
 void mprt__ring_event(mprt_replay *r);
+
+#if defined(__GNUC__)
+#pragma GCC visibility pop
+#endif
 
 /* ---- queues and FIFOs (the replay's and the ring's) ---------------------------- */
 

@@ -27,8 +27,6 @@ typedef struct {
 } keyinfo;
 
 typedef struct {
-    int64_t *tags;               /* nsets x ways line numbers, most recently used first */
-    int64_t *count;              /* per set: lines held */
     mprt_replay_memory fig;
 } local_mem;
 
@@ -44,7 +42,8 @@ typedef struct {
     int on, cached, pow2, nports;
     int64_t nsets, ways, xfer, latency;
     int64_t *port_free;
-    int64_t *tags, *count;
+    int64_t *tags;               /* per PE nsets x ways line numbers, most recently used first (-1: empty) */
+    int64_t *where;              /* per entry of lines: its set's first way in a PE's tags (s x ways) */
     local_mem *loc;              /* per PE */
 } memory;
 
@@ -219,14 +218,15 @@ void mprt__replay_memory_free_run(mprt_replay *r)
     int t;
     r->mem_on = 0;
     r->mem_bound = 0;
+    r->mem_key = NULL;
     if (!r->mem) return;
     for (t = 0; t < 2; t++) {
         memory *m = &r->mem->m[t];
         free(m->port_free);
         free(m->tags);
-        free(m->count);
+        free(m->where);
         free(m->loc);
-        m->port_free = m->tags = m->count = NULL;
+        m->port_free = m->tags = m->where = NULL;
         m->loc = NULL;
         m->on = 0;
     }
@@ -251,7 +251,7 @@ static int build_one(mprt_replay *r, int t)
 {
     const mprt_replay_config *c = &r->cfg;
     memory *m = &r->mem->m[t];
-    size_t pes = (size_t)c->pes, cells;
+    size_t pes = (size_t)c->pes, cells, a, nl;
     int64_t per;
     m->on = 1;
     m->cached = c->cache_size[t] > 0;
@@ -268,11 +268,15 @@ static int build_one(mprt_replay *r, int t)
         return fail(r, MPRT_ERR_INVALID_ARG, "cache_size[%d]: the %s caches would hold %zu PEs x %lld entries per PE "
                     "(sets x ways the data can fill), more than 2^28 in all", t, NAME[t], pes, (long long)per);
     cells = (size_t)per * pes;
+    nl = (size_t)m->info[m->nkeys].start;
     m->tags = malloc(cells * sizeof *m->tags);
-    m->count = calloc((size_t)m->nsets * pes, sizeof *m->count);
-    if (!m->tags || !m->count)
+    m->where = malloc((nl + 1) * sizeof *m->where);
+    if (!m->tags || !m->where)
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "cache_size[%d]: out of memory for the %s caches of %zu PEs", t,
                     NAME[t], pes);
+    for (a = 0; a < cells; a++) m->tags[a] = -1;     /* (line numbers are >= 0) */
+    for (a = 0; a < nl; a++)
+        m->where[a] = (m->pow2 ? (m->lines[a] & (m->nsets - 1)) : m->lines[a] % m->nsets) * m->ways;
     return MPRT_OK;
 }
 
@@ -302,31 +306,26 @@ int mprt__replay_memory_build(mprt_replay *r)
                         "the visits' cycles, could exceed 2^62 cycles", t, (long long)m->reads, (long long)each);
         r->mem_bound += m->reads * each;
         r->mem_on = 1;
+        r->mem_key = r->mem->key;
     }
     return MPRT_OK;
 }
 
-/* Line x through a cache (tags, count: one PE's): 1 on a hit.  It becomes its set's most
- * recent (front); a miss drops the set's least recent when the set is full. */
-static inline int cache_access(const memory *m, int64_t *tags, int64_t *count, int64_t x)
+/* Line x through a set of a cache (w: its ways, most recent first; -1 empty), not
+ * its most recent line: 1 on a hit.  It becomes the set's most recent (front), the
+ * lines before it moving back one; a miss drops the least recent (or an empty way). */
+static inline int lru_touch(int64_t *w, int64_t ways, int64_t x)
 {
-    int64_t s = m->pow2 ? (x & (m->nsets - 1)) : x % m->nsets, n = count[s], i;
-    int64_t *w = tags + s * m->ways;
-    if (n && w[0] == x) return 1;
-    for (i = 1; i < n; i++)
-        if (w[i] == x) break;
-    if (i < n) {
-        for (; i > 0; i--) w[i] = w[i - 1];
-        w[0] = x;
-        return 1;
-    }
-    if (n < m->ways)
-        count[s] = n + 1;
-    else
-        n = m->ways - 1;
-    for (i = n; i > 0; i--) w[i] = w[i - 1];
+    int64_t i, prev = w[0], cur;
+    int found = 0;
     w[0] = x;
-    return 0;
+    for (i = 1; i < ways; i++) {      /* no branch on where x is: ways is the trip count */
+        cur = w[i];
+        w[i] = found ? cur : prev;
+        found |= cur == x;
+        prev = cur;
+    }
+    return found;
 }
 
 int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
@@ -336,42 +335,49 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     int pe = r->procs[i].pe;
     memory *m;
     local_mem *lm;
-    int64_t k, a, b, now = r->now, done = now, port, xfer, lat, hits = 0, reads = 0, queued = 0;
-    int64_t *tags = NULL, *count = NULL;
+    const keyinfo *ki;
+    int64_t k, a, b, now = r->now, done = now, port, xfer, lat, reads = 0, queued = 0;
     const int64_t *lines;
     if (key == -1) return 0;
     m = &M->m[key >= 0 ? 0 : 1];
     if (!m->on) return 0;
     k = key >= 0 ? key : -2 - (int64_t)key;
     lm = &m->loc[pe];
-    lm->fig.resident_accesses += m->info[k].items;
-    lm->fig.resident_hits += m->info[k].res;
-    a = m->info[k].start;
-    b = m->info[k + 1].start;
+    ki = &m->info[k];
+    lm->fig.resident_accesses += ki->items;
+    lm->fig.resident_hits += ki->res;
+    a = ki->start;
+    b = ki[1].start;
     if (a == b) return 0;
     port = m->port_free[m->nports == 1 ? 0 : pe];
     xfer = m->xfer;
     lat = m->latency;
     lines = m->lines;
     if (m->cached) {
-        tags = m->tags + (size_t)pe * (size_t)m->nsets * (size_t)m->ways;
-        count = m->count + (size_t)pe * (size_t)m->nsets;
+        int64_t *tags = m->tags + (size_t)pe * (size_t)m->nsets * (size_t)m->ways, ways = m->ways;
+        const int64_t *where = m->where;
         lm->fig.cache_accesses += b - a;
-    }
-    for (; a < b; a++) {
-        int64_t s;
-        if (m->cached && cache_access(m, tags, count, lines[a])) {
-            hits++;
-            continue;
+        lm->fig.cache_hits += b - a;
+        for (; a < b; a++) {
+            int64_t x = lines[a], *w = tags + where[a], s;
+            if (w[0] == x || lru_touch(w, ways, x)) continue;     /* a hit */
+            s = done > port ? done : port;      /* the port's first free cycle */
+            port = s + xfer;
+            queued += s - done;
+            reads++;
+            done = s + xfer + lat;
         }
-        s = done > port ? done : port;      /* the port's first free cycle */
-        port = s + xfer;
-        queued += s - done;
-        reads++;
-        done = s + xfer + lat;
+        lm->fig.cache_hits -= reads;
+    } else {
+        for (; a < b; a++) {
+            int64_t s = done > port ? done : port;
+            port = s + xfer;
+            queued += s - done;
+            reads++;
+            done = s + xfer + lat;
+        }
     }
     m->port_free[m->nports == 1 ? 0 : pe] = port;
-    lm->fig.cache_hits += hits;
     lm->fig.gm_accesses += reads;
     lm->fig.gm_busy += reads * xfer;
     lm->fig.gm_queued += queued;

@@ -28,9 +28,6 @@
  * Nothing is allocated per packet or per event. */
 #include "replay.h"
 
-INLINE int ring_class(const ring_t *R, int hop) { return hop < R->C - 1 ? hop : R->C - 1; }
-
-INLINE int ring_next(const ring_t *R, int n) { return n + 1 == R->K ? 0 : n + 1; }
 
 int mprt__ring_build(mprt_replay *r)
 {
@@ -50,8 +47,10 @@ int mprt__ring_build(mprt_replay *r)
         R->nd = &r->nodes[p * r->cfg.nstages];
         for (n = 0; n < RING_MAX; n++) {
             R->writer[n] = -1;
-            for (c = 0; c < RING_MAX; c++) R->buf[n][c] = -1;
+            R->nxt[n] = n + 1 >= R->K ? 0 : n + 1;
+            for (c = 0; c < RING_MAX; c++) R->buf[n * RING_MAX + c] = -1;
         }
+        for (n = 0; n <= RING_MAX; n++) R->cls[n] = n < R->C - 1 ? n : R->C - 1;
     }
     return MPRT_OK;
 }
@@ -69,7 +68,7 @@ INLINE void ring_at(mprt_replay *r, int pe, int q, int64_t delay, int what)
         r->rq_s[(r->rq_head + i) & m] = r->rq_s[(r->rq_head + i - 1) & m];
     }
     r->rq_t[(r->rq_head + i) & m] = t;
-    r->rq_s[(r->rq_head + i) & m] = pe * RING_MAX + q;
+    r->rq_s[(r->rq_head + i) & m] = pe * 4 + q;
 }
 
 int mprt__ring_send(mprt_replay *r, node *src, int64_t x, int g)
@@ -80,7 +79,7 @@ int mprt__ring_send(mprt_replay *r, node *src, int64_t x, int g)
     f_put(r, &src->sf, x * 4 + g);
     if (R->injected[n]) return 1;       /* it waits its turn */
     R->ready |= 1u << n;
-    if (R->buf[n][0] < 0) mprt__ring_kick(r, src->pe);
+    if (R->buf[n * RING_MAX] < 0) mprt__ring_kick(r, src->pe);
     return 1;
 }
 
@@ -114,8 +113,8 @@ static void complete(mprt_replay *r, int pe, int q)
     ring_t *R = &r->rings[pe];
     ring_packet *k = &R->pkt[q];
     node *d = &R->nd[k->dst], *s = &R->nd[k->src];
-    int i, n = k->src;
-    for (i = 0; i <= k->hops; i++, n = ring_next(R, n)) R->buf[n][ring_class(R, i)] = -1;
+    int i;
+    for (i = 0; i <= k->hops; i++) R->buf[k->held[i]] = -1;
     R->writer[k->dst] = -1;
     if (d->feed) {
         if (copy_idle(r, d, k->copy)) {
@@ -145,11 +144,12 @@ static int step(mprt_replay *r, int pe, int q)
     ring_packet *k = &R->pkt[q];
     int64_t ft = r->cfg.flit_time, body;
     if (k->phase == RING_HOP) {
-        int n = k->node, m = ring_next(R, n), c = ring_class(R, k->hops + 1);
-        if ((R->busy >> n & 1) || R->buf[m][c] >= 0) return 0;
+        int n = k->node, b = R->nxt[n] * RING_MAX + R->cls[k->hops + 1];
+        if ((R->busy >> n & 1) || R->buf[b] >= 0) return 0;
         R->busy |= 1u << n;
         R->link_cycles[n] += ft;
-        R->buf[m][c] = q;
+        R->buf[b] = q;
+        k->held[k->hops + 1] = b;
         ring_at(r, pe, q, ft, RING_ARRIVE);
         return 1;
     }
@@ -179,8 +179,8 @@ static int step(mprt_replay *r, int pe, int q)
     if (R->busy & k->path) return 0;
     R->busy |= k->path;
     {
-        int i, n = k->src;
-        for (i = 0; i < k->hops; i++, n = ring_next(R, n)) R->link_cycles[n] += body * ft;
+        unsigned m;
+        for (m = k->path; m; m &= m - 1) R->link_cycles[ctz64(m)] += body * ft;
     }
     ring_at(r, pe, q, body * ft, RING_BODY_DONE);
     return 1;
@@ -202,7 +202,7 @@ void mprt__ring_kick(mprt_replay *r, int pe)
             const queue *sf;
             n = ctz64(m);
             sf = &R->nd[n].sf.q;
-            if (R->buf[n][0] < 0) {
+            if (R->buf[n * RING_MAX] < 0) {
                 int64_t e = sf->buf[sf->head];
                 ring_packet *k = &R->pkt[n];
                 k->x = e >> 2;
@@ -214,7 +214,8 @@ void mprt__ring_kick(mprt_replay *r, int pe)
                 k->copy = -1;
                 k->event = RING_NONE;
                 k->flits = r->pflits[k->x];
-                R->buf[n][0] = n;
+                R->buf[n * RING_MAX] = n;
+                k->held[0] = n * RING_MAX;
                 R->injected[n] = 1;
                 R->ready &= ~(1u << n);
                 R->waiting[R->nwaiting++] = n;
@@ -233,7 +234,7 @@ void mprt__ring_kick(mprt_replay *r, int pe)
 
 void mprt__ring_event(mprt_replay *r)
 {
-    int slot = r->rq_s[r->rq_head], pe = slot / RING_MAX, q = slot % RING_MAX;
+    int slot = r->rq_s[r->rq_head], pe = slot >> 2, q = slot & 3;
     ring_t *R = &r->rings[pe];
     ring_packet *k = &R->pkt[q];
     r->rq_head = (r->rq_head + 1) & r->rq_mask;
@@ -242,7 +243,7 @@ void mprt__ring_event(mprt_replay *r)
         int n = k->node;
         R->busy &= ~(1u << n);
         k->path |= 1u << n;
-        k->node = ring_next(R, n);
+        k->node = R->nxt[n];
         k->hops++;
         k->phase = k->node == k->dst ? RING_CLAIM : RING_HOP;
         R->claiming += k->phase == RING_CLAIM;
@@ -324,7 +325,7 @@ int mprt_replay_get_ring(const mprt_replay *r, int pe, int64_t *buffers, size_t 
     if (!buffers || (R->nwaiting && !waiting)) return MPRT_ERR_INVALID_ARG;
     for (n = 0; n < R->K; n++)
         for (c = 0; c < R->C; c++) {
-            int q = R->buf[n][c];
+            int q = R->buf[n * RING_MAX + c];
             buffers[n * R->C + c] = q < 0 ? -1 : R->pkt[q].src * 4 + R->pkt[q].dst;
         }
     for (i = 0; i < R->nwaiting; i++) {

@@ -43,6 +43,19 @@ void mprt__replay_free_run(mprt_replay *r)
 
 /* ---- running -------------------------------------------------------------------- */
 
+/* Each stage's busy cycles by now, at tree t's admission. */
+void mprt__replay_note_busy(mprt_replay *r, int64_t t)
+{
+    int64_t *b = r->tree_busy + t * r->cfg.nstages;
+    int i;
+    memset(b, 0, (size_t)r->cfg.nstages * sizeof *b);
+    for (i = 0; i < r->nproc; i++) {
+        const proc *p = &r->procs[i];
+        b[r->nodes[p->node].stage] += p->busy - (p->until > r->now ? p->until - r->now : 0);
+    }
+}
+
+
 static int build(mprt_replay *r)
 {
     const mprt_replay_config *c = &r->cfg;

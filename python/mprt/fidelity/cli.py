@@ -30,9 +30,12 @@ import os
 import sys
 import time
 
+import numpy as np
+
 from ..errors import InvalidArgument
 from ..machine import cli as machine_cli
 from ..machine.errors import ConfigError
+from ..trace import TraceError
 from .analytical import Analytical
 from .ladder import measure
 from .levels import ENGINES, Evaluator, native_level
@@ -160,23 +163,74 @@ PHASE_VISITS = 1 << 18      # traces of this many visits or more get phase lines
 PROBE_RUNS = 64             # the estimate replays runs of trees holding 1/PROBE_RUNS of the visits first
 
 
+PROBE_SLICES = 4            # ... in this many stretches spread over the trace
+
+
+def _probe_sample(trace):
+    """The probe's sample without reading the whole trace: PROBE_SLICES stretches of consecutive
+    visits spread over it (1/PROBE_RUNS of them in all), each cut to the whole trees whose rays
+    it holds (a tracer writes a tree's rays and visits together), renumbered; None when that
+    leaves nothing.  Only a time estimate rests on it: a trace in another order gives a sample
+    the replay refuses (then the runs of ``sample_trace`` are taken)."""
+    from ..trace import ARRAYS, PRIMARY, Trace
+
+    rays, visits = trace.rays, trace.visits
+    nv, nr = len(visits), len(rays)
+    per = nv // (PROBE_RUNS * PROBE_SLICES)
+    if per < 1 or nr < 2:
+        return None
+    rs, vs, base = [], [], 0
+    for i in range(PROBE_SLICES):
+        a = (2 * i + 1) * nv // (2 * PROBE_SLICES)
+        v = np.array(visits[a:a + per])
+        lo, hi = int(v["ray"][0]), int(v["ray"][-1])     # (the trees of these two may be cut)
+        if hi <= lo + 1:
+            continue
+        kind = np.asarray(rays["kind"][lo + 1:hi + 1])
+        prim = np.flatnonzero(kind == PRIMARY) + lo + 1
+        if len(prim) < 2:
+            continue
+        r0, r1 = int(prim[0]), int(prim[-1])        # whole trees: from the first primary after lo to hi's
+        v = v[(v["ray"] >= r0) & (v["ray"] < r1)]
+        r = np.array(rays[r0:r1])
+        v["ray"] += base - r0
+        r["id"] += base - r0
+        r["parent"] = np.where(r["parent"] >= 0, r["parent"] + (base - r0), -1)
+        rs.append(r)
+        vs.append(v)
+        base += r1 - r0
+    if not base:
+        return None
+    arrays = {k: getattr(trace, k) for k in ARRAYS}
+    arrays["rays"], arrays["visits"] = np.concatenate(rs), np.concatenate(vs)
+    return Trace.from_arrays(dict(trace.meta), arrays)
+
+
 def _probe(trace, cfg, level: int) -> dict:
     """Seconds each phase of a compiled replay of ``trace`` should take: the same phases timed on
     runs of its trees holding 1/PROBE_RUNS of its visits (sample_trace), scaled by the visits."""
     from .compiled import Compiled, costs_for
     from .levels import at_level
 
-    st = sample_trace(trace, f"runs:{PROBE_RUNS}:1")
-    n = len(st.trace.visits)
+    sample = _probe_sample(trace)
+    cfg_l = at_level(cfg, level)
+    try:
+        if sample is not None:
+            costs = costs_for(sample, cfg_l)        # (a trace not in tree order may not load: then runs)
+            Compiled(sample, costs)
+    except (TraceError, ValueError):
+        sample = None
+    if sample is None:
+        sample = sample_trace(trace, f"runs:{PROBE_RUNS}:1").trace
+    n = len(sample.visits)
     if not n:
         return {}
     scale = len(trace.visits) / n
-    cfg_l = at_level(cfg, level)
-    costs_for(st.trace, cfg_l)      # the first costing also builds the cost model: not the visits' time
+    costs_for(sample, cfg_l)        # the first costing also builds the cost model: not the visits' time
     t0 = time.perf_counter()
-    costs = costs_for(st.trace, cfg_l)
+    costs = costs_for(sample, cfg_l)
     t1 = time.perf_counter()
-    comp = Compiled(st.trace, costs)
+    comp = Compiled(sample, costs)
     t2 = time.perf_counter()
     try:
         comp.cycles(cfg_l)

@@ -130,19 +130,26 @@ class Compiled:
             raise (TraceError(msg) if msg.startswith("cannot replay this trace:") else ValueError(msg)) from None
         self.info = _LIB.replay_get_info(self.h)
         self.flits = hasattr(costs, "flits")
+        self._flits = None       # the ring's packet sizes, handed to C with the first ring run
         if self.flits:      # the ring's packet sizes, as the SimPy model's Replay takes them
             flits = np.asarray(costs.flits)
             if flits.shape != (len(trace.visits),):
                 raise ValueError(f"costs.flits has shape {flits.shape}, the trace has {len(trace.visits)} visits")
-            if packet_flits is None:
-                from ..cost import CostModel
+            self._flits = (flits, packet_flits, int(getattr(costs, "inject_flits", 0)))
 
-                packet_flits = CostModel.default().packet_flits
-            kids = [packet_flits("SC", "OS", k) for k in range(len(RAY_KINDS))]
-            try:
-                _LIB.replay_set_flits(self.h, flits, kids, int(getattr(costs, "inject_flits", 0)))
-            except InvalidArgument as e:
-                raise ValueError(str(e)) from None
+    def _set_flits(self) -> None:
+        """Hand the C replay the packets' sizes (once: levels 1 and 3 without a ring need none)."""
+        flits, packet_flits, inject = self._flits
+        if packet_flits is None:
+            from ..cost import CostModel
+
+            packet_flits = CostModel.default().packet_flits
+        kids = [packet_flits("SC", "OS", k) for k in range(len(RAY_KINDS))]
+        try:
+            _LIB.replay_set_flits(self.h, flits, kids, inject)
+        except InvalidArgument as e:
+            raise ValueError(str(e)) from None
+        self._flits = ()
 
     def _configure(self, config: SystemConfig) -> None:
         why = unsupported(config)
@@ -150,6 +157,8 @@ class Compiled:
             raise ConfigError(why)
         if config.ring is not None and not self.flits:
             raise ValueError("costs.flits: the ring needs each visit's packet size (the costs have no flits)")
+        if config.ring is not None and self._flits:
+            self._set_flits()
         where = f"{config.source}: " if config.source else ""
         try:
             _LIB.replay_set_config(self.h, c_config(config, self.gen_process + self.gen_send))
