@@ -1,6 +1,7 @@
 """The Python fuzz target (tests/fuzz/fuzz_inputs.py) replayed on its corpus and on every
 input that ever failed: each is accepted or refused with mprt's own one-line error,
-never a traceback (issue 19).  The fuzzer itself (Atheris) runs with make fuzz-python."""
+never a traceback, and a trace file that passes stats --check replays the same on SimPy
+and the compiled replay (issue 19).  The fuzzer itself (Atheris) runs with make fuzz-python."""
 from pathlib import Path
 
 import pytest
@@ -17,7 +18,7 @@ INPUTS = sorted(p for d in ("corpus_inputs", "crashes_inputs") for p in (FUZZ / 
 
 def test_corpus_is_there():
     kinds = {p.read_bytes()[:1] for p in INPUTS}
-    assert {b"\x00", b"\x01", b"\x02"} <= kinds
+    assert {b"\x00", b"\x01", b"\x02", b"\x03"} <= kinds
 
 
 @pytest.mark.parametrize("path", INPUTS, ids=lambda p: p.name[:12])
