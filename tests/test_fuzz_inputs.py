@@ -24,3 +24,44 @@ def test_corpus_is_there():
 @pytest.mark.parametrize("path", INPUTS, ids=lambda p: p.name[:12])
 def test_replay(path):
     one_input(path.read_bytes())
+
+
+# ---- findings of the fuzzers, as named tests ---------------------------------------------
+
+def _patched_zip(tmp_path, member, field, value):
+    """The small trace with one field of a member's zip headers (central directory, and the
+    local header for flags and method) set to value: 'version' needed to extract, 'flags',
+    'method' of compression."""
+    import zipfile
+
+    import mprt
+
+    data = bytearray((FUZZ / "trace_base.npz").read_bytes())
+    with zipfile.ZipFile(FUZZ / "trace_base.npz") as z:
+        info = z.getinfo(member)
+    central = {"version": 6, "flags": 8, "method": 10}[field]
+    local = {"version": 4, "flags": 6, "method": 8}[field]
+    at = 0
+    while True:
+        at = data.index(b"PK\x01\x02", at + 1)
+        n = int.from_bytes(data[at + 28:at + 30], "little")
+        if data[at + 46:at + 46 + n] == member.encode():
+            break
+    data[at + central:at + central + 2] = value.to_bytes(2, "little")
+    data[info.header_offset + local:info.header_offset + local + 2] = value.to_bytes(2, "little")
+    path = tmp_path / "z.npz"
+    path.write_bytes(bytes(data))
+    with pytest.raises(mprt.TraceError) as e:
+        mprt.load_trace(path)
+    return str(e.value)
+
+
+@pytest.mark.parametrize("member", ["meta.json", "visits.npy"])
+@pytest.mark.parametrize("field, value", [("version", 251), ("method", 99), ("method", 12), ("method", 14),
+                                          ("flags", 1)])
+def test_zip_headers_of_another_kind_are_one_line(tmp_path, member, field, value):
+    """A member needing a newer zip (Atheris found 'zip file version 25.1' raised as
+    NotImplementedError), compressed by an unknown method, by bzip2 or LZMA over deflate
+    data, or marked encrypted: one TraceError of one line naming the file."""
+    msg = _patched_zip(tmp_path, member, field, value)
+    assert "\n" not in msg and "z.npz" in msg, msg

@@ -358,8 +358,16 @@ def _member_offset(f, info) -> int:
 
 META_MAX = 1 << 20          # bytes of meta.json
 DEFLATE_RATIO_MAX = 1032    # deflate's largest expansion: what a member holds is bounded by the file
-_NPY_ERRORS = (ValueError, EOFError, SyntaxError, OverflowError, RecursionError, MemoryError, zipfile.BadZipFile,
-               OSError, zlib.error, tokenize.TokenError, TraceError)
+# What zipfile raises for a damaged or foreign archive or member, besides BadZipFile: a newer
+# zip version, an unknown compression method (NotImplementedError), an encrypted member
+# (RuntimeError), a damaged deflate, bzip2 or LZMA stream (zlib.error, OSError, LZMAError).
+try:
+    from lzma import LZMAError as _LZMAError
+except ImportError:             # Python built without lzma: zipfile cannot raise it either
+    _LZMAError = zlib.error
+_ZIP_ERRORS = (zipfile.BadZipFile, zlib.error, _LZMAError, OSError, ValueError, EOFError, NotImplementedError,
+               RuntimeError)
+_NPY_ERRORS = _ZIP_ERRORS + (SyntaxError, OverflowError, RecursionError, MemoryError, tokenize.TokenError, TraceError)
 
 
 def _npy_header(f, size: int):
@@ -408,7 +416,7 @@ def _read_meta(path, z, names) -> dict:
         raise TraceError(f"{path}: meta.json is over {META_MAX} bytes")
     try:
         meta = json.loads(z.read("meta.json"))
-    except (ValueError, RecursionError, zipfile.BadZipFile, zlib.error, OSError) as e:
+    except _ZIP_ERRORS + (RecursionError,) as e:
         reason = "nested too deeply" if isinstance(e, RecursionError) else str(e).splitlines()[0] if str(e) else \
             type(e).__name__
         raise TraceError(f"{path}: meta.json is unreadable ({reason})") from None
@@ -469,8 +477,9 @@ def read(path, mmap: bool | None = None, verify: bool = True):
     try:
         z = zipfile.ZipFile(path)
         size = os.path.getsize(path)
-    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as e:
-        raise TraceError(f"{path}: not a readable trace file ({e})") from None
+    except _ZIP_ERRORS as e:
+        reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise TraceError(f"{path}: not a readable trace file ({reason:.200})") from None
     if mmap is None:
         mmap = size > (256 << 20)
     with z, open(path, "rb") as raw:
