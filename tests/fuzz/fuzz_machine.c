@@ -81,8 +81,9 @@ static int add_visit(trace *t, int64_t ray, int stage, int made, bytes *b)
 
 /* Rays of one tree, breadth first (a parent's id below its children's), each
  * ray's visits together: (OS, IC) pairs, then SC making its children, or a last
- * OS (the ray left).  Returns -1 when the arrays are full. */
-static int add_tree(trace *t, bytes *b)
+ * OS (the ray left).  Returns -1 when the arrays are full (add_tree then takes
+ * the partial tree back: rays without visits would make the trace ill formed). */
+static int add_tree_records(trace *t, bytes *b)
 {
     size_t first = t->nr, r;
     if (t->nr == MAX_RAYS) return -1;
@@ -117,6 +118,15 @@ static int add_tree(trace *t, bytes *b)
         }
     }
     return 0;
+}
+
+static int add_tree(trace *t, bytes *b)
+{
+    size_t nr = t->nr, nv = t->nv;
+    if (add_tree_records(t, b) == 0) return 0;
+    t->nr = nr;
+    t->nv = nv;
+    return -1;
 }
 
 static void config(mprt_replay_config *c, bytes *b)
