@@ -8,7 +8,7 @@ import simpy
 from simpy.core import EmptySchedule
 
 from ..trace import RAY_KINDS
-from .config import SUBTASKS, SystemConfig
+from .config import SUBTASKS, SystemConfig, check_config
 from .errors import ConfigError, DeadlockError
 from .memory import Cache, DataLayout, GlobalMemory, LocalMemory, StageMemory
 from .pe import PE
@@ -26,7 +26,7 @@ class System:
 
     def __init__(self, trace, config: SystemConfig, cost_model=None, costs=None, packet_flits=None,
                  record: bool = False, timeline: bool = False):
-        self.config = config
+        self.config = config = check_config(config)
         self.trace = trace
         self.env = simpy.Environment()
         self.log = [] if record else None
