@@ -107,7 +107,12 @@ def one_input(data: bytes) -> None:
 def main(argv) -> None:
     import atheris
 
-    with atheris.instrument_imports():
+    # mprt and the parsers it hands hostile bytes to (not numpy, SimPy...: instrumented,
+    # they would slow every run several times for coverage that is not mprt's)
+    with atheris.instrument_imports(include=["mprt", "zipfile", "tomllib"]):
+        import tomllib  # noqa: F401
+        import zipfile  # noqa: F401
+
         import mprt  # noqa: F401
         import mprt.explore  # noqa: F401
         import mprt.fidelity.compiled  # noqa: F401
