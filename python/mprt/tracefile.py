@@ -132,21 +132,36 @@ def _gf2_times(mat: list, vec: int) -> int:
     return out
 
 
+_ZERO_BYTES_OPS: tuple = ()   # [k]: the operator carrying a CRC through 2^k zero bytes (made once)
+
+
+def _zero_bytes_ops() -> tuple:
+    global _ZERO_BYTES_OPS
+    if not _ZERO_BYTES_OPS:
+        op = [0xEDB88320] + [1 << n for n in range(31)]       # one zero bit
+        for _ in range(3):                                      # squared: two, four, eight (one zero byte)
+            op = [_gf2_times(op, v) for v in op]
+        ops = []
+        for _ in range(64):                                     # 1, 2, 4, ... 2^63 zero bytes
+            ops.append(op)
+            op = [_gf2_times(op, v) for v in op]
+        _ZERO_BYTES_OPS = tuple(ops)
+    return _ZERO_BYTES_OPS
+
+
 def crc32_combine(crc1: int, crc2: int, len2: int) -> int:
     """The CRC-32 of A + B from crc1 of A, crc2 of B and len2 = len(B) in bytes (zlib's
-    crc32_combine: crc1 carried through len2 zero bytes by squaring the one-zero-bit operator)."""
+    crc32_combine: crc1 carried through len2 zero bytes, an operator per bit of len2, the
+    operators for 2^k zero bytes squared once per process rather than once per call)."""
     if len2 <= 0:
         return crc1
-    op = [0xEDB88320] + [1 << n for n in range(31)]       # one zero bit
-    for _ in range(3):                                      # squared: two, four, eight (one zero byte)
-        op = [_gf2_times(op, v) for v in op]
-    while True:                                             # len2's bits, lowest first, squaring as it goes
+    ops = _zero_bytes_ops()
+    k = 0
+    while len2:
         if len2 & 1:
-            crc1 = _gf2_times(op, crc1)
+            crc1 = _gf2_times(ops[k], crc1)
         len2 >>= 1
-        if not len2:
-            break
-        op = [_gf2_times(op, v) for v in op]
+        k += 1
     return crc1 ^ crc2
 
 

@@ -121,6 +121,7 @@ def main(argv) -> None:
         import mprt.tracecheck  # noqa: F401
         import mprt.tracefile  # noqa: F401
         import mprt.tracevalid  # noqa: F401
+    one_input(b"\x03\x01")   # warm: the cost model's kernel schedules, the engines, the checksums
     atheris.Setup(argv, one_input)
     atheris.Fuzz()
 
