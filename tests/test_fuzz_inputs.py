@@ -87,3 +87,25 @@ def test_crc32_combine_over_any_length_is_the_operator_squared():
 
     for n in (1, 2, 3, 48, 16688, (1 << 26) + 5, (1 << 40) + 12345, (1 << 63) - 1):
         assert tracefile.crc32_combine(0x12345678, 0x9ABCDEF0, n) == reference(0x12345678, 0x9ABCDEF0, n), n
+
+
+@pytest.mark.parametrize("rules", [["paper"], {"paper": 1}])
+def test_meta_rules_of_another_type_are_one_line(tmp_path, rules):
+    """meta.json 'rules' as a list or an object (Atheris found TypeError: unhashable type):
+    one TraceError naming the field."""
+    import json
+    import zipfile
+
+    import mprt
+
+    with zipfile.ZipFile(FUZZ / "trace_base.npz") as z:
+        members = {n: z.read(n) for n in z.namelist()}
+    meta = json.loads(members["meta.json"])
+    meta["rules"] = rules
+    members["meta.json"] = json.dumps(meta).encode()
+    path = tmp_path / "r.npz"
+    with zipfile.ZipFile(path, "w") as z:
+        for n, b in members.items():
+            z.writestr(n, b)
+    with pytest.raises(mprt.TraceError, match=r"^[^\n]*meta.json field 'rules': must be one of [^\n]*$"):
+        mprt.load_trace(path)
