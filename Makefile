@@ -18,7 +18,7 @@ SRC := $(wildcard c/src/*.c)
 HDR := c/include/mprt.h $(wildcard c/src/*.h)
 TESTS := $(patsubst tests/c/%.c,$(B)/%,$(wildcard tests/c/test_*.c))
 
-.PHONY: all test ctest pytest demo bench asan asan-py tsan single clean install fuzz fuzz-replay fuzz-python \
+.PHONY: all test ctest pytest demo bench asan asan-py tsan single clean install fuzz fuzz-replay fuzz-lib fuzz-nff fuzz-machine fuzz-python \
 	baselines baselines-update
 
 all: $(B)/libmprt.a $(TESTS)
@@ -143,37 +143,50 @@ $(B)/fuzz_replay: $(FUZZ_SRC) tests/fuzz/replay.c $(B)/libmprt.a
 $(B)/fuzz_machine_replay: tests/fuzz/fuzz_machine.c tests/fuzz/replay.c $(B)/libmprt.a
 	$(CC) $(CFLAGS) tests/fuzz/fuzz_machine.c tests/fuzz/replay.c $(B)/libmprt.a -o $@ $(LDLIBS)
 
-# libFuzzer on the same target, with Debian's clang (apt-get install clang):
-# FUZZ_TIME seconds from the seed corpus and dictionary in tests/fuzz; new
-# inputs go to build/fuzz/corpus, failing ones to build/fuzz/found (copy
-# those into tests/fuzz/crashes once fixed).
+# make fuzz: every fuzz target in turn, FUZZ_TIME seconds each (default 60): the C targets
+# under libFuzzer with Debian's clang (apt-get install clang) and the sanitizers, then the
+# Python one under Atheris.  Each starts from its seed corpus in tests/fuzz; new inputs go to
+# build/fuzz/corpus*, failing ones to build/fuzz/found* (fix, then copy them into the
+# matching tests/fuzz/crashes* directory: make test replays them).  One target alone:
+# make fuzz-nff, fuzz-machine or fuzz-python; FUZZ_ARGS adds libFuzzer flags (-jobs=N ...).
 FUZZ_TIME ?= 60
 FUZZ_CC ?= clang
-fuzz:
+FUZZ_ARGS ?=
+FUZZ_FLAGS = -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all
+fuzz: fuzz-nff fuzz-machine fuzz-python
+
+fuzz-lib:
 	@command -v $(FUZZ_CC) >/dev/null || { echo "make fuzz needs clang: apt-get install clang" >&2; exit 1; }
 	$(MAKE) B=build/fuzz CC=$(FUZZ_CC) OPT="-O1 -g" WARN="-std=c99" \
 	    EXTRA="-fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all" build/fuzz/libmprt.a
+
+# The NFF parser, grids, renders, intersection (tests/fuzz/fuzz_nff.c).
+fuzz-nff: fuzz-lib
 	$(FUZZ_CC) -O1 -g -std=c99 -ffp-contract=off -D_POSIX_C_SOURCE=200809L -Ic/include -Ic/src \
-	    -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all $(FUZZ_SRC) build/fuzz/libmprt.a \
-	    -lm -lpthread -o build/fuzz/fuzz_nff
+	    $(FUZZ_FLAGS) $(FUZZ_SRC) build/fuzz/libmprt.a -lm -lpthread -o build/fuzz/fuzz_nff
 	@mkdir -p build/fuzz/corpus build/fuzz/found
 	build/fuzz/fuzz_nff -dict=tests/fuzz/nff.dict -max_total_time=$(FUZZ_TIME) -timeout=10 -print_final_stats=1 \
-	    -artifact_prefix=build/fuzz/found/ build/fuzz/corpus tests/fuzz/corpus
+	    -artifact_prefix=build/fuzz/found/ $(FUZZ_ARGS) build/fuzz/corpus tests/fuzz/corpus
+
+# The compiled replay's load and run (tests/fuzz/fuzz_machine.c): configurations, and trace
+# arrays made, damaged or given as raw bytes.
+fuzz-machine: fuzz-lib
 	$(FUZZ_CC) -O1 -g -std=c99 -D_POSIX_C_SOURCE=200809L -Ic/include -Ic/src \
-	    -fsanitize=fuzzer,address,undefined -fno-sanitize-recover=all tests/fuzz/fuzz_machine.c build/fuzz/libmprt.a \
-	    -lm -lpthread -o build/fuzz/fuzz_machine
+	    $(FUZZ_FLAGS) tests/fuzz/fuzz_machine.c build/fuzz/libmprt.a -lm -lpthread -o build/fuzz/fuzz_machine
 	@mkdir -p build/fuzz/corpus_machine build/fuzz/found_machine
 	build/fuzz/fuzz_machine -max_total_time=$(FUZZ_TIME) -timeout=10 -rss_limit_mb=2048 -print_final_stats=1 \
-	    -artifact_prefix=build/fuzz/found_machine/ build/fuzz/corpus_machine tests/fuzz/corpus_machine
+	    -artifact_prefix=build/fuzz/found_machine/ $(FUZZ_ARGS) build/fuzz/corpus_machine tests/fuzz/corpus_machine
 
 # Atheris over the Python input surfaces (machine configurations, design spaces, sweep
-# specs: tests/fuzz/fuzz_inputs.py) for FUZZ_TIME seconds; its corpus replays in make test
-# (tests/test_fuzz_inputs.py).  Atheris is installed into the venv here, not by make test.
+# specs, trace files into stats --check and both engines: tests/fuzz/fuzz_inputs.py); its
+# corpus replays in make test (tests/test_fuzz_inputs.py).  Atheris is installed into the
+# venv here, not by make test.
 fuzz-python: $(VENV)/.installed
 	$(PY) -m pip install -q atheris
 	@mkdir -p build/fuzz/corpus_inputs build/fuzz/found_inputs
 	$(PY) tests/fuzz/fuzz_inputs.py -max_total_time=$(FUZZ_TIME) -rss_limit_mb=2048 -timeout=20 \
-	    -print_final_stats=1 -artifact_prefix=build/fuzz/found_inputs/ build/fuzz/corpus_inputs tests/fuzz/corpus_inputs
+	    -print_final_stats=1 -artifact_prefix=build/fuzz/found_inputs/ $(FUZZ_ARGS) build/fuzz/corpus_inputs \
+	    tests/fuzz/corpus_inputs
 
 # The C tests under ThreadSanitizer (threaded renders, concurrent tile traces).
 tsan:

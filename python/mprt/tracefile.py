@@ -132,21 +132,36 @@ def _gf2_times(mat: list, vec: int) -> int:
     return out
 
 
+_ZERO_BYTES_OPS: tuple = ()   # [k]: the operator carrying a CRC through 2^k zero bytes (made once)
+
+
+def _zero_bytes_ops() -> tuple:
+    global _ZERO_BYTES_OPS
+    if not _ZERO_BYTES_OPS:
+        op = [0xEDB88320] + [1 << n for n in range(31)]       # one zero bit
+        for _ in range(3):                                      # squared: two, four, eight (one zero byte)
+            op = [_gf2_times(op, v) for v in op]
+        ops = []
+        for _ in range(64):                                     # 1, 2, 4, ... 2^63 zero bytes
+            ops.append(op)
+            op = [_gf2_times(op, v) for v in op]
+        _ZERO_BYTES_OPS = tuple(ops)
+    return _ZERO_BYTES_OPS
+
+
 def crc32_combine(crc1: int, crc2: int, len2: int) -> int:
     """The CRC-32 of A + B from crc1 of A, crc2 of B and len2 = len(B) in bytes (zlib's
-    crc32_combine: crc1 carried through len2 zero bytes by squaring the one-zero-bit operator)."""
+    crc32_combine: crc1 carried through len2 zero bytes, an operator per bit of len2, the
+    operators for 2^k zero bytes squared once per process rather than once per call)."""
     if len2 <= 0:
         return crc1
-    op = [0xEDB88320] + [1 << n for n in range(31)]       # one zero bit
-    for _ in range(3):                                      # squared: two, four, eight (one zero byte)
-        op = [_gf2_times(op, v) for v in op]
-    while True:                                             # len2's bits, lowest first, squaring as it goes
+    ops = _zero_bytes_ops()
+    k = 0
+    while len2:
         if len2 & 1:
-            crc1 = _gf2_times(op, crc1)
+            crc1 = _gf2_times(ops[k], crc1)
         len2 >>= 1
-        if not len2:
-            break
-        op = [_gf2_times(op, v) for v in op]
+        k += 1
     return crc1 ^ crc2
 
 
@@ -358,8 +373,16 @@ def _member_offset(f, info) -> int:
 
 META_MAX = 1 << 20          # bytes of meta.json
 DEFLATE_RATIO_MAX = 1032    # deflate's largest expansion: what a member holds is bounded by the file
-_NPY_ERRORS = (ValueError, EOFError, SyntaxError, OverflowError, RecursionError, MemoryError, zipfile.BadZipFile,
-               OSError, zlib.error, tokenize.TokenError, TraceError)
+# What zipfile raises for a damaged or foreign archive or member, besides BadZipFile: a newer
+# zip version, an unknown compression method (NotImplementedError), an encrypted member
+# (RuntimeError), a damaged deflate, bzip2 or LZMA stream (zlib.error, OSError, LZMAError).
+try:
+    from lzma import LZMAError as _LZMAError
+except ImportError:             # Python built without lzma: zipfile cannot raise it either
+    _LZMAError = zlib.error
+_ZIP_ERRORS = (zipfile.BadZipFile, zlib.error, _LZMAError, OSError, ValueError, EOFError, NotImplementedError,
+               RuntimeError)
+_NPY_ERRORS = _ZIP_ERRORS + (SyntaxError, OverflowError, RecursionError, MemoryError, tokenize.TokenError, TraceError)
 
 
 def _npy_header(f, size: int):
@@ -408,7 +431,7 @@ def _read_meta(path, z, names) -> dict:
         raise TraceError(f"{path}: meta.json is over {META_MAX} bytes")
     try:
         meta = json.loads(z.read("meta.json"))
-    except (ValueError, RecursionError, zipfile.BadZipFile, zlib.error, OSError) as e:
+    except _ZIP_ERRORS + (RecursionError,) as e:
         reason = "nested too deeply" if isinstance(e, RecursionError) else str(e).splitlines()[0] if str(e) else \
             type(e).__name__
         raise TraceError(f"{path}: meta.json is unreadable ({reason})") from None
@@ -469,8 +492,9 @@ def read(path, mmap: bool | None = None, verify: bool = True):
     try:
         z = zipfile.ZipFile(path)
         size = os.path.getsize(path)
-    except (zipfile.BadZipFile, OSError, ValueError, EOFError) as e:
-        raise TraceError(f"{path}: not a readable trace file ({e})") from None
+    except _ZIP_ERRORS as e:
+        reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+        raise TraceError(f"{path}: not a readable trace file ({reason:.200})") from None
     if mmap is None:
         mmap = size > (256 << 20)
     with z, open(path, "rb") as raw:

@@ -90,7 +90,7 @@ def check_meta(meta, file_bytes: int | None = None) -> None:
     h = _int(meta, "height", 1, RES_MAX)
     sw = _int(meta, "samples_w", w, SAMPLES_MAX)
     sh = _int(meta, "samples_h", h, SAMPLES_MAX)
-    if meta.get("rules") not in RULES:
+    if not isinstance(meta.get("rules"), str) or meta["rules"] not in RULES:     # (a list is unhashable)
         _fail("meta.json", "rules", f"must be one of {', '.join(RULES)}, not {_short(meta.get('rules'))}")
     _int(meta, "lights", 0, LIGHTS_MAX)
     _int(meta, "max_depth", 0, DEPTH_MAX, required=False)

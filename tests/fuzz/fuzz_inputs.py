@@ -4,10 +4,13 @@ One target, the first byte choosing the surface, the rest its text:
   0  a machine configuration (TOML) -> load_config; a valid one is replayed by the
      compiled engine on a small golden trace;
   1  a design space (TOML) -> parse_space, and its first design built and costed;
-  2  a sweep spec (TOML) -> load_spec.
-Each may refuse its input with its own one-line error (ConfigError, SpaceError, and
-their MprtError / ValueError bases); anything else (a traceback: KeyError, TypeError,
-OverflowError, RecursionError, MemoryError...) is a finding.
+  2  a sweep spec (TOML) -> load_spec;
+  3  a trace file (raw, or edits to a small golden trace: fuzz_trace.py) -> load_trace with
+     the invariant check and the statistics (stats --check), then, when small, both engines
+     (SimPy and the compiled replay) at levels 1 and 3, which must agree.
+Each may refuse its input with its own one-line error (ConfigError, SpaceError, TraceError,
+and their MprtError / ValueError bases); anything else (a traceback: KeyError, TypeError,
+OverflowError, RecursionError, MemoryError..., or engines that disagree) is a finding.
 
     pip install atheris
     python tests/fuzz/fuzz_inputs.py -atheris_runs=100000 tests/fuzz/corpus_inputs   # make fuzz-python
@@ -77,7 +80,11 @@ def _replay(cfg) -> None:
 def one_input(data: bytes) -> None:
     if not data:
         return
-    which, text = data[0] % 3, data[1:]
+    which, text = data[0] % 4, data[1:]
+    if which == 3:
+        from fuzz_trace import one_trace
+        one_trace(text)
+        return
     try:
         if which == 0:
             from mprt.machine import load_config
@@ -100,11 +107,21 @@ def one_input(data: bytes) -> None:
 def main(argv) -> None:
     import atheris
 
-    with atheris.instrument_imports():
+    # mprt and the parsers it hands hostile bytes to (not numpy, SimPy...: instrumented,
+    # they would slow every run several times for coverage that is not mprt's)
+    with atheris.instrument_imports(include=["mprt", "zipfile", "tomllib"]):
+        import tomllib  # noqa: F401
+        import zipfile  # noqa: F401
+
         import mprt  # noqa: F401
         import mprt.explore  # noqa: F401
         import mprt.fidelity.compiled  # noqa: F401
         import mprt.machine  # noqa: F401
+        import mprt.stats  # noqa: F401
+        import mprt.tracecheck  # noqa: F401
+        import mprt.tracefile  # noqa: F401
+        import mprt.tracevalid  # noqa: F401
+    one_input(b"\x03\x01")   # warm: the cost model's kernel schedules, the engines, the checksums
     atheris.Setup(argv, one_input)
     atheris.Fuzz()
 

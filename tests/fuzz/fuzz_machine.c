@@ -5,7 +5,9 @@
  * The trace is built to be well formed (trees of rays whose visits go OS, IC,
  * ..., SC, SC visits making the children), then, when the input asks for it,
  * damaged: a record's ray, stage, kind, parent or made count overwritten with
- * an input byte, a cost made negative or huge, the arrays cut short.  The
+ * an input byte, a cost made negative or huge, the arrays cut short, or
+ * records (rays or visits, with their costs) overwritten or appended as the
+ * input's raw bytes, so that the loader meets arbitrary arrays.  The
  * configuration takes every field from the input, in and out of range.  Bytes
  * after those (none in older inputs: then level 1) may add the ring (buffer
  * classes, flit time, packet sizes) and the memories (caches, lines, ways,
@@ -79,9 +81,9 @@ static int add_visit(trace *t, int64_t ray, int stage, int made, bytes *b)
 
 /* Rays of one tree, breadth first (a parent's id below its children's), each
  * ray's visits together: (OS, IC) pairs, then SC making its children, or a last
- * OS (the ray left).  Returns -1 when the arrays are full, leaving a partial
- * tree (children without visits) that add_tree removes. */
-static int grow_tree(trace *t, bytes *b)
+ * OS (the ray left).  Returns -1 when the arrays are full (add_tree then takes
+ * the partial tree back: rays without visits would make the trace ill formed). */
+static int add_tree_records(trace *t, bytes *b)
 {
     size_t first = t->nr, r;
     if (t->nr == MAX_RAYS) return -1;
@@ -118,11 +120,10 @@ static int grow_tree(trace *t, bytes *b)
     return 0;
 }
 
-/* One whole tree, or none when the arrays fill up (returns -1 then). */
 static int add_tree(trace *t, bytes *b)
 {
     size_t nr = t->nr, nv = t->nv;
-    if (grow_tree(t, b) == 0) return 0;
+    if (add_tree_records(t, b) == 0) return 0;
     t->nr = nr;
     t->nv = nv;
     return -1;
@@ -246,6 +247,39 @@ static int damage(trace *t, bytes *b)
     }
 }
 
+/* Records as the input's raw bytes (the loader must refuse whatever it cannot index): a run
+ * of 1 to 32 rays or visits from a record number on, overwritten or appended (up to the
+ * arrays' capacity); visits' costs raw 64-bit values too, now and then.  Returns 1. */
+static int raw_records(trace *t, bytes *b)
+{
+    unsigned what = next(b), k;
+    int visits = (int)(what & 1);
+    size_t count = visits ? t->nv : t->nr, cap = visits ? MAX_VISITS : MAX_RAYS;
+    size_t at = next(b) % (count + 1), n = 1 + next(b) % 32, i, j;
+    for (i = at; i < at + n && i < cap; i++) {
+        uint8_t *rec = visits ? (uint8_t *)&t->visits[i] : (uint8_t *)&t->rays[i];
+        size_t size = visits ? sizeof t->visits[0] : sizeof t->rays[0];
+        for (j = 0; j < size; j++) rec[j] = (uint8_t)next(b);
+        if (visits) {
+            int64_t *cost[3] = {&t->process[i], &t->receive[i], &t->send[i]};
+            for (k = 0; k < 3; k++) {
+                uint64_t v = 0;
+                if (what & 2)
+                    for (j = 0; j < 8; j++) v = v << 8 | next(b);
+                else
+                    v = next(b) % 24;
+                memcpy(cost[k], &v, sizeof v);
+            }
+        }
+        if (i >= count) count = i + 1;
+    }
+    if (visits)
+        t->nv = count;
+    else
+        t->nr = count;
+    return 1;
+}
+
 static int64_t run_once(mprt_replay *r, int *deadlocked)
 {
     mprt_replay_info info;
@@ -280,7 +314,15 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     for (k = 0; k < trees; k++)
         if (add_tree(&t, &b)) break;
     if (t.nr == 0) return 0;
-    while (next(&b) == 0xa5) damaged |= damage(&t, &b);
+    for (;;) {
+        unsigned m = next(&b);
+        if (m == 0xa5)
+            damaged |= damage(&t, &b);
+        else if (m == 0xa6)
+            damaged |= raw_records(&t, &b);
+        else
+            break;
+    }
     nr = t.nr;
     nv = t.nv;
     if (next(&b) == 0x5a) {                          /* cut short */

@@ -31,7 +31,7 @@ import numpy as np
 
 from .._lowlevel import binding
 from ..errors import InvalidArgument
-from ..machine.config import DIS_POLICIES, FEEDS, SUBTASKS, SystemConfig, builtin
+from ..machine.config import DIS_POLICIES, FEEDS, SUBTASKS, SystemConfig, builtin, check_config
 from ..machine.errors import ConfigError
 from ..trace import RAY_KINDS, TraceError
 from ..tracevalid import check_trace
@@ -152,6 +152,7 @@ class Compiled:
         self._flits = ()
 
     def _configure(self, config: SystemConfig) -> None:
+        check_config(config)
         why = unsupported(config)
         if why:
             raise ConfigError(why)
@@ -272,7 +273,7 @@ def replay(trace, config: SystemConfig | str = "M", cost_model=None, costs=None,
     ``packet_flits``: as ``simulate``'s (default: the cost model's)."""
     if isinstance(config, str):
         config = builtin(config)
-    why = unsupported(config)
+    why = unsupported(check_config(config))
     if why:
         raise ConfigError(why)
     t0 = time.perf_counter()

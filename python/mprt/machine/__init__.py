@@ -11,7 +11,7 @@ GlobalMemory, PE, System.  Configurations: SystemConfig (built-ins S, M,
 3mppe; TOML files via load_config).  The event semantics are in README.md.
 """
 from .config import (BUILTIN, CacheConfig, GlobalMemoryConfig, LocalMemoryConfig, RingConfig, StageConfig,
-                     SystemConfig, builtin, config_from_dict, load_config, make_stage)
+                     SystemConfig, builtin, check_config, config_from_dict, load_config, make_stage)
 from .errors import ConfigError, DeadlockError
 from .fifo import Fifo
 from .memory import Cache, GlobalMemory, ResidentMemory
@@ -22,6 +22,6 @@ from .stage import Stage
 from .system import System, simulate
 
 __all__ = ["BUILTIN", "CacheConfig", "GlobalMemoryConfig", "LocalMemoryConfig", "RingConfig", "StageConfig",
-           "SystemConfig", "builtin", "config_from_dict", "load_config", "make_stage", "ConfigError", "DeadlockError",
+           "SystemConfig", "builtin", "check_config", "config_from_dict", "load_config", "make_stage", "ConfigError", "DeadlockError",
            "Fifo", "Cache", "GlobalMemory", "ResidentMemory", "PE", "SimResult", "Ring", "Stage", "System",
            "simulate"]

@@ -299,6 +299,18 @@ def _validate(cfg: SystemConfig) -> None:
     _int(cfg.window, w, "window")
 
 
+def check_config(config) -> SystemConfig:
+    """The configuration an engine is handed, checked again as when it was built (both engines
+    call this first): one changed after it was built (``object.__setattr__`` on the frozen
+    dataclass) is refused by SimPy and the compiled replay with the same ConfigError, never
+    run by one and refused, or deadlocked, by the other."""
+    if not isinstance(config, SystemConfig):
+        raise ConfigError(f"a machine configuration must be a SystemConfig or a model name (S, M, 3mppe), "
+                          f"not {type(config).__name__}")
+    _validate(config)
+    return config
+
+
 # ---- processors -----------------------------------------------------------------
 
 def make_processor(spec, subtasks, where="processor"):

@@ -9,7 +9,7 @@ from simpy.core import EmptySchedule
 
 from ..trace import RAY_KINDS
 from ..tracevalid import check_trace
-from .config import SUBTASKS, SystemConfig
+from .config import SUBTASKS, SystemConfig, check_config
 from .errors import ConfigError, DeadlockError
 from .memory import Cache, DataLayout, GlobalMemory, LocalMemory, StageMemory
 from .pe import PE
@@ -27,8 +27,8 @@ class System:
 
     def __init__(self, trace, config: SystemConfig, cost_model=None, costs=None, packet_flits=None,
                  record: bool = False, timeline: bool = False):
+        self.config = config = check_config(config)
         check_trace(trace)          # a trace built in memory: its ranges before the model reads it
-        self.config = config
         self.trace = trace
         self.env = simpy.Environment()
         self.log = [] if record else None
