@@ -19,6 +19,7 @@ comparison measures.
 """
 from __future__ import annotations
 
+import heapq
 import itertools
 import math
 import time
@@ -52,6 +53,7 @@ class Evaluation:
     cost: float
     serial: int                 # 1 for the first design evaluated
     result: object = None
+    bound: bool = False         # cycles are a lower bound (``Problem.bound_points``'s): not run at the level
 
 
 @dataclass
@@ -70,10 +72,18 @@ class Problem:
 
     ``evaluate_points(points) -> list of results`` (each with ``cycles`` and
     ``cost``) is called with batches; the search itself asks one at a time.
+
+    ``bound_points(points) -> list of results`` (optional: a cheaper evaluation whose cycles
+    no ``evaluate_points`` result undercuts, e.g. level 1 under level 3) bounds each new
+    design first: one whose bound is already worse than the best design run so far (or
+    that is over the budget, where cycles do not count) is kept with its bound (``bound``)
+    and not run; the others are run best bound first, each tightening the incumbent.  A
+    design known by its bound is run when it would come first (``ranked``, ``best``,
+    ``best_of``), so every choice made on ranks is the one full evaluation would make.
     """
 
     def __init__(self, space: Space, evaluate_points, objective: str = "time", budget: float | None = None,
-                 progress=None, cost_of=None):
+                 progress=None, cost_of=None, bound_points=None):
         if objective not in OBJECTIVES:
             raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, not {objective!r}")
         self.space = space
@@ -89,21 +99,92 @@ class Problem:
         self.free = [i for i, v in enumerate(space.variables) if v.size > 1]
         self.cost_of = cost_of                  # point -> kGE without evaluating it (lets the polish skip
                                                 # designs over the budget), or None
+        self.bound_points = bound_points if objective != "pareto" else None   # the front needs every design's cycles
+        self.runs = 0                           # designs run by evaluate_points (the rest known by their bound)
+        self._incumbent = None                  # (budget, value): the best run design's objective
 
     def over_budget(self, key) -> bool:
         """Whether a design is known, before evaluating it, to cost more than the budget."""
         return self.budget is not None and self.cost_of is not None and \
             self.cost_of(self.space.point(key)) > self.budget
 
-    def add(self, point, result) -> Evaluation | None:
-        """Record a point evaluated elsewhere (a global start's); None if it was known."""
+    def add(self, point, result, bound: bool = False) -> Evaluation | None:
+        """Record a point evaluated elsewhere (a global start's; ``bound``: known by its bound
+        only); None if it was known."""
         k = self.space.canonical(self.space.index_of(point))
         if k in self.memo:
             return None
-        e = Evaluation(k, self.space.point(k), float(result.cycles), float(result.cost), len(self.memo) + 1, result)
+        e = Evaluation(k, self.space.point(k), float(result.cycles), float(result.cost), len(self.memo) + 1, result,
+                       bound)
         self.memo[k] = e
         self.order.append(k)
+        self._ran(e)
         return e
+
+    def _ran(self, e: Evaluation) -> None:
+        """Count a design run and tighten the incumbent."""
+        if e.bound:
+            return
+        self.runs += 1
+        if self._incumbent is not None and self._incumbent[0] == self.budget:
+            self._incumbent = (self.budget, min(self._incumbent[1], self.f(e)))
+
+    def incumbent(self) -> float:
+        """The objective of the best design run so far (inf: none)."""
+        if self._incumbent is None or self._incumbent[0] != self.budget:
+            self._incumbent = (self.budget, min((self.f(e) for e in self.memo.values() if not e.bound),
+                                                default=math.inf))
+        return self._incumbent[1]
+
+    def _results(self, points) -> list[tuple]:
+        """(result, known by its bound only) per point: every point run, or with ``bound_points``
+        only those whose bound does not rule them out, best bound first."""
+        if self.bound_points is None:
+            return [(r, False) for r in self.evaluate_points(points)]
+        lows = self.bound_points(points)
+        vals = [self.value(r.cycles, r.cost) for r in lows]
+        out = [None] * len(points)
+        best = self.incumbent()
+        for i in sorted(range(len(points)), key=lambda i: (vals[i], i)):
+            if vals[i] > best or (self.budget is not None and lows[i].cost > self.budget):
+                out[i] = (lows[i], True)
+            else:
+                r = self.evaluate_points([points[i]])[0]
+                out[i] = (r, False)
+                best = min(best, self.value(r.cycles, r.cost))
+        return out
+
+    def resolve(self, e: Evaluation) -> Evaluation:
+        """The design run (in place of its bound; same serial)."""
+        if not e.bound:
+            return e
+        r = self.evaluate_points([e.point])[0]
+        e = Evaluation(e.index, e.point, float(r.cycles), float(r.cost), e.serial, r)
+        self.memo[e.index] = e
+        self._ran(e)
+        return e
+
+    def ranked(self, evals=None, budget=None, below=None):
+        """Evaluations (default: all) best first, each run: a design known by its bound is run
+        when it comes first (its rank can only fall), so the order is full evaluation's.
+        ``below``: only those whose (objective, cost) is below it (none run to find out more)."""
+        heap = [(self.rank(e, budget), e.index) for e in (self.memo.values() if evals is None else evals)]
+        heapq.heapify(heap)
+        while heap:
+            r, k = heapq.heappop(heap)
+            if below is not None and r[:2] >= below:
+                return
+            e = self.memo[k]
+            if e.bound:
+                e = self.resolve(e)
+                heapq.heappush(heap, (self.rank(e, budget), k))
+                continue
+            yield e
+
+    def best_of(self, evals, budget=None, below=None) -> Evaluation | None:
+        """The best of some evaluations (run if it was known by its bound; None if none is
+        below ``below``)."""
+        return next(self.ranked(evals, budget, below), None)
 
     def value(self, cycles: float, cost: float, budget=None) -> float:
         budget = self.budget if budget is None else budget
@@ -119,11 +200,12 @@ class Problem:
         if self.cap is not None and len(self.memo) + len(new) > self.cap:
             new = new[:max(self.cap - len(self.memo), 0)]
         if new:
-            results = self.evaluate_points([self.space.point(k) for k in new])
-            for k, r in zip(new, results):
-                e = Evaluation(k, self.space.point(k), float(r.cycles), float(r.cost), len(self.memo) + 1, r)
+            results = self._results([self.space.point(k) for k in new])
+            for k, (r, bound) in zip(new, results):
+                e = Evaluation(k, self.space.point(k), float(r.cycles), float(r.cost), len(self.memo) + 1, r, bound)
                 self.memo[k] = e
                 self.order.append(k)
+                self._ran(e)
                 if self.progress:
                     self.progress(self)
         return [self.memo[k] for k in keys if k in self.memo]
@@ -144,9 +226,7 @@ class Problem:
         return self.value(e.cycles, e.cost, budget)
 
     def best(self, budget=None) -> Evaluation | None:
-        if not self.memo:
-            return None
-        return min(self.memo.values(), key=lambda e: self.rank(e, budget))
+        return self.best_of(self.memo.values(), budget)
 
     def rank(self, e: Evaluation, budget=None) -> tuple:
         """Order of preference: objective, then cost (a tie in time goes to the cheaper design)."""
@@ -167,10 +247,11 @@ class Problem:
         for n, k in enumerate(self.order, 1):
             e = self.memo[k]
             v = self.f(e)
-            best = min(best, v)
+            if not e.bound:
+                best = min(best, v)
             rows.append({"evaluation": n, "subdivision": list(e.point.subdivision), "design": e.point.design.to_dict(),
                          "cycles": e.cycles, "cost": e.cost, "objective": v, "best_objective": best,
-                         "feasible": v < INFEASIBLE})
+                         "feasible": v < INFEASIBLE, "bound": e.bound})
         return rows
 
     def front(self) -> list[Evaluation]:
@@ -198,8 +279,22 @@ def _nlopt_run(problem: Problem, algorithm: str, x0, max_evals: int, seed: int, 
     start = len(problem.memo)
     problem.cap = start + max_evals
 
+    # DIRECT-L asks about hundreds of points per distinct design (floor(x) is flat in a cell):
+    # the cell's objective is kept by its raw index vector, so a revisit costs a floor and a
+    # dictionary look-up (the same value the memo gives, so the search is unchanged)
+    hi = np.array(sizes, dtype=np.int64) - 1
+    seen: dict = {}
+
     def f(x, grad):
-        return problem(problem.x_to_index(x))
+        raw = tuple(np.minimum(np.maximum(np.floor(x).astype(np.int64), 0), hi).tolist())
+        v = seen.get(raw)
+        if v is None:
+            v = problem(problem.x_to_index(x))
+            if v < INFEASIBLE * 10:          # not the stop sentinel (the cap reached)
+                seen[raw] = v
+        else:
+            problem.calls += 1
+        return v
 
     opt.set_min_objective(f)
     problem.opt = opt
@@ -313,6 +408,7 @@ def compass(problem: Problem, idx, max_evals: int, fixed=()) -> tuple:
     optimum or after ``max_evals`` new designs."""
     cur = problem.space.canonical(idx)
     start = len(problem.memo)
+    problem.resolve(problem.memo[cur])
     pairs = False
     while True:
         nbrs = _neighbours(problem, cur, pairs, fixed)
@@ -323,8 +419,8 @@ def compass(problem: Problem, idx, max_evals: int, fixed=()) -> tuple:
         problem.evaluate_many(fresh)
         cand = [problem.memo[k] for k in nbrs if k in problem.memo]
         here = problem.rank(problem.memo[cur])[:2]
-        better = min(cand, key=problem.rank, default=None)
-        if better is None or problem.rank(better)[:2] >= here:
+        better = problem.best_of(cand, below=here)
+        if better is None:
             if pairs or len(problem.memo) - start >= max_evals:
                 return cur
             pairs = True
@@ -342,11 +438,11 @@ def _polish_starts(problem: Problem) -> list[tuple]:
     numeric index at its smallest value) instead, which the polish then grows."""
     space = problem.space
     pos = space.names.index("mapping")
-    starts = {}
-    for e in sorted(problem.memo.values(), key=problem.rank):
-        m = e.index[pos]
-        if m not in starts and problem.f(e) < INFEASIBLE:
-            starts[m] = e.index
+    by_map: dict = {}
+    for e in problem.memo.values():
+        by_map.setdefault(e.index[pos], []).append(e)
+    bests = [problem.best_of(es) for es in by_map.values()]        # each mapping's best, run
+    starts = {e.index[pos]: e.index for e in sorted(bests, key=problem.rank) if problem.f(e) < INFEASIBLE}
     if space.variables[pos].size > 1:
         for m in range(space.variables[pos].size):
             if m not in starts:
@@ -374,14 +470,14 @@ def split_by_mapping(space: Space) -> list[Space]:
 
 
 def global_start(evaluate_points, space: Space, objective: str, budget, algorithm: str, max_evals: int,
-                 seed: int, known=()) -> tuple[list, int]:
+                 seed: int, known=(), bound_points=None) -> tuple[list, int]:
     """One start of the global phase: ``algorithm`` over ``space`` (``known``: (point,
     result) pairs evaluated before, not counted).  Returns the new (point, result) pairs in
     evaluation order and NLopt's calls; depends only on its arguments (so it may run in
     another process)."""
-    p = Problem(space, evaluate_points, objective, budget)
-    for point, r in known:
-        p.add(point, r)
+    p = Problem(space, evaluate_points, objective, budget, bound_points=bound_points)
+    for point, r, bound in known:
+        p.add(point, r, bound)
     n0 = len(p.order)
     sizes = [space.variables[i].size for i in p.free]
     if algorithm == "random":
@@ -390,12 +486,12 @@ def global_start(evaluate_points, space: Space, objective: str, budget, algorith
         _nlopt_run(p, GLOBAL_ALGORITHMS[algorithm], [s / 2.0 for s in sizes], max_evals, seed)
     else:
         p(p.x_to_index([s / 2.0 for s in sizes]))
-    return [(p.memo[k].point, p.memo[k].result) for k in p.order[n0:]], p.calls
+    return [(p.memo[k].point, p.memo[k].result, p.memo[k].bound) for k in p.order[n0:]], p.calls
 
 
 def _local_starts(problem: Problem):
     def run(tasks):
-        return [global_start(problem.evaluate_points, *t) for t in tasks]
+        return [global_start(problem.evaluate_points, *t, bound_points=problem.bound_points) for t in tasks]
     return run
 
 
@@ -422,13 +518,14 @@ def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice
     tasks = []
     for k, sp in enumerate(subs):
         m = sp.value([0] * len(sp.variables), "mapping") if sp is not problem.space else None
-        known = [(e.point, e.result) for e in problem.memo.values() if m is None or e.point.design.mapping == m]
+        known = [(e.point, e.result, e.bound) for e in problem.memo.values()
+                 if m is None or e.point.design.mapping == m]
         share = max_evals // len(subs) + (1 if k < max_evals % len(subs) else 0)
         tasks.append((sp, problem.objective, problem.budget, algorithm, max(share, 1), seed, known))
     for rows, calls in (run_starts or _local_starts(problem))(tasks):
         problem.calls += calls
-        for point, r in rows:
-            if problem.add(point, r) is not None and problem.progress:
+        for point, r, bound in rows:
+            if problem.add(point, r, bound) is not None and problem.progress:
                 problem.progress(problem)
     n1 = len(problem.memo)
     best = problem.best()
