@@ -79,7 +79,8 @@ class Problem:
     that is over the budget, where cycles do not count) is kept with its bound (``bound``)
     and not run; the others are run best bound first, each tightening the incumbent.  A
     design known by its bound is run when it would come first (``ranked``, ``best``,
-    ``best_of``), so every choice made on ranks is the one full evaluation would make.
+    ``best_of``), so the best, the polish's starts and the designs verified are the ones full
+    evaluation would give; the polish does not step to a design ruled out (``compass``).
     """
 
     def __init__(self, space: Space, evaluate_points, objective: str = "time", budget: float | None = None,
@@ -164,11 +165,13 @@ class Problem:
         self._ran(e)
         return e
 
-    def ranked(self, evals=None, budget=None, below=None):
+    def ranked(self, evals=None, budget=None, below=None, run: bool = True):
         """Evaluations (default: all) best first, each run: a design known by its bound is run
         when it comes first (its rank can only fall), so the order is full evaluation's.
-        ``below``: only those whose (objective, cost) is below it (none run to find out more)."""
-        heap = [(self.rank(e, budget), e.index) for e in (self.memo.values() if evals is None else evals)]
+        ``below``: only those whose (objective, cost) is below it (none run to find out more);
+        ``run`` false: only those run already (a design ruled out stays out)."""
+        heap = [(self.rank(e, budget), e.index) for e in (self.memo.values() if evals is None else evals)
+                if run or not e.bound]
         heapq.heapify(heap)
         while heap:
             r, k = heapq.heappop(heap)
@@ -181,10 +184,10 @@ class Problem:
                 continue
             yield e
 
-    def best_of(self, evals, budget=None, below=None) -> Evaluation | None:
+    def best_of(self, evals, budget=None, below=None, run: bool = True) -> Evaluation | None:
         """The best of some evaluations (run if it was known by its bound; None if none is
-        below ``below``)."""
-        return next(self.ranked(evals, budget, below), None)
+        below ``below``; ``run`` false: the best of those run)."""
+        return next(self.ranked(evals, budget, below, run), None)
 
     def value(self, cycles: float, cost: float, budget=None) -> float:
         budget = self.budget if budget is None else budget
@@ -419,7 +422,9 @@ def compass(problem: Problem, idx, max_evals: int, fixed=()) -> tuple:
         problem.evaluate_many(fresh)
         cand = [problem.memo[k] for k in nbrs if k in problem.memo]
         here = problem.rank(problem.memo[cur])[:2]
-        better = problem.best_of(cand, below=here)
+        # a neighbour ruled out by its bound (slower than the incumbent) is not stepped to: the
+        # polish walks through designs that can still matter
+        better = problem.best_of(cand, below=here, run=False)
         if better is None:
             if pairs or len(problem.memo) - start >= max_evals:
                 return cur
