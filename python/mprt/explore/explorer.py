@@ -445,6 +445,8 @@ def plot(report: dict, path) -> None:
     feas &= live
     full = np.array([r["phase"].startswith("full") for r in h])
     ver = np.array([r["phase"].startswith("verify") for r in h])
+    bnd = np.array([bool(r.get("bound")) for r in h])          # known by a level-1 bound only: not drawn as cycles
+    feas &= ~bnd
     best = np.minimum.accumulate(np.where(feas, cyc, np.inf))
 
     def dots(a, mask, *args, **kw):
@@ -455,14 +457,15 @@ def plot(report: dict, path) -> None:
          label=f"search at level {lv['search']} (estimate, scaled to full res.)")
     dots(ax[0], feas & full, n, cyc, s=8, c="tab:green", label="full-resolution polish")
     dots(ax[0], feas & ver, n, cyc, s=14, c="tab:purple", marker="D", label=f"verified at level {lv['verify']}")
-    dots(ax[0], ~feas & live, n, cyc, s=6, c="tab:gray", marker="x", label="over budget")
+    dots(ax[0], ~feas & live & ~bnd, n, cyc, s=6, c="tab:gray", marker="x", label="over budget")
+    dots(ax[0], bnd & live, n, cyc, s=4, c="lightgray", label=f"ruled out by level {BOUND_LEVEL} (its bound)")
     if np.isfinite(best).any():
         ax[0].step(n, best, where="post", c="tab:red", label="best so far")
     ax[0].set(yscale="log", xlabel="evaluation", ylabel="cycles", title="search history")
     _plain_log_axis(ax[0].yaxis)
     cost = np.array([r["cost"] for r in h])
     dead = int((~live).sum())
-    dots(ax[1], live & ~ver, cost, cyc, s=6, c="tab:blue", alpha=0.45,
+    dots(ax[1], live & ~ver & ~bnd, cost, cyc, s=6, c="tab:blue", alpha=0.45,
          label=f"evaluated at level {lv['search']} (estimates)" + (f"; {dead} deadlocked left out" if dead else ""))
     dots(ax[1], live & ver, cost, cyc, s=14, c="tab:purple", marker="D", label=f"verified at level {lv['verify']}")
     if report.get("front"):
