@@ -39,7 +39,7 @@ class Problem:
     and not run; the others are run best bound first, each tightening the incumbent.  A
     design known by its bound is run when it would come first (``ranked``, ``best``,
     ``best_of``), so the best, the polish's starts and the designs verified are the ones full
-    evaluation would give; the polish does not step to a design ruled out (``compass``).
+    evaluation would give, and so are the polish's steps (``compass``).
     """
 
     def __init__(self, space: Space, evaluate_points, objective: str = "time", budget: float | None = None,
@@ -62,7 +62,6 @@ class Problem:
         self.bound_points = bound_points if objective != "pareto" else None   # the front needs every design's cycles
         self.runs = 0                           # designs run by evaluate_points (the rest known by their bound)
         self._incumbent = None                  # (budget, value): the best run design's objective
-        self._ratios: list = []                 # run cycles over bound cycles, of the designs run
 
     def over_budget(self, key) -> bool:
         """Whether a design is known, before evaluating it, to cost more than the budget."""
@@ -111,8 +110,6 @@ class Problem:
                 out[i] = (lows[i], True)
             else:
                 r = self.evaluate_points([points[i]])[0]
-                if lows[i].cycles > 0:
-                    self._ratios.append(float(r.cycles) / float(lows[i].cycles))
                 out[i] = (r, False)
                 best = min(best, self.value(r.cycles, r.cost))
         return out
@@ -184,10 +181,7 @@ class Problem:
                     self.opt.force_stop()
                 return INFEASIBLE * 10
             self.evaluate_many([k])
-        e = self.memo[k]
-        if e.bound:         # what the global method is told: the bound times the median run/bound ratio so far
-            return self.value(e.cycles * (float(np.median(self._ratios)) if self._ratios else 1.0), e.cost)
-        return self.f(e)
+        return self.f(self.memo[k])         # a ruled-out design's bound: the global method is told that
 
     def f(self, e: Evaluation, budget=None) -> float:
         """The objective of an evaluation (under the current budget)."""

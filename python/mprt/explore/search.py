@@ -208,9 +208,10 @@ def compass(problem: Problem, idx, max_evals: int, fixed=()) -> tuple:
         problem.evaluate_many(fresh)
         cand = [problem.memo[k] for k in nbrs if k in problem.memo]
         here = problem.rank(problem.memo[cur])[:2]
-        # a neighbour ruled out by its bound (slower than the incumbent) is not stepped to: the
-        # polish walks through designs that can still matter
-        better = problem.best_of(cand, below=here, run=False)
+        # a neighbour ruled out by its bound is replayed only if its bound beats the current design
+        # (a walk from a mapping's start goes through designs slower than the incumbent: it is the
+        # hedge that sends each mapping's best to full resolution, so it walks as it would unbounded)
+        better = problem.best_of(cand, below=here)
         if better is None:
             if pairs or len(problem.memo) - start >= max_evals:
                 return cur
