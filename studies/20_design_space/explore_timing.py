@@ -19,9 +19,9 @@ from mprt.explore.explorer import explore
 
 
 def main(res=512, budget=800.0, *names):
-    print("| scene | seconds | trace s | x trace | evaluations | level | ladder s | subdivision | best design "
-          "| cycles | cost kGE | x 3MPPE | x S |")
-    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|")
+    print("| scene | seconds | trace s | x trace | evaluations | replayed | level | ladder s | subdivision "
+          "| best design | cycles | cost kGE | x 3MPPE | x S |")
+    print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in names or mprt.SPD_SCENES:
         t0 = time.perf_counter()
         r = explore(mprt.Scene.spd(name), res, res, budget=float(budget), threads=2,
@@ -34,7 +34,8 @@ def main(res=512, budget=800.0, *names):
                             "--res", f"{res}x{res}", "--threads", "2", "-o", os.path.join(d, "t.npz")], check=True,
                            stdout=subprocess.DEVNULL)
             tt = time.perf_counter() - t1
-        print(f"| {name} | {s:.0f} | {tt:.1f} | {s / tt:.1f} | {r['evaluations']} | {lv['search']} "
+        ran = sum(v for k, v in r["runs"].items() if not k.endswith("bounded")) if r.get("runs") else r["evaluations"]
+        print(f"| {name} | {s:.0f} | {tt:.1f} | {s / tt:.1f} | {r['evaluations']} | {ran} | {lv['search']} "
               f"| {lv.get('ladder_seconds', 0):.0f} | {'x'.join(map(str, b['subdivision']))} | {b['described']} "
               f"| {b['cycles']:.3g} | {b['cost']:.0f} | {refs['3mppe']['cycles'] / b['cycles']:.2f} "
               f"| {refs['S']['cycles'] / b['cycles']:.2f} |", flush=True)

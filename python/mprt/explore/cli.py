@@ -148,6 +148,9 @@ def add_parsers(sub) -> None:
     e.add_argument("--workers", type=_nonnegative_int, default=None, metavar="N",
                    help="processes evaluating independent designs in parallel; the answer is the same for any "
                         "number (default: one per core; 0 or 1: in this process)")
+    e.add_argument("--no-bound", dest="bound", action="store_false",
+                   help="at levels 2 and 3, replay every design at the level (default: a design whose level-1 "
+                        "bound is slower than the best so far, or that is over the budget, is not replayed)")
     e.add_argument("--fraction", type=_positive(int), default=None, metavar="F",
                    help="search on traces at 1/F of --res, then polish the best at --res "
                         "(default: about 64 pixels across; 1: search at --res)")
@@ -318,7 +321,8 @@ def run_explore(a) -> int:
     kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget,
               level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, algorithm=a.algorithm,
               polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads, fraction=a.fraction,
-              sample=a.sample, verify=a.verify, starts=a.starts, rules=a.rules, threshold=a.threshold, grid=a.grid)
+              sample=a.sample, verify=a.verify, starts=a.starts, rules=a.rules, threshold=a.threshold, grid=a.grid,
+              bound=a.bound)
     if a.workers is not None and a.workers < 0:
         raise opt.UsageError(f"--workers {a.workers}: give 0 or more processes")
     if not a.scheduler:     # before any work: the frames the processes hold must fit

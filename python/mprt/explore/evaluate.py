@@ -36,6 +36,7 @@ GLOBAL_MEMORY = {"latency": 20, "bandwidth": 8, "contention": True}
 CACHE_LINE, CACHE_WAYS = 32, 4
 WINDOW_PER_COPY = 4        # primary rays in flight per PE, per copy of its most replicated processor (at most)
 LEVELS = (0, 1, 2, 3)
+KEEP_PROCESSORS = 8        # sets of processors whose costed trace a SceneEvaluator keeps per grid
 
 
 @dataclass
@@ -296,7 +297,7 @@ class SceneEvaluator:
             scale = 1.0
         while self._held and sum(e.visits for e, _ in self._held.values()) + len(tr.visits) > self.max_visits:
             self._held.pop(next(iter(self._held)))
-        ev = TraceEvaluator(tr, self.unit_costs)
+        ev = TraceEvaluator(tr, self.unit_costs, keep=KEEP_PROCESSORS)
         self.trace_seconds += time.perf_counter() - t0
         self.traces_made += 1
         self._held[dims] = (ev, scale)

@@ -17,6 +17,26 @@ from ..atomic import replacing
 
 # level 2 (the ring without memories) is left out of the ladder: where it would do, level 3 costs little more
 LADDER_LEVELS = (0, 1, 3)
+# A design's level-1 cycles (no ring, no memories: 5 to 15 ms a design) bound its level-2 and -3 cycles from
+# below, but not strictly (the order of events differs): level 3 was up to 3.2% below level 1 on 150 random
+# designs of tetra, 1.4% on balls (README).  So a design is ruled out (``Problem.bound_points``) only when
+# level 1 less this slack is slower than the incumbent.
+BOUND_LEVEL, BOUND_SLACK = 1, 0.10
+
+
+def _bounds(results) -> list:
+    """Lower bounds for a search at level 2 or 3 from level-1 results: the cycles less
+    BOUND_SLACK (none, 0 cycles, where level 1 deadlocks)."""
+    from dataclasses import replace
+    return [replace(r, cycles=0.0 if r.cycles >= DEADLOCK_CYCLES else float(np.floor(r.cycles * (1 - BOUND_SLACK))))
+            for r in results]
+
+
+def _bounder(pool, lv: int, objective: str, bound: bool):
+    """SceneEvaluator -> the ``Problem.bound_points`` of a search at level ``lv`` (None: no bounds)."""
+    if not bound or lv <= BOUND_LEVEL or objective == "pareto":
+        return lambda sev: None
+    return lambda sev: (lambda pts: _bounds(pool.run(sev, pts, BOUND_LEVEL)))
 
 
 def explore(scene, width: int = 64, height: int = 64, space: Space | None = None, objective: str = "time",
@@ -25,7 +45,7 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
             budgets: int = 6, progress=None, threads: int = 1, fraction: int | None = None, refine: int = 2,
             refine_evals: int = 60, sample: str | None = "auto", verify: int = 4, workers: int | None = None,
             starts: str = "whole", log=None, rules: str = "paper", threshold: float | None = None,
-            grid=None, phases=None) -> dict:
+            grid=None, phases=None, bound: bool = True) -> dict:
     """Search ``space`` for ``scene`` at width x height; returns the report
     as a dict (the JSON of ``mprt explore``).
 
@@ -60,26 +80,35 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
 
     ``phases`` (an ``mprt.progress.Phases``; default: silent) is told each phase as it starts,
     numbered, with its estimated time (from the phases before it: the ladder's seconds per
-    design, the search's per evaluation scaled by the pixels), and draws its progress."""
+    design, the search's per evaluation scaled by the pixels), and draws its progress.
+
+    ``bound`` (at levels 2 and 3, objectives other than pareto): each new design is first
+    replayed at level 1, a lower bound (less BOUND_SLACK); one whose bound is already slower
+    than the best design run so far, or that is over the budget, is not replayed at the
+    search's level (``Problem.bound_points``), and one known so is replayed as soon as a
+    choice would take it.  The search then makes the choices it makes without bounds while
+    level 3 stays above level 1 less the slack, in far fewer level-3 replays."""
     if grid is not None:
         space = (space or default_space()).with_subdivision((grid,) * 3 if isinstance(grid, int) else grid)
     pool = Pool(scene, workers)
     try:
         return _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish,
                         max_evals, seed, budgets, progress, threads, fraction, refine, refine_evals, sample, verify,
-                        starts, log or (lambda text: None), pool, rules, threshold, grid, phases or _Silent())
+                        starts, log or (lambda text: None), pool, rules, threshold, grid, phases or _Silent(), bound)
     finally:
         pool.close()
 
 
-def _global_task(sev, level, task):
-    """One start of the global phase on a SceneEvaluator (in a worker or here)."""
-    return global_start(lambda pts: [sev.run(p, level) for p in pts], *task)
+def _global_task(sev, level, bound, task):
+    """One start of the global phase on a SceneEvaluator (in a worker or here); ``bound``: with
+    level-1 bounds (``_bounds``)."""
+    bounds = (lambda pts: _bounds([sev.run(p, BOUND_LEVEL) for p in pts])) if bound else None
+    return global_start(lambda pts: [sev.run(p, level) for p in pts], *task, bound_points=bounds)
 
 
 def _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish, max_evals, seed,
              budgets, progress, threads, fraction, refine, refine_evals, sample, verify, starts, say, pool,
-             rules="paper", threshold=None, grid=None, phases=None) -> dict:
+             rules="paper", threshold=None, grid=None, phases=None, bound=True) -> dict:
     t0 = time.perf_counter()
     space = space or default_space()
     unit_costs = UnitCosts.from_table(space.cost)
@@ -108,9 +137,12 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
                 f"{low[0]}x{low[1]}", None if per_eval is None else per_eval * n_search)
     t_search = time.perf_counter()
     cost_of = lambda p: hardware_cost(p.design, unit_costs)  # noqa: E731
+    bounder = _bounder(pool, lv, objective, bound)
     problem = Problem(space, lambda pts: pool.run(ev, pts, lv), objective,
-                      budget if objective != "pareto" else None, progress=progress, cost_of=cost_of)
-    run_starts = lambda tasks: pool.map(_global_task, ev, [(lv, t) for t in tasks])  # noqa: E731
+                      budget if objective != "pareto" else None, progress=progress, cost_of=cost_of,
+                      bound_points=bounder(ev))
+    run_starts = lambda tasks: pool.map(_global_task, ev,  # noqa: E731
+                                        [(lv, problem.bound_points is not None, t) for t in tasks])
     front = []
     if objective == "pareto":
         lo, hi = cost_range(space, unit_costs)
@@ -121,9 +153,11 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
     else:
         res = search(problem, algorithm, polish, max_evals, seed, starts=starts, run_starts=run_starts)
         best = res.best
-    say(f"search  {len(problem.memo)} designs at level {lv}, {low[0]}x{low[1]}: best {best.cycles:,.0f} cycles, "
-        f"cost {best.cost:.0f} kGE, {time.perf_counter() - t0:.1f} s")
-    history = [dict(r, phase="search", resolution=list(low), level=lv) for r in problem.history()]
+    say(f"search  {len(problem.memo)} designs at level {lv}, {low[0]}x{low[1]}"
+        f"{_ruled_out(problem)}: best {best.cycles:,.0f} cycles, cost {best.cost:.0f} kGE, "
+        f"{time.perf_counter() - t0:.1f} s")
+    history = []        # after the search's rows (below: the full-resolution phase may run designs it bounded)
+    runs = {}
     evaluations = res.evaluations
     per_eval = (time.perf_counter() - t_search) / max(len(problem.memo), 1)   # at the search's resolution
     if fraction > 1:
@@ -139,14 +173,17 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
             history += [dict(r, phase="full", resolution=[width, height], level=lv) for r in fp.history()]
             evaluations += len(fp.memo)
         else:
-            best, rows, n = _refine(problem, space, full, objective, budget, refine, refine_evals, verify, pool,
-                                    cost_of, phases, per_eval)
+            best, rows, n, ran = _refine(problem, space, full, objective, budget, refine, refine_evals, verify,
+                                         pool, cost_of, phases, per_eval, bounder)
             history += [dict(r, resolution=[width, height], level=lv) for r in rows]
             evaluations += n
+            runs.update(full=ran, full_bounded=n - ran)
             say(f"full    {n} designs at level {lv}, {width}x{height}"
-                f"{' (' + sample + ')' if sample else ''}: best {best.cycles:,.0f} cycles, cost {best.cost:.0f} kGE, "
-                f"{time.perf_counter() - t0:.1f} s")
+                f"{' (' + sample + ')' if sample else ''}{_ruled_out(n=n, ran=ran)}: best {best.cycles:,.0f} cycles, "
+                f"cost {best.cost:.0f} kGE, {time.perf_counter() - t0:.1f} s")
         ev = full
+    history[:0] = [dict(r, phase="search", resolution=list(low), level=lv) for r in problem.history()]
+    runs.update(search=problem.runs, search_bounded=len(problem.memo) - problem.runs)
     if best.cycles >= DEADLOCK_CYCLES:
         raise NoLiveDesignError(f"explore: every design evaluated at level {lv} deadlocks "
                                 f"({evaluations} designs): give the FIFOs more room in the space")
@@ -173,6 +210,8 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
                  "described": best.point.design.describe()},
         "references": refs,
         "evaluations": evaluations,
+        "runs": runs,
+        "bound": {"level": BOUND_LEVEL, "slack": BOUND_SLACK} if problem.bound_points is not None else None,
         "search_resolution": list(low),
         "full_resolution_sample": sample if fraction > 1 else None,
         "nlopt_calls": problem.calls,
@@ -293,6 +332,13 @@ def _sample_fraction(sample: str, width: int, height: int) -> float:
     return min(s.k / tiles if s.method == "random" else 1 / max(s.k, 1), 1.0)
 
 
+def _ruled_out(problem=None, n=None, ran=None) -> str:
+    """', N run, M ruled out by their bounds' (nothing when none was)."""
+    if problem is not None:
+        n, ran = len(problem.memo), problem.runs
+    return f" ({ran} replayed, {n - ran} ruled out by level {BOUND_LEVEL})" if n != ran else ""
+
+
 class NoLiveDesignError(MprtError, RuntimeError):
     """No design the explorer evaluated runs to the end at its level."""
 
@@ -308,58 +354,63 @@ def settings(scene, width, height, threads, rules: str = "paper", threshold=None
 
 
 def _refine(problem, space, full, objective, budget, refine, refine_evals, verify, pool, cost_of, phases=None,
-            per_eval=None):
+            per_eval=None, bounder=lambda sev: None):
     """The full-resolution phase, at the search's level: the ``verify`` best designs of the
     low-resolution search and its best of each stage mapping evaluated at full resolution in
     one batch; then, from the best design there of each of the ``refine`` best subdivisions,
     a lattice polish (``refine_evals`` designs each).  Returns the best, the history rows
-    (phases ``full-check`` and ``full``) and the designs evaluated."""
+    (phases ``full-check`` and ``full``), the designs evaluated and those of them run at the
+    level (the rest known by their bounds, ``bounder``)."""
     lv = full.level
-    ranked = sorted(problem.memo.values(), key=problem.rank)
-    checks = list(ranked[:max(verify, 1)])
-    seen_maps = set()
-    for e in ranked:
-        if e.point.design.mapping not in seen_maps:
-            seen_maps.add(e.point.design.mapping)
-            if e not in checks:
-                checks.append(e)
+    ranked = problem.ranked()
+    checks = [e for _, e in zip(range(max(verify, 1)), ranked)]
+    by_map: dict = {}
+    for e in problem.memo.values():
+        by_map.setdefault(e.point.design.mapping, []).append(e)
+    for e in sorted((problem.best_of(es) for es in by_map.values()), key=problem.rank):
+        if e.index not in [c.index for c in checks]:
+            checks.append(e)
     phases = phases or _Silent()
-    vp = Problem(space, lambda pts: pool.run(full, pts, lv), objective, budget, cost_of=cost_of)
+    vp = Problem(space, lambda pts: pool.run(full, pts, lv), objective, budget, cost_of=cost_of,
+                 bound_points=bounder(full))
     t0 = time.perf_counter()
     with phases.step(f"full-resolution checks: {len(checks)} designs at {full.width}x{full.height}",
                      None if per_eval is None else per_eval * len(checks) / max(min(pool.workers, len(checks)), 1)):
         vp.evaluate_many([e.index for e in checks])
     per_eval = (time.perf_counter() - t0) / max(len(checks), 1) * max(min(pool.workers, len(checks)), 1)
-    rows = [dict(r, phase="full-check") for r in vp.history()]
     subs = []
-    for e in sorted(vp.memo.values(), key=vp.rank):
+    for e in vp.ranked():
         if e.point.subdivision not in [s for s, _ in subs]:
             subs.append((e.point.subdivision, e))
         if len(subs) == refine:
             break
-    found = [(vp.rank(e), e) for e in vp.memo.values()]
-    n = len(vp.memo)
     with phases.step(f"polish at {full.width}x{full.height}: up to {refine_evals} designs from each of "
                      f"{len(subs)} subdivision(s)", per_eval * refine_evals * len(subs)):
-        n += _polish(space, full, objective, budget, refine_evals, pool, cost_of, subs, found, rows, lv)
-    return min(found, key=lambda t: t[0][:2])[1], rows, n
+        polished = _polish(space, full, objective, budget, refine_evals, pool, cost_of, subs, lv, bounder)
+    # the best of the checks, then of each polish (its start, a check, left out): the first on ties
+    found = [vp.best()] + [p.best_of([e for e in p.memo.values() if e.index != start]) for p, start in polished]
+    best = min((e for e in found if e is not None), key=lambda e: vp.rank(e)[:2])
+    rows = [dict(r, phase="full-check") for r in vp.history()]
+    for p, _ in polished:
+        rows += [dict(r, phase="full") for r in p.history() if r["evaluation"] > 1]
+    n = len(vp.memo) + sum(len(p.memo) - 1 for p, _ in polished)
+    ran = vp.runs + sum(p.runs - 1 for p, _ in polished)
+    return best, rows, n, ran
 
 
-def _polish(space, full, objective, budget, refine_evals, pool, cost_of, subs, found, rows, lv) -> int:
-    """The lattice polish from the best design of each subdivision in ``subs`` (adds to
-    ``found`` and ``rows``); returns the designs evaluated."""
-    n = 0
+def _polish(space, full, objective, budget, refine_evals, pool, cost_of, subs, lv, bounder) -> list:
+    """The lattice polish from the best design of each subdivision in ``subs``; returns
+    each polish's (Problem, start)."""
+    out = []
     for sub, e in subs:
         sp = space.with_subdivision(sub)
-        fp = Problem(sp, lambda pts: pool.run(full, pts, lv), objective, budget, cost_of=cost_of)
+        fp = Problem(sp, lambda pts: pool.run(full, pts, lv), objective, budget, cost_of=cost_of,
+                     bound_points=bounder(full))
         start = sp.canonical(sp.index_of(e.point))
         fp.add(e.point, e.result)
         compass(fp, start, refine_evals)
-        new = [k for k in fp.order if k != start]
-        found += [(fp.rank(fp.memo[k]), fp.memo[k]) for k in new]
-        rows += [dict(r, phase="full") for r in fp.history() if r["evaluation"] > 1]
-        n += len(new)
-    return n
+        out.append((fp, start))
+    return out
 
 
 def _plain_log_axis(axis) -> None:
@@ -394,6 +445,8 @@ def plot(report: dict, path) -> None:
     feas &= live
     full = np.array([r["phase"].startswith("full") for r in h])
     ver = np.array([r["phase"].startswith("verify") for r in h])
+    bnd = np.array([bool(r.get("bound")) for r in h])          # known by a level-1 bound only: not drawn as cycles
+    feas &= ~bnd
     best = np.minimum.accumulate(np.where(feas, cyc, np.inf))
 
     def dots(a, mask, *args, **kw):
@@ -404,14 +457,15 @@ def plot(report: dict, path) -> None:
          label=f"search at level {lv['search']} (estimate, scaled to full res.)")
     dots(ax[0], feas & full, n, cyc, s=8, c="tab:green", label="full-resolution polish")
     dots(ax[0], feas & ver, n, cyc, s=14, c="tab:purple", marker="D", label=f"verified at level {lv['verify']}")
-    dots(ax[0], ~feas & live, n, cyc, s=6, c="tab:gray", marker="x", label="over budget")
+    dots(ax[0], ~feas & live & ~bnd, n, cyc, s=6, c="tab:gray", marker="x", label="over budget")
+    dots(ax[0], bnd & live, n, cyc, s=4, c="lightgray", label=f"ruled out by level {BOUND_LEVEL} (its bound)")
     if np.isfinite(best).any():
         ax[0].step(n, best, where="post", c="tab:red", label="best so far")
     ax[0].set(yscale="log", xlabel="evaluation", ylabel="cycles", title="search history")
     _plain_log_axis(ax[0].yaxis)
     cost = np.array([r["cost"] for r in h])
     dead = int((~live).sum())
-    dots(ax[1], live & ~ver, cost, cyc, s=6, c="tab:blue", alpha=0.45,
+    dots(ax[1], live & ~ver & ~bnd, cost, cyc, s=6, c="tab:blue", alpha=0.45,
          label=f"evaluated at level {lv['search']} (estimates)" + (f"; {dead} deadlocked left out" if dead else ""))
     dots(ax[1], live & ver, cost, cyc, s=14, c="tab:purple", marker="D", label=f"verified at level {lv['verify']}")
     if report.get("front"):

@@ -26,9 +26,9 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .space import Point, Space, Var
+from .problem import INFEASIBLE, OBJECTIVES, Evaluation, Problem  # noqa: F401 (the search's names)
+from .space import Space, Var
 
-OBJECTIVES = ("time", "time*cost", "pareto")
 GLOBAL_ALGORITHMS = {
     "direct-l": "GN_DIRECT_L",
     "direct-l-rand": "GN_DIRECT_L_RAND",
@@ -41,17 +41,6 @@ GLOBAL_ALGORITHMS = {
 }
 STARTS = ("whole", "mapping")    # the global phase: one start over the space, or one per stage mapping
 POLISHES = ("lattice", "sbplx", "neldermead", "bobyqa", "cobyla", "none")
-INFEASIBLE = 1e3                # objective floor of a design over the budget (log-cycles are < 60)
-
-
-@dataclass
-class Evaluation:
-    index: tuple
-    point: Point
-    cycles: float
-    cost: float
-    serial: int                 # 1 for the first design evaluated
-    result: object = None
 
 
 @dataclass
@@ -63,125 +52,6 @@ class SearchResult:
     history: list = field(default_factory=list)
     front: list = field(default_factory=list)
     phases: dict = field(default_factory=dict)      # evaluations spent in each phase
-
-
-class Problem:
-    """A space, an evaluator and an objective; memoises evaluations.
-
-    ``evaluate_points(points) -> list of results`` (each with ``cycles`` and
-    ``cost``) is called with batches; the search itself asks one at a time.
-    """
-
-    def __init__(self, space: Space, evaluate_points, objective: str = "time", budget: float | None = None,
-                 progress=None, cost_of=None):
-        if objective not in OBJECTIVES:
-            raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, not {objective!r}")
-        self.space = space
-        self.evaluate_points = evaluate_points
-        self.objective = objective
-        self.budget = budget
-        self.memo: dict[tuple, Evaluation] = {}
-        self.order: list[tuple] = []            # canonical keys in evaluation order
-        self.calls = 0
-        self.cap = None
-        self.opt = None
-        self.progress = progress
-        self.free = [i for i, v in enumerate(space.variables) if v.size > 1]
-        self.cost_of = cost_of                  # point -> kGE without evaluating it (lets the polish skip
-                                                # designs over the budget), or None
-
-    def over_budget(self, key) -> bool:
-        """Whether a design is known, before evaluating it, to cost more than the budget."""
-        return self.budget is not None and self.cost_of is not None and \
-            self.cost_of(self.space.point(key)) > self.budget
-
-    def add(self, point, result) -> Evaluation | None:
-        """Record a point evaluated elsewhere (a global start's); None if it was known."""
-        k = self.space.canonical(self.space.index_of(point))
-        if k in self.memo:
-            return None
-        e = Evaluation(k, self.space.point(k), float(result.cycles), float(result.cost), len(self.memo) + 1, result)
-        self.memo[k] = e
-        self.order.append(k)
-        return e
-
-    def value(self, cycles: float, cost: float, budget=None) -> float:
-        budget = self.budget if budget is None else budget
-        if budget is not None and cost > budget:
-            return INFEASIBLE + math.log1p((cost - budget) / budget)
-        v = math.log(max(cycles, 1.0))
-        return v + math.log(max(cost, 1e-9)) if self.objective == "time*cost" else v
-
-    def evaluate_many(self, idxs) -> list[Evaluation]:
-        """Evaluate index vectors (memoised), new ones in one batch."""
-        keys = [self.space.canonical(i) for i in idxs]
-        new = list(dict.fromkeys(k for k in keys if k not in self.memo))
-        if self.cap is not None and len(self.memo) + len(new) > self.cap:
-            new = new[:max(self.cap - len(self.memo), 0)]
-        if new:
-            results = self.evaluate_points([self.space.point(k) for k in new])
-            for k, r in zip(new, results):
-                e = Evaluation(k, self.space.point(k), float(r.cycles), float(r.cost), len(self.memo) + 1, r)
-                self.memo[k] = e
-                self.order.append(k)
-                if self.progress:
-                    self.progress(self)
-        return [self.memo[k] for k in keys if k in self.memo]
-
-    def __call__(self, idx) -> float:
-        self.calls += 1
-        k = self.space.canonical(idx)
-        if k not in self.memo:
-            if self.cap is not None and len(self.memo) >= self.cap:
-                if self.opt is not None:          # NLopt: ask it to stop (exceptions in callbacks misbehave)
-                    self.opt.force_stop()
-                return INFEASIBLE * 10
-            self.evaluate_many([k])
-        return self.f(self.memo[k])
-
-    def f(self, e: Evaluation, budget=None) -> float:
-        """The objective of an evaluation (under the current budget)."""
-        return self.value(e.cycles, e.cost, budget)
-
-    def best(self, budget=None) -> Evaluation | None:
-        if not self.memo:
-            return None
-        return min(self.memo.values(), key=lambda e: self.rank(e, budget))
-
-    def rank(self, e: Evaluation, budget=None) -> tuple:
-        """Order of preference: objective, then cost (a tie in time goes to the cheaper design)."""
-        return (self.f(e, budget), e.cost, e.serial)
-
-    def x_to_index(self, x) -> tuple:
-        idx = [0] * len(self.space.variables)
-        for j, i in enumerate(self.free):
-            n = self.space.variables[i].size
-            idx[i] = min(max(int(math.floor(x[j])), 0), n - 1)
-        return tuple(idx)
-
-    def index_to_x(self, idx) -> np.ndarray:
-        return np.array([idx[i] + 0.5 for i in self.free], dtype=float)
-
-    def history(self) -> list[dict]:
-        rows, best = [], math.inf
-        for n, k in enumerate(self.order, 1):
-            e = self.memo[k]
-            v = self.f(e)
-            best = min(best, v)
-            rows.append({"evaluation": n, "subdivision": list(e.point.subdivision), "design": e.point.design.to_dict(),
-                         "cycles": e.cycles, "cost": e.cost, "objective": v, "best_objective": best,
-                         "feasible": v < INFEASIBLE})
-        return rows
-
-    def front(self) -> list[Evaluation]:
-        """The designs no other evaluated design beats in both cycles and cost."""
-        pts = sorted(self.memo.values(), key=lambda e: (e.cost, e.cycles, e.index))
-        out, best_cycles = [], math.inf
-        for e in pts:
-            if e.cycles < best_cycles:
-                out.append(e)
-                best_cycles = e.cycles
-        return out
 
 
 def _nlopt_run(problem: Problem, algorithm: str, x0, max_evals: int, seed: int, step=None):
@@ -198,8 +68,22 @@ def _nlopt_run(problem: Problem, algorithm: str, x0, max_evals: int, seed: int, 
     start = len(problem.memo)
     problem.cap = start + max_evals
 
+    # DIRECT-L asks about hundreds of points per distinct design (floor(x) is flat in a cell):
+    # the cell's objective is kept by its raw index vector, so a revisit costs a floor and a
+    # dictionary look-up (the same value the memo gives, so the search is unchanged)
+    hi = np.array(sizes, dtype=np.int64) - 1
+    seen: dict = {}
+
     def f(x, grad):
-        return problem(problem.x_to_index(x))
+        raw = tuple(np.minimum(np.maximum(np.floor(x).astype(np.int64), 0), hi).tolist())
+        v = seen.get(raw)
+        if v is None:
+            v = problem(problem.x_to_index(x))
+            if v < INFEASIBLE * 10:          # not the stop sentinel (the cap reached)
+                seen[raw] = v
+        else:
+            problem.calls += 1
+        return v
 
     opt.set_min_objective(f)
     problem.opt = opt
@@ -313,6 +197,7 @@ def compass(problem: Problem, idx, max_evals: int, fixed=()) -> tuple:
     optimum or after ``max_evals`` new designs."""
     cur = problem.space.canonical(idx)
     start = len(problem.memo)
+    problem.resolve(problem.memo[cur])
     pairs = False
     while True:
         nbrs = _neighbours(problem, cur, pairs, fixed)
@@ -323,8 +208,11 @@ def compass(problem: Problem, idx, max_evals: int, fixed=()) -> tuple:
         problem.evaluate_many(fresh)
         cand = [problem.memo[k] for k in nbrs if k in problem.memo]
         here = problem.rank(problem.memo[cur])[:2]
-        better = min(cand, key=problem.rank, default=None)
-        if better is None or problem.rank(better)[:2] >= here:
+        # a neighbour ruled out by its bound is replayed only if its bound beats the current design
+        # (a walk from a mapping's start goes through designs slower than the incumbent: it is the
+        # hedge that sends each mapping's best to full resolution, so it walks as it would unbounded)
+        better = problem.best_of(cand, below=here)
+        if better is None:
             if pairs or len(problem.memo) - start >= max_evals:
                 return cur
             pairs = True
@@ -342,11 +230,11 @@ def _polish_starts(problem: Problem) -> list[tuple]:
     numeric index at its smallest value) instead, which the polish then grows."""
     space = problem.space
     pos = space.names.index("mapping")
-    starts = {}
-    for e in sorted(problem.memo.values(), key=problem.rank):
-        m = e.index[pos]
-        if m not in starts and problem.f(e) < INFEASIBLE:
-            starts[m] = e.index
+    by_map: dict = {}
+    for e in problem.memo.values():
+        by_map.setdefault(e.index[pos], []).append(e)
+    bests = [problem.best_of(es) for es in by_map.values()]        # each mapping's best, run
+    starts = {e.index[pos]: e.index for e in sorted(bests, key=problem.rank) if problem.f(e) < INFEASIBLE}
     if space.variables[pos].size > 1:
         for m in range(space.variables[pos].size):
             if m not in starts:
@@ -374,14 +262,14 @@ def split_by_mapping(space: Space) -> list[Space]:
 
 
 def global_start(evaluate_points, space: Space, objective: str, budget, algorithm: str, max_evals: int,
-                 seed: int, known=()) -> tuple[list, int]:
+                 seed: int, known=(), bound_points=None) -> tuple[list, int]:
     """One start of the global phase: ``algorithm`` over ``space`` (``known``: (point,
     result) pairs evaluated before, not counted).  Returns the new (point, result) pairs in
     evaluation order and NLopt's calls; depends only on its arguments (so it may run in
     another process)."""
-    p = Problem(space, evaluate_points, objective, budget)
-    for point, r in known:
-        p.add(point, r)
+    p = Problem(space, evaluate_points, objective, budget, bound_points=bound_points)
+    for point, r, bound in known:
+        p.add(point, r, bound)
     n0 = len(p.order)
     sizes = [space.variables[i].size for i in p.free]
     if algorithm == "random":
@@ -390,12 +278,12 @@ def global_start(evaluate_points, space: Space, objective: str, budget, algorith
         _nlopt_run(p, GLOBAL_ALGORITHMS[algorithm], [s / 2.0 for s in sizes], max_evals, seed)
     else:
         p(p.x_to_index([s / 2.0 for s in sizes]))
-    return [(p.memo[k].point, p.memo[k].result) for k in p.order[n0:]], p.calls
+    return [(p.memo[k].point, p.memo[k].result, p.memo[k].bound) for k in p.order[n0:]], p.calls
 
 
 def _local_starts(problem: Problem):
     def run(tasks):
-        return [global_start(problem.evaluate_points, *t) for t in tasks]
+        return [global_start(problem.evaluate_points, *t, bound_points=problem.bound_points) for t in tasks]
     return run
 
 
@@ -422,13 +310,14 @@ def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice
     tasks = []
     for k, sp in enumerate(subs):
         m = sp.value([0] * len(sp.variables), "mapping") if sp is not problem.space else None
-        known = [(e.point, e.result) for e in problem.memo.values() if m is None or e.point.design.mapping == m]
+        known = [(e.point, e.result, e.bound) for e in problem.memo.values()
+                 if m is None or e.point.design.mapping == m]
         share = max_evals // len(subs) + (1 if k < max_evals % len(subs) else 0)
         tasks.append((sp, problem.objective, problem.budget, algorithm, max(share, 1), seed, known))
     for rows, calls in (run_starts or _local_starts(problem))(tasks):
         problem.calls += calls
-        for point, r in rows:
-            if problem.add(point, r) is not None and problem.progress:
+        for point, r, bound in rows:
+            if problem.add(point, r, bound) is not None and problem.progress:
                 problem.progress(problem)
     n1 = len(problem.memo)
     best = problem.best()
