@@ -297,3 +297,22 @@ def test_simulate_command_at_level_3_on_the_compiled_engine(tmp_path):
     assert (a["level"], a["engine"], b["engine"]) == (3, "compiled", "simpy")
     assert a["cycles"] == b["cycles"] and a["memory"] == b["memory"] and a["stages"] == b["stages"]
     assert a["memory"]["icgm"]["accesses"] > 0
+
+
+@pytest.mark.parametrize("contention", [False, True])
+def test_global_memory_read_lines_is_n_reads(contention):
+    """read_lines (a visit's misses in one step) leaves the same time and figures as one read a
+    line, issued each when the last one's data is back, on ports already busy or free."""
+    from mprt.machine.memory import GlobalMemory
+    rng = np.random.default_rng(5)
+    for _ in range(200):
+        cfg = GlobalMemoryConfig(int(rng.choice([0, 1, 7, 40])), int(rng.choice([1, 3, 8, 64])), contention)
+        a, b = GlobalMemory("ICGM", cfg, 3), GlobalMemory("ICGM", cfg, 3)
+        for _ in range(int(rng.integers(1, 6))):
+            t, pe, n = int(rng.integers(0, 300)), int(rng.integers(0, 3)), int(rng.integers(0, 9))
+            nbytes = int(rng.choice([1, 16, 32, 100]))
+            done = t
+            for _ in range(n):
+                done = a.read(done, nbytes, pe)
+            assert b.read_lines(t, nbytes, pe, n) == done
+            assert (a.port_free, a.accesses, a.busy, a.queued) == (b.port_free, b.accesses, b.busy, b.queued)

@@ -98,6 +98,22 @@ class GlobalMemory:
         self.queued += start - t
         return start + xfer + self.latency
 
+    def read_lines(self, t: int, nbytes: int, pe: int, n: int) -> int:
+        """n reads of nbytes one after another, each issued when the last one's data is back:
+        the same as n calls of ``read``.  After the first, the port is free again by the time
+        the next read is issued (its transfer ended ``latency`` cycles before), so each later
+        read takes its transfer and the latency, and none waits."""
+        if n <= 0:
+            return t
+        done = self.read(t, nbytes, pe)
+        if n > 1:
+            xfer = -(-nbytes // self.bandwidth)
+            done += (n - 1) * (xfer + self.latency)
+            self.port_free[0 if self.contention else pe] = done - self.latency
+            self.accesses += n - 1
+            self.busy += (n - 1) * xfer
+        return done
+
 
 def _greedy(nbytes, size: int) -> np.ndarray:
     """Which items, in the given order, are taken when each is taken if it still fits
@@ -237,12 +253,11 @@ class LocalMemory:
         nres, nitems, lines = got if got is not None else self._ranges(key)
         self.resident.accesses += nitems
         self.resident.hits += nres
-        done = t
         cache = self.cache
         if cache is None:
-            misses = lines
+            misses = len(lines)
         else:                       # Cache.access, inlined (the hot loop of level 3)
-            misses = []
+            misses = 0
             sets, nsets, ways = cache.sets, cache.nsets, cache.ways
             hits = 0
             for line in lines:
@@ -256,11 +271,10 @@ class LocalMemory:
                     st.append(line)
                     if len(st) > ways:
                         del st[0]
-                    misses.append(line)
+                    misses += 1
             cache.accesses += len(lines)
             cache.hits += hits
-        for _ in misses:
-            done = self.gm.read(done, self.line, self.pe)
+        done = self.gm.read_lines(t, self.line, self.pe, misses)
         s = done - t
         self.stall_cycles += s
         return s
