@@ -33,6 +33,23 @@ typedef struct {
  * return 1 on any hit in (tmin, tmax].  Otherwise update the nearest hit
  * *best and return 1 when it lies within this voxel's stretch, or with
  * accept_listed wherever it lies (accepted). */
+/* A hit at t on primitive id, found by IC's test within the limit, taken as
+ * every ic_visit takes it: none where the scene no longer holds what IC tested
+ * (a corrupted scene: an error), a shadow ray's first, else the nearest (ties
+ * to the lower id).  Returns 1 when the search ends (a shadow ray's hit). */
+WALK_INLINE int ic_take(const mprt_grid *g, int32_t id, real t, int shadow, mprt__hit *best, mprt__sink *sink)
+{
+    if (g->scene->prims[id].kind != mprt__ic_scene_kind(&g->ic, id)) {
+        sink->bad_prim = id;
+        return 0;
+    }
+    if (shadow || t < best->t || (t == best->t && id < best->prim)) {
+        best->t = t;
+        best->prim = id;
+    }
+    return shadow;
+}
+
 /* ic_visit for a voxel whose triangles are packed (ic_pack.h): the blocks
  * are tested a chunk at a time, then the list is gone through in order as
  * ic_visit goes through it, each triangle's test counted and its result
@@ -73,20 +90,10 @@ WALK_INLINE int ic_visit_packed(const mprt_grid *g, long long voxel, uint32_t bl
             } else if (!mprt__ic_test(&g->ic, g->scene, id, ray, dd, tmin, limit, &t, ic->tests, &ic->vertices)) {
                 continue;
             }
-            if (g->scene->prims[id].kind != mprt__ic_scene_kind(&g->ic, id)) {
-                sink->bad_prim = id;
-                continue;
-            }
-            if (shadow) {
-                best->t = t;
-                best->prim = id;
+            if (ic_take(g, id, t, shadow, best, sink)) {
                 ic->tests[MPRT_POLYGON] += ntri;
                 ic->vertices += 3 * ntri;
                 return 1;
-            }
-            if (t < best->t || (t == best->t && id < best->prim)) {
-                best->t = t;
-                best->prim = id;
             }
         }
     }
@@ -160,20 +167,10 @@ WALK_INLINE int ic_visit_several(const mprt_grid *g, long long voxel, real t_exi
             } else if (!mprt__ic_test(&g->ic, g->scene, id, ray, dd, tmin, limit, &t, ic->tests, &ic->vertices)) {
                 continue;
             }
-            if (g->scene->prims[id].kind != mprt__ic_scene_kind(&g->ic, id)) {
-                sink->bad_prim = id;
-                continue;
-            }
-            if (shadow) {
-                best->t = t;
-                best->prim = id;
+            if (ic_take(g, id, t, shadow, best, sink)) {
                 ic->tests[MPRT_POLYGON] += ntests;
                 ic->vertices += 3 * ntests;
                 return 1;
-            }
-            if (t < best->t || (t == best->t && id < best->prim)) {
-                best->t = t;
-                best->prim = id;
             }
         }
     }
@@ -204,20 +201,7 @@ WALK_INLINE int ic_visit(const mprt_grid *g, long long voxel, real t_exit, const
             mb->id[id & (MAILBOX_SIZE - 1)] = id;
         }
         if (!mprt__ic_test(&g->ic, g->scene, id, ray, dd, tmin, limit, &t, ic->tests, &ic->vertices)) continue;
-        if (g->scene->prims[id].kind != mprt__ic_scene_kind(&g->ic, id)) {
-            /* the scene no longer holds what IC tested (a corrupted scene): no hit, an error */
-            sink->bad_prim = id;
-            continue;
-        }
-        if (shadow) {
-            best->t = t;
-            best->prim = id;
-            return 1;
-        }
-        if (t < best->t || (t == best->t && id < best->prim)) {
-            best->t = t;
-            best->prim = id;
-        }
+        if (ic_take(g, id, t, shadow, best, sink)) return 1;
     }
     return !shadow && best->prim >= 0 && (accept_listed || best->t <= t_exit);
 }
