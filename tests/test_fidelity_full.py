@@ -12,11 +12,11 @@ import mprt
 from mprt.cost import CostModel
 from mprt.fidelity import Compiled, engine_for, evaluate, native_level, unsupported
 from mprt.machine import ConfigError, DeadlockError, builtin, load_config
-from mprt.machine.config import CacheConfig, GlobalMemoryConfig, LocalMemoryConfig, RingConfig
+from mprt.machine.config import CacheConfig, LocalMemoryConfig, RingConfig
 
 from test_fidelity import FULL, GOLDEN, NAMES, head
 from test_fidelity_memory import check, random_gm, random_memory, small_memories
-from test_fidelity_ring import ring_config
+from test_fidelity_ring import random_costs, ring_config
 
 CM = CostModel.default()
 
@@ -77,13 +77,7 @@ def test_random_ring_and_memory_configurations_equal_simpy(traces, seed):
     for i in range(80):
         t = head(traces[rng.choice(names)], rng.choice([5, 20, 40]))
         cfg = random_machine(rng)
-        vc = CM.visit_costs(t, cfg.processors())
-        if rng.random() < 0.3:
-            vc.inject_process = vc.inject_send = 0
-        if rng.random() < 0.3:
-            nr = np.random.default_rng(1000 * seed + i)
-            vc.flits = nr.integers(0, 7, len(vc.flits)).astype(np.int32)
-            vc.inject_flits = int(nr.integers(0, 4))
+        vc = random_costs(t, cfg, rng, 1000 * seed + i)
         res = check(t, cfg, vc)
         if isinstance(res, DeadlockError):
             seen["deadlock"] += 1
