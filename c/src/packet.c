@@ -90,9 +90,11 @@ static unsigned run_portable(lanes *S, const uint64_t *plain, unsigned *ended)
 #ifdef PACKET_HAVE_AVX2
 #define TARGET_AVX2 __attribute__((target("avx2")))
 
-/* Each step is taken for every lane that can take it before its plain bit
- * is known (the bit's load is then off the chain of steps) and undone for
- * the lanes whose voxel turns out not plain, when the loop stops. */
+/* Each step is taken for every lane before its plain bit is known and
+ * before its end is checked (the loads and checks are then off the chain
+ * of steps, which is compare, blend, add) and undone for the lanes that
+ * stop or end, when the loop stops.  A lane not active has tdelta and
+ * stride 0 (lane_go): its steps change nothing that is read. */
 TARGET_AVX2 static unsigned run_avx2(lanes *S, const uint64_t *plain, unsigned *ended)
 {
     __m256d t0 = _mm256_loadu_pd(S->tn[0]), t1 = _mm256_loadu_pd(S->tn[1]), t2 = _mm256_loadu_pd(S->tn[2]);
@@ -103,54 +105,57 @@ TARGET_AVX2 static unsigned run_avx2(lanes *S, const uint64_t *plain, unsigned *
     const __m256i r0 = _mm256_loadu_si256((const __m256i *)S->stride[0]);
     const __m256i r1 = _mm256_loadu_si256((const __m256i *)S->stride[1]);
     const __m256i r2 = _mm256_loadu_si256((const __m256i *)S->stride[2]);
-    const __m256i zero = _mm256_setzero_si256();
-    const __m256i act = _mm256_set_epi64x(-(int64_t)(S->active >> 3 & 1), -(int64_t)(S->active >> 2 & 1),
-                                          -(int64_t)(S->active >> 1 & 1), -(int64_t)(S->active & 1));
+    const __m256i zero = _mm256_setzero_si256(), ones = _mm256_cmpeq_epi64(zero, zero);
+    const unsigned active = S->active;
     __m256i v = _mm256_loadu_si256((const __m256i *)S->voxel);
     for (;;) {
         /* each lane's plain bit, by four loads (every lane's voxel is one of
          * the grid's; a gather measured slower) */
         int64_t vv[LANES];
-        unsigned pm;
+        unsigned pm, sm, em;
+        __m256d m0, m1, ta, n0, n1, n2;
+        __m256i i0, i1, i2, ka, nk0, nk1, nk2, nv;
         _mm256_storeu_si256((__m256i *)vv, v);
         pm = (unsigned)(plain[vv[0] >> 6] >> (vv[0] & 63) & 1) | (unsigned)(plain[vv[1] >> 6] >> (vv[1] & 63) & 1) << 1 |
              (unsigned)(plain[vv[2] >> 6] >> (vv[2] & 63) & 1) << 2 | (unsigned)(plain[vv[3] >> 6] >> (vv[3] & 63) & 1) << 3;
         /* the axis each lane steps on: mprt__dda_seek's comparisons */
-        const __m256d m0 = _mm256_and_pd(_mm256_cmp_pd(t0, t1, _CMP_LE_OQ), _mm256_cmp_pd(t0, t2, _CMP_LE_OQ));
-        const __m256d m1 = _mm256_andnot_pd(m0, _mm256_cmp_pd(t1, t2, _CMP_LE_OQ));
-        const __m256i i0 = _mm256_castpd_si256(m0), i1 = _mm256_castpd_si256(m1);
-        const __m256i i2 = _mm256_andnot_si256(_mm256_or_si256(i0, i1), act);
-        const __m256d ta = _mm256_blendv_pd(_mm256_blendv_pd(t2, t1, m1), t0, m0);
-        const __m256i ka = _mm256_blendv_epi8(_mm256_blendv_epi8(k2, k1, i1), k0, i0);
-        /* the walk ends at its crossing past t_end, or out of the grid */
-        const __m256i out = _mm256_or_si256(_mm256_cmpeq_epi64(ka, zero),
-                                            _mm256_castpd_si256(_mm256_cmp_pd(ta, te, _CMP_GE_OQ)));
-        const __m256i go = _mm256_andnot_si256(out, act);
-        const __m256i g0 = _mm256_and_si256(go, i0), g1 = _mm256_and_si256(go, i1), g2 = _mm256_and_si256(go, i2);
-        const __m256d n0 = _mm256_blendv_pd(t0, _mm256_add_pd(t0, d0), _mm256_castsi256_pd(g0));
-        const __m256d n1 = _mm256_blendv_pd(t1, _mm256_add_pd(t1, d1), _mm256_castsi256_pd(g1));
-        const __m256d n2 = _mm256_blendv_pd(t2, _mm256_add_pd(t2, d2), _mm256_castsi256_pd(g2));
-        const __m256i nk0 = _mm256_add_epi64(k0, g0), nk1 = _mm256_add_epi64(k1, g1), nk2 = _mm256_add_epi64(k2, g2);
-        const __m256i nv = _mm256_add_epi64(
-            v, _mm256_or_si256(_mm256_or_si256(_mm256_and_si256(r0, g0), _mm256_and_si256(r1, g1)),
-                               _mm256_and_si256(r2, g2)));
-        const int sm = (int)(~pm & S->active);
-        const int em = _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_and_si256(act, out))) & ~sm;
+        m0 = _mm256_and_pd(_mm256_cmp_pd(t0, t1, _CMP_LE_OQ), _mm256_cmp_pd(t0, t2, _CMP_LE_OQ));
+        m1 = _mm256_andnot_pd(m0, _mm256_cmp_pd(t1, t2, _CMP_LE_OQ));
+        i0 = _mm256_castpd_si256(m0);
+        i1 = _mm256_castpd_si256(m1);
+        i2 = _mm256_andnot_si256(_mm256_or_si256(i0, i1), ones);
+        ta = _mm256_blendv_pd(_mm256_blendv_pd(t2, t1, m1), t0, m0);
+        ka = _mm256_blendv_epi8(_mm256_blendv_epi8(k2, k1, i1), k0, i0);
+        n0 = _mm256_blendv_pd(t0, _mm256_add_pd(t0, d0), m0);
+        n1 = _mm256_blendv_pd(t1, _mm256_add_pd(t1, d1), m1);
+        n2 = _mm256_blendv_pd(t2, _mm256_add_pd(t2, d2), _mm256_castsi256_pd(i2));
+        nk0 = _mm256_add_epi64(k0, i0);
+        nk1 = _mm256_add_epi64(k1, i1);
+        nk2 = _mm256_add_epi64(k2, i2);
+        nv = _mm256_add_epi64(v, _mm256_or_si256(_mm256_or_si256(_mm256_and_si256(r0, i0), _mm256_and_si256(r1, i1)),
+                                                 _mm256_and_si256(r2, i2)));
+        /* lanes at a voxel that is not plain stop; the others' walks end at
+         * a crossing past t_end, or out of the grid */
+        sm = ~pm & active;
+        em = (unsigned)_mm256_movemask_pd(_mm256_castsi256_pd(_mm256_or_si256(
+                 _mm256_cmpeq_epi64(ka, zero), _mm256_castpd_si256(_mm256_cmp_pd(ta, te, _CMP_GE_OQ))))) &
+             active & ~sm;
         if (sm | em) {
-            /* the lanes at a voxel that is not plain keep their state, the others step */
-            const __m256i stop = _mm256_set_epi64x(-(int64_t)(sm >> 3 & 1), -(int64_t)(sm >> 2 & 1),
-                                                   -(int64_t)(sm >> 1 & 1), -(int64_t)(sm & 1));
-            const __m256d sd = _mm256_castsi256_pd(stop);
-            _mm256_storeu_pd(S->tn[0], _mm256_blendv_pd(n0, t0, sd));
-            _mm256_storeu_pd(S->tn[1], _mm256_blendv_pd(n1, t1, sd));
-            _mm256_storeu_pd(S->tn[2], _mm256_blendv_pd(n2, t2, sd));
-            _mm256_storeu_si256((__m256i *)S->left[0], _mm256_blendv_epi8(nk0, k0, stop));
-            _mm256_storeu_si256((__m256i *)S->left[1], _mm256_blendv_epi8(nk1, k1, stop));
-            _mm256_storeu_si256((__m256i *)S->left[2], _mm256_blendv_epi8(nk2, k2, stop));
-            _mm256_storeu_si256((__m256i *)S->voxel, _mm256_blendv_epi8(nv, v, stop));
-            S->active &= ~(unsigned)(sm | em);
-            *ended = (unsigned)em;
-            return (unsigned)sm;
+            /* the lanes that stop or end keep their state, the others step */
+            const unsigned x = sm | em;
+            const __m256i keep = _mm256_set_epi64x(-(int64_t)(x >> 3 & 1), -(int64_t)(x >> 2 & 1),
+                                                   -(int64_t)(x >> 1 & 1), -(int64_t)(x & 1));
+            const __m256d kd = _mm256_castsi256_pd(keep);
+            _mm256_storeu_pd(S->tn[0], _mm256_blendv_pd(n0, t0, kd));
+            _mm256_storeu_pd(S->tn[1], _mm256_blendv_pd(n1, t1, kd));
+            _mm256_storeu_pd(S->tn[2], _mm256_blendv_pd(n2, t2, kd));
+            _mm256_storeu_si256((__m256i *)S->left[0], _mm256_blendv_epi8(nk0, k0, keep));
+            _mm256_storeu_si256((__m256i *)S->left[1], _mm256_blendv_epi8(nk1, k1, keep));
+            _mm256_storeu_si256((__m256i *)S->left[2], _mm256_blendv_epi8(nk2, k2, keep));
+            _mm256_storeu_si256((__m256i *)S->voxel, _mm256_blendv_epi8(nv, v, keep));
+            S->active &= ~x;
+            *ended = em;
+            return sm;
         }
         t0 = n0;
         t1 = n1;
@@ -308,7 +313,15 @@ static void lane_go(batch *b, lanes *S, unsigned j, lane *L, int state)
             }
             state = LANE_NEW;
         }
-        if (state == LANE_NEW && !lane_take(b, L)) return;
+        if (state == LANE_NEW && !lane_take(b, L)) {
+            /* no rays left: the lane's steps (run_avx2) change nothing */
+            int a;
+            for (a = 0; a < 3; a++) {
+                S->td[a][j] = 0;
+                S->stride[a][j] = 0;
+            }
+            return;
+        }
         /* LANE_SEEK: mprt__dda_seek from the current voxel; its first check
          * here, and the voxel-by-voxel steps with the lanes, but from a voxel
          * that is not plain (one with primitives, or one to jump from) */
