@@ -79,33 +79,22 @@ void mprt__trace_sample(const mprt__render_setup *setup, mprt__tree_ray eye, int
 
 /* ---- Batch closest hit ------------------------------------------------------ */
 
-/* A ray the walk takes: finite, with a non-zero direction. */
-static int ray_ok(const double *o, const double *d)
-{
-    return isfinite(o[0]) && isfinite(o[1]) && isfinite(o[2]) && isfinite(d[0]) && isfinite(d[1]) && isfinite(d[2]) &&
-           !(d[0] == 0 && d[1] == 0 && d[2] == 0);
-}
-
 int mprt_grid_intersect(mprt_grid *g, size_t n, const double *org, const double *dir, double *t, int32_t *prim,
                         mprt_counters *counters)
 {
     size_t i;
-    int done;
     mprt__sink sink;
     if (!g) return MPRT_ERR_INVALID_ARG;
     if (g->failed) return MPRT_ERR_STATE;
     if (n && (!org || !dir || !t || !prim)) return MPRT_ERR_INVALID_ARG;
     mprt__sink_init(&sink, NULL);
-    /* several rays at a time when every ray is one the walk takes (packet.c);
-     * else one at a time, which fails at the first it refuses */
-    for (i = 0; i < n; i++)
-        if (!ray_ok(org + 3 * i, dir + 3 * i)) break;
-    done = i == n && mprt__intersect_packets(g, n, org, dir, t, prim, &sink);
-    for (i = 0; !done && i < n; i++) {
+    for (i = 0; i < n; i++) {
         mprt__ray ray;
         mprt__hit hit;
         const double *o = org + 3 * i, *d = dir + 3 * i;
-        if (!ray_ok(o, d)) {
+        if (!(isfinite(o[0]) && isfinite(o[1]) && isfinite(o[2]) && isfinite(d[0]) && isfinite(d[1]) &&
+              isfinite(d[2])) ||
+            (d[0] == 0 && d[1] == 0 && d[2] == 0)) {
             return mprt__grid_fail(g, MPRT_ERR_INVALID_ARG,
                                    "intersect: ray %zu has a NaN or infinite component or a zero direction", i);
         }

@@ -55,14 +55,6 @@ int mprt__os_ic_accept(const mprt_grid *grid, const mprt__ray *ray, real tmin, r
 int mprt__os_ic_trace(const mprt_grid *grid, const mprt__ray *ray, real tmin, real tmax, int shadow, int use_mailbox,
                       int accept_listed, mprt__hit *best, mprt__sink *sink, int64_t ray_id, int ray_kind);
 
-/* mprt_grid_intersect's batch walked several rays at a time (packet.c), each
- * ray making exactly its own walk's visits, tests, counts and hit: only with
- * MPRT_PACKETS=1 (it measured no faster) and 2 rays or more; returns 0
- * (nothing done) otherwise, and the batch goes one ray at a time.  Every ray
- * must be finite with a non-zero direction. */
-int mprt__intersect_packets(const mprt_grid *grid, size_t n, const double *org, const double *dir, double *t,
-                            int32_t *prim, mprt__sink *sink);
-
 /* Trace the whole ray tree of the sample whose eye ray is eye; its colour
  * goes to rgb.  stack holds mprt__tree_stack_size rays. */
 void mprt__trace_sample(const mprt__render_setup *setup, mprt__tree_ray eye, int sample, double rgb[3],

@@ -6,8 +6,7 @@ the same rays (embreex; triangles for tetra and mount, a tessellation for the re
   one      MPRT_IC_PACK=0: one primitive at a time (the walk before the issue);
   records  MPRT_IC_BLOCKS=0: triangles four at a time from IC's records (gathered, transposed),
            spheres, cylinders and cones through the ball filter four at a time;
-  blocks   the default: the same, with each voxel's triangles in blocks where they fit 4 MiB;
-  lanes    blocks, the rays walked four at a time (c/src/packet.c, MPRT_PACKETS=1, read at each call).
+  blocks   the default: the same, with each voxel's triangles in blocks where they fit 4 MiB.
 Every setting's hits, distances and counters are checked equal first.
 
     python studies/03_bench/steps.py tetra:24x24x24:primary mount:20x20x16:random tree:512x512x20:primary
@@ -26,18 +25,6 @@ import run as bench  # noqa: E402
 
 MODES = {"one": {"MPRT_IC_PACK": "0"}, "records": {"MPRT_IC_BLOCKS": "0"}, "blocks": {}}
 VARIABLES = ("MPRT_IC_PACK", "MPRT_IC_SIMD", "MPRT_IC_BLOCKS")
-CALL_ENV = {"lanes": {"MPRT_PACKETS": "1"}}  # read by each Grid.intersect call, not when the grid is made
-
-
-def call(label, g, o, d, **kw):
-    """g.intersect(o, d) with the environment label's calls run under."""
-    env = CALL_ENV.get(label, {})
-    os.environ.update(env)
-    try:
-        return g.intersect(o, d, **kw)
-    finally:
-        for k in env:
-            os.environ.pop(k, None)
 
 
 def step(name, n, which, repeat):
@@ -49,13 +36,12 @@ def step(name, n, which, repeat):
             os.environ.pop(v, None)
         os.environ.update(env)
         grids[label] = scene.grid(n)
-    grids["lanes"] = grids["blocks"]
     for v in VARIABLES:
         os.environ.pop(v, None)
     o, d = bench.rays_of(name, None, which)
     ref = grids["one"].intersect(o, d, return_counters=True)
     for label, g in grids.items():
-        t, p, c = call(label, g, o, d, return_counters=True)
+        t, p, c = g.intersect(o, d, return_counters=True)
         assert np.array_equal(t, ref[0]) and np.array_equal(p, ref[1]) and c == ref[2], label
     best = {label: 1e9 for label in grids}
     if bench._ers is not None:
@@ -67,7 +53,7 @@ def step(name, n, which, repeat):
         best["embree"] = 1e9
     for _ in range(repeat):
         for label, g in grids.items():
-            best[label] = min(best[label], bench.cpu_clock(lambda: call(label, g, o, d))[0])
+            best[label] = min(best[label], bench.cpu_clock(lambda: g.intersect(o, d))[0])
         if "embree" in best:
             best["embree"] = min(best["embree"], bench.cpu_clock(lambda: es.run(of, df))[0])
     k = len(o)
@@ -75,7 +61,6 @@ def step(name, n, which, repeat):
     row.update({f"{label}_ns": round(t / k * 1e9, 1) for label, t in best.items()})
     row["records_vs_one"] = round(best["one"] / best["records"], 3)
     row["blocks_vs_one"] = round(best["one"] / best["blocks"], 3)
-    row["lanes_vs_blocks"] = round(best["blocks"] / best["lanes"], 3)
     if "embree" in best:
         row.update({f"{label}_vs_embree": round(best["embree"] / best[label], 3) for label in grids})
     return row
