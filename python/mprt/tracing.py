@@ -14,6 +14,7 @@ This module also gives ``Grid`` its ``trace`` method (a thin call of
 """
 from __future__ import annotations
 
+import json
 import math
 import sys
 import threading
@@ -24,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm import tqdm
 
-from . import tracefile, tracevalid
+from . import tracefile, tracevalid, tracewriter
 from ._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Rules
 from .errors import InvalidArgument
 from .grid import CONVENTIONS, Grid, render_desc
@@ -139,8 +140,10 @@ _POOL_ENTRIES = 2
 # 16 rays and 128 visits per sample is over twice what any SPD scene needs at 512x512 (rings:
 # 58 visits); a trace needing more grows its arrays by doubling.
 RESERVE_RAYS, RESERVE_VISITS = 16, 128
-# The chunk a trace streamed to disk records into before each write (bounded memory).
-CHUNK_RAYS, CHUNK_VISITS = 1 << 15, 1 << 17
+# The chunks a trace streamed to disk records into, one after the other, each written while the
+# next ones fill (bounded memory: 7 MB).  Small enough to be read back from the cache, and few
+# pages to touch: on a virtual machine a page touched for the first time costs a host fault.
+CHUNK_RAYS, CHUNK_VISITS, CHUNKS = 1 << 13, 1 << 15, 4
 # Tiles per library call: progress is reported between calls.
 TILES_PER_CALL = 64
 
@@ -184,14 +187,14 @@ def _reserve(rays: int, visits: int) -> dict:
 
 class _Records:
     """Where a trace's records go: straight into the trace's arrays in memory, or (``writer``, a
-    tracefile.TraceWriter) into one of two reused chunks: each time one fills, the writer
-    writes it to the file in the background while the other fills."""
+    tracewriter.TraceWriter) into a ring of ``CHUNKS`` reused chunks: each time one fills, the
+    writer writes it to the file in the background while the next ones fill."""
 
     def __init__(self, samples: int, writer=None):
         self.writer = writer
         with _POOL_LOCK:   # taken (referred to here) before another trace looks for idle arrays
             if writer:
-                self.chunks = [dict(_reserve(CHUNK_RAYS, CHUNK_VISITS)) for _ in range(2)]
+                self.chunks = [dict(_reserve(CHUNK_RAYS, CHUNK_VISITS)) for _ in range(CHUNKS)]
                 self.arrays = self.chunks[0]
             else:
                 self.arrays = dict(_reserve(max(samples * RESERVE_RAYS, CHUNK_RAYS),
@@ -238,12 +241,12 @@ class _Records:
         self.commit(len(rays), len(visits))
 
     def flush(self) -> None:
-        """Hand the chunk to the writer and go on in the other one (whose write the writer has
-        finished: it has one write in flight at most)."""
+        """Hand the chunk to the writer and go on in the next one (whose write the writer has
+        finished: it has CHUNKS - 1 writes in flight at most)."""
         self.writer.write(self.arrays["rays"][:self.n["rays"]], self.arrays["visits"][:self.n["visits"]])
         self.first_ray += self.n["rays"]
         self.n = {"rays": 0, "visits": 0}
-        self.chunks.reverse()
+        self.chunks.append(self.chunks.pop(0))
         self.arrays = self.chunks[0]
 
     def result(self, key):
@@ -394,7 +397,7 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
     static = side.submit(lambda: (_meta(grid, desc, tiling, sel, tiles, sample), grid_arrays(grid)))
     try:
         if path:
-            writer = tracefile.TraceWriter(path)
+            writer = tracewriter.TraceWriter(path, depth=CHUNKS - 1)
         records = _Records(nsamples, writer)
         if progress:
             bar = tqdm(total=len(sel), unit="tile", desc="trace", leave=False)
@@ -403,9 +406,13 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
         arrays["samples"] = samples
         if path:
             records.flush()
-            writer.finish(meta, arrays)
+            meta = writer.finish(meta, arrays)
+            # the tracer's own records, mapped from the file as written (not read back, nor checked
+            # again: like the trace in memory below); the metadata as a reader gets it
+            arrays.update(writer.records())
             writer = None
-            result = load_trace(path, mmap=True, verify=False)
+            result = Trace.from_arrays(json.loads(json.dumps(meta, sort_keys=True)), arrays, path)
+            tracevalid.mark_checked(result)
         else:
             arrays["rays"] = records.result("rays")
             arrays["visits"] = records.result("visits")
