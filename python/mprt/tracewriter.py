@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import json
 import mmap
+import errno
 import os
 import tempfile
 import zipfile
@@ -24,13 +25,54 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from ._lowlevel import RAY_DTYPE, VISIT_DTYPE, binding
-from .tracefile import (FORMAT, FORMAT_VERSION, MEMBERS, RECORDS, _stored, _write_array, as_bytes, crc32_combine,
-                        file_members, npy_header, signature, typed_crc)
+from .tracefile import (FORMAT, FORMAT_VERSION, MEMBERS, RECORDS, _stored, _write_array, as_bytes, file_members,
+                        npy_header, signature)
 
 ALIGN = 4096                    # direct writes: offsets, lengths and addresses in whole blocks of this
-BUFFER_BYTES = 1 << 20          # an appender's reused, aligned buffer: one direct write
+BUFFER_BYTES = 4 << 20          # the visits' reused, aligned buffer: one direct write (one request); the
+                                # rays' (scratch file) a quarter of it
 _O_DIRECT = getattr(os, "O_DIRECT", 0)
 _CRC = binding()                # the library's CRC-32 (zlib's value, several times its speed)
+
+
+_POLY = 0xEDB88320              # CRC-32's polynomial, bit-reflected
+
+
+def _times(a: int, b: int) -> int:
+    """a * b modulo the polynomial (bit-reflected: bit 31 is x^0)."""
+    m, p = 1 << 31, 0
+    while a:
+        if a & m:
+            p ^= b
+            a ^= m
+        m >>= 1
+        b = (b >> 1) ^ _POLY if b & 1 else b >> 1
+    return p
+
+
+_X2N = [1 << 30]                # [k]: x^(2^k) modulo the polynomial
+for _ in range(31):
+    _X2N.append(_times(_X2N[-1], _X2N[-1]))
+
+
+def crc32_combine(crc1: int, crc2: int, len2: int) -> int:
+    """The CRC-32 of A + B from crc1 of A, crc2 of B and len2 = len(B) (zlib's crc32_combine, as
+    ``tracefile.crc32_combine``): crc1 times x^(8 len2), by squares made once (32 of them)."""
+    if len2 <= 0:
+        return crc1
+    p, k = 1 << 31, 3
+    while len2:
+        if len2 & 1:
+            p = _times(_X2N[k & 31], p)
+        len2 >>= 1
+        k += 1
+    return _times(p, crc1) ^ crc2
+
+
+def typed_crc(a: np.ndarray) -> int:
+    """``tracefile.typed_crc`` of an array in memory (its signature, then its bytes)."""
+    a = np.ascontiguousarray(a)
+    return crc32_combine(zlib.crc32(signature(a.dtype, a.shape)), _CRC.crc32_copy(as_bytes(a)), a.nbytes)
 
 
 def direct_fd(path) -> int | None:
@@ -49,19 +91,22 @@ def _pwrite_all(fd: int, data: memoryview, offset: int) -> None:
         data, offset = data[n:], offset + n
 
 
+def aligned_buffer(nbytes: int) -> memoryview:
+    """A writable buffer of nbytes rounded up to whole blocks, page-aligned (fit for direct I/O);
+    unmapped once the last view of it is gone."""
+    return memoryview(mmap.mmap(-1, max(ALIGN, nbytes + -nbytes % ALIGN)))
+
+
 class Appender:
     """Bytes appended to a file from offset ``start`` (any offset), with their CRC-32: whole
-    aligned blocks written from a reused aligned buffer through ``direct`` (an ``O_DIRECT``
-    descriptor, or None), the partial block at each end through ``plain``.  The bytes of the
-    first block before ``start`` are read back from the file (what was written there before)
-    and written again unchanged."""
+    aligned blocks written from ``buf`` (an ``aligned_buffer`` of two blocks or more, reused)
+    through ``direct`` (an ``O_DIRECT`` descriptor, or None), the partial block at each end
+    through ``plain``.  The bytes of the first block before ``start`` are read back from the
+    file (what was written there before) and written again unchanged."""
 
-    def __init__(self, plain: int, direct: int | None, start: int, buffer_bytes: int | None = None):
-        self.plain, self.direct = plain, direct
-        buffer_bytes = BUFFER_BYTES if buffer_bytes is None else buffer_bytes
-        self.cap = max(ALIGN, buffer_bytes - buffer_bytes % ALIGN) + ALIGN
-        self.buf = mmap.mmap(-1, self.cap)             # page-aligned: fit for direct writes
-        self.view = memoryview(self.buf)
+    def __init__(self, plain: int, direct: int | None, start: int, buf: memoryview):
+        self.plain, self.direct, self.view = plain, direct, buf
+        self.cap = len(buf)
         self.base = start - start % ALIGN               # the file offset of buf[0]
         self.n = start - self.base                      # bytes held in buf
         if self.n:
@@ -91,8 +136,9 @@ class Appender:
         if self.direct is not None:
             try:
                 _pwrite_all(self.direct, self.view[:whole], self.base)
-            except OSError:     # refused after all (EINVAL): the page cache from here on
-                os.close(self.direct)
+            except OSError as e:     # refused after all: the page cache from here on
+                if e.errno != errno.EINVAL:
+                    raise
                 self.direct = None
         if self.direct is None:
             _pwrite_all(self.plain, self.view[:whole], self.base)
@@ -103,43 +149,39 @@ class Appender:
 
     def close(self) -> int:
         """Write what is held (the last partial block through the page cache); returns the end
-        offset."""
-        if self.buf is not None:
-            self._blocks()
-            if self.n:
-                _pwrite_all(self.plain, self.view[:self.n], self.base)
-            self.discard()
+        offset.  The buffer is free again."""
+        self._blocks()
+        if self.n:
+            _pwrite_all(self.plain, self.view[:self.n], self.base)
+            self.n = 0
         return self.start + self.size
 
-    def discard(self) -> None:
-        """Give the buffer back, writing nothing more."""
-        if self.buf is not None:
-            self.view.release()
-            self.buf.close()
-            self.buf = None
 
-
-def _read_blocks(fd: int, direct: int | None, size: int, buffer_bytes: int | None = None):
-    """The first size bytes of a file, a buffer at a time (each view valid until the next; the
-    buffer is unmapped once the last view is gone)."""
-    buffer_bytes = BUFFER_BYTES if buffer_bytes is None else buffer_bytes
-    view = memoryview(mmap.mmap(-1, max(ALIGN, buffer_bytes - buffer_bytes % ALIGN)))
-    at = 0
-    while at < size:
-        want = min(len(view), size - at)
-        got = 0
+def _read_blocks(fd: int, direct: int | None, size: int, bufs: list, pool: ThreadPoolExecutor):
+    """The first size bytes of a file, a buffer at a time (each view valid until the next is
+    asked for), the next read in flight on ``pool`` while the caller uses one (two ``bufs``)."""
+    def read(buf: memoryview, at: int) -> int:
+        nonlocal direct
+        want = min(len(buf), size - at)
         if direct is not None:
             try:
-                got = os.preadv(direct, [view[:want + -want % ALIGN]], at)   # whole blocks; short at the end
-            except OSError:
+                return os.preadv(direct, [buf[:want + -want % ALIGN]], at)   # whole blocks; short at the end
+            except OSError as e:
+                if e.errno != errno.EINVAL:
+                    raise
                 direct = None
-        if direct is None:
-            got = os.preadv(fd, [view[:want]], at)
+        return os.preadv(fd, [buf[:want]], at)
+
+    at, k = 0, 0
+    ahead = pool.submit(read, bufs[0], 0) if size else None
+    while at < size:
+        got = min(ahead.result(), size - at)
         if got <= 0:
             raise OSError(f"the records' scratch file ends at {at} of {size} bytes")
-        got = min(got, want)
-        yield view[:got]
-        at += got
+        if at + got < size:
+            ahead = pool.submit(read, bufs[1 - k], at + got)
+        yield bufs[k][:got]
+        at, k = at + got, 1 - k
 
 
 class TraceWriter:
@@ -160,6 +202,7 @@ class TraceWriter:
         self.pending: deque = deque()
         self.depth = max(1, int(depth))      # writes in flight at most
         self.fds: list = []
+        self.bufs: list = []
         self.pool = ThreadPoolExecutor(max_workers=1)
         self.count = {"rays": 0, "visits": 0}
         self.records_at: dict = {}          # after finish: name -> (offset of the data, count)
@@ -170,14 +213,15 @@ class TraceWriter:
                 f.write(npy_header(VISIT_DTYPE, 0))
             self.z.fp.flush()
             plain = self._open(self.part)
-            self.visits = Appender(plain, self._direct(self.part), self.z.start_dir)
+            self.bufs = [aligned_buffer(BUFFER_BYTES + ALIGN), aligned_buffer(BUFFER_BYTES // 4 + ALIGN)]
+            self.visits = Appender(plain, self._direct(self.part), self.z.start_dir, self.bufs[0])
             fd, scratch = tempfile.mkstemp(prefix=os.path.basename(self.path) + ".", suffix=".rays", dir=where)
             self.fds.append(fd)
             try:
                 self.rays_direct = self._direct(scratch)
             finally:
                 os.unlink(scratch)
-            self.rays = Appender(fd, self.rays_direct, 0)
+            self.rays = Appender(fd, self.rays_direct, 0, self.bufs[1])
         except BaseException:
             self.abort()
             raise
@@ -244,8 +288,10 @@ class TraceWriter:
             with self.z.open(info, "w", force_zip64=True) as f:
                 f.write(npy_header(RAY_DTYPE, 0))
             self.z.fp.flush()
-            out = Appender(self._open(self.part), self._direct(self.part), self.z.start_dir)
-            for block in _read_blocks(scratch, self.rays_direct, scratch_size):
+            # the rays copied in from the scratch file: read a buffer ahead (the pool is idle now)
+            out = Appender(self._open(self.part), self._direct(self.part), self.z.start_dir, self.bufs[0])
+            reads = [self.bufs[1], aligned_buffer(len(self.bufs[1]))]
+            for block in _read_blocks(scratch, self.rays_direct, scratch_size, reads, self.pool):
                 out.write(block)
             sums["rays"] = self._complete(info, out, RAY_DTYPE, self.count["rays"])
             members = file_members(meta, arrays)
@@ -282,9 +328,6 @@ class TraceWriter:
             except Exception:
                 pass
         self.pool.shutdown()
-        for a in (self.visits, self.rays):
-            if a is not None:
-                a.discard()
         self.visits = self.rays = None
         if self.z is not None:
             try:

@@ -141,9 +141,9 @@ _POOL_ENTRIES = 2
 # 58 visits); a trace needing more grows its arrays by doubling.
 RESERVE_RAYS, RESERVE_VISITS = 16, 128
 # The chunks a trace streamed to disk records into, one after the other, each written while the
-# next ones fill (bounded memory: 7 MB).  Small enough to be read back from the cache, and few
-# pages to touch: on a virtual machine a page touched for the first time costs a host fault.
-CHUNK_RAYS, CHUNK_VISITS, CHUNKS = 1 << 13, 1 << 15, 4
+# next ones fill (bounded memory: 22 MB); larger ones cost fewer thread switches, smaller ones
+# fewer pages to touch (on a virtual machine a page touched first costs a host fault).
+CHUNK_RAYS, CHUNK_VISITS, CHUNKS = 1 << 15, 1 << 17, 3
 # Tiles per library call: progress is reported between calls.
 TILES_PER_CALL = 64
 
@@ -193,8 +193,11 @@ class _Records:
     def __init__(self, samples: int, writer=None):
         self.writer = writer
         with _POOL_LOCK:   # taken (referred to here) before another trace looks for idle arrays
-            if writer:
-                self.chunks = [dict(_reserve(CHUNK_RAYS, CHUNK_VISITS)) for _ in range(CHUNKS)]
+            if writer:   # the ring: parts of one pooled pair (pages a trace before may have touched)
+                whole = _reserve(CHUNKS * CHUNK_RAYS, CHUNKS * CHUNK_VISITS)
+                self.chunks = [{k: whole[k][i * size:(i + 1) * size]
+                                for k, size in (("rays", CHUNK_RAYS), ("visits", CHUNK_VISITS))}
+                               for i in range(CHUNKS)]
                 self.arrays = self.chunks[0]
             else:
                 self.arrays = dict(_reserve(max(samples * RESERVE_RAYS, CHUNK_RAYS),
@@ -353,15 +356,16 @@ def _give_back(sets: list) -> None:
 
 
 def _setup(grid: Grid, width, height, rules, threshold, max_depth, mailbox, ambient, tile, threads, tiles, sample,
-           conventions, max_rays):
-    """(desc, tiling, selected tiles, sample image (NaN where not traced), samples traced)."""
+           conventions, max_rays, fill=True):
+    """(desc, tiling, selected tiles, sample image (NaN where not traced, unless not ``fill``),
+    samples traced)."""
     desc = grid.resolve(render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox,
                                     conventions, max_rays))
     tiling = grid.tiling(desc)
     sw, sh, tx, ty = tiling
     sel = select_tiles(tx * ty, tiles, sample, tiles_x=tx)
     subset = len(sel) < tx * ty
-    samples = np.full((sh, sw, 3), np.nan) if subset else np.empty((sh, sw, 3))
+    samples = np.full((sh, sw, 3), np.nan) if subset and fill else np.empty((sh, sw, 3))
     nsamples = sum((i1 - i0) * (j1 - j0) for i0, j0, i1, j1 in (grid.tile_rect(desc, int(t)) for t in sel)) \
         if subset else sw * sh
     return desc, tiling, sel, samples, nsamples
@@ -370,9 +374,10 @@ def _setup(grid: Grid, width, height, rules, threshold, max_depth, mailbox, ambi
 def trace_records(grid: Grid, tiles, width=0, height=0, rules="paper", threshold=None, max_depth=0, mailbox=False,
                   ambient=None, tile=None, threads=1, conventions=None, max_rays=None):
     """The records alone (rays, visits) of the given tiles, as ``trace`` would record them (for a
-    quick look at a trace's size: no image, grid tables or metadata)."""
+    quick look at a trace's size: no image, grid tables or metadata).  The arrays are pooled: a
+    trace after this one writes into their pages (touched already) once they are let go."""
     desc, _, sel, samples, nsamples = _setup(grid, width, height, rules, threshold, max_depth, mailbox, ambient,
-                                             tile, threads, tiles, None, conventions, max_rays)
+                                             tile, threads, tiles, None, conventions, max_rays, fill=False)
     records = _Records(nsamples)
     _run_tiles(grid, desc, sel.astype(np.intc), records, samples, None)
     return records.result("rays"), records.result("visits")
