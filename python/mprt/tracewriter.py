@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 import mmap
 import errno
+import io
 import os
 import tempfile
 import zipfile
@@ -184,6 +185,40 @@ def _read_blocks(fd: int, direct: int | None, size: int, bufs: list, pool: Threa
         at, k = at + got, 1 - k
 
 
+class StaticMembers:
+    """The members of a trace file that depend on the grid and scene alone (``voxel_gaps`` to
+    ``prim_material``: the grid's lists stored compactly, deflated), made ahead, on any thread,
+    as a run of zip entries: ``TraceWriter.finish`` copies them into the file as they are.  The
+    samples, filled while tracing, are not among them."""
+
+    NAMES = tuple(k for k in MEMBERS if k not in RECORDS + ("samples",))
+
+    def __init__(self, meta: dict, arrays: dict):
+        members = file_members(meta, {k: v for k, v in arrays.items() if k not in RECORDS + ("samples",)})
+        buf = io.BytesIO()
+        z = zipfile.ZipFile(buf, "w", allowZip64=True)
+        self.sums = {}
+        for k in self.NAMES:
+            _write_array(z, k, members[k], False)
+            self.sums[k] = typed_crc(np.asarray(members[k]))
+        self.infos = list(z.infolist())     # their offsets from the run's start
+        self.data = buf.getbuffer()[:z.start_dir].tobytes()
+        z.fp = None                         # not closed: no central directory (the file has its own)
+
+    def append_to(self, z: zipfile.ZipFile) -> dict:
+        """Copy the entries to the end of zip archive z (open for writing); their checksums."""
+        base = z.start_dir
+        z.fp.seek(base)
+        z.fp.write(self.data)
+        for info in self.infos:
+            info.header_offset += base
+            z.filelist.append(info)
+            z.NameToInfo[info.filename] = info
+        z.start_dir = base + len(self.data)
+        self.infos = []                     # copied once
+        return dict(self.sums)
+
+
 class TraceWriter:
     """A trace file written while the trace is made, in bounded memory: ``write`` hands over a
     chunk of records, written in the background (visits straight into the file's stored
@@ -275,9 +310,10 @@ class TraceWriter:
         self.records_at[info.filename[:-4]] = (appender.start, count)
         return crc32_combine(zlib.crc32(signature(dtype, (count,))), appender.crc, nbytes)
 
-    def finish(self, meta: dict, arrays: dict) -> dict:
+    def finish(self, meta: dict, arrays: dict, static: StaticMembers | None = None) -> dict:
         """Complete the file with the arrays other than the records and the metadata, and move it
-        onto the path.  Returns the metadata as written."""
+        onto the path (``static``: the members of the grid and scene made ahead, or None to make
+        them now).  Returns the metadata as written."""
         try:
             self._wait()
             sums = {"visits": self._complete(self.info, self.visits, VISIT_DTYPE, self.count["visits"])}
@@ -294,11 +330,9 @@ class TraceWriter:
             for block in _read_blocks(scratch, self.rays_direct, scratch_size, reads, self.pool):
                 out.write(block)
             sums["rays"] = self._complete(info, out, RAY_DTYPE, self.count["rays"])
-            members = file_members(meta, arrays)
-            for k in MEMBERS:
-                if k not in RECORDS:
-                    _write_array(self.z, k, members[k], False)
-                    sums[k] = typed_crc(np.asarray(members[k]))
+            sums.update((static or StaticMembers(meta, arrays)).append_to(self.z))
+            _write_array(self.z, "samples", arrays["samples"], False)
+            sums["samples"] = typed_crc(np.asarray(arrays["samples"]))
             meta = dict(meta, format=FORMAT, version=FORMAT_VERSION, crc32=sums)
             self.z.writestr("meta.json", json.dumps(meta, sort_keys=True))
             self.z.close()

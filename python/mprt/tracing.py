@@ -396,10 +396,15 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
     desc, tiling, sel, samples, nsamples = _setup(grid, width, height, rules, threshold, max_depth, mailbox, ambient,
                                                   tile, threads, tiles, sample, conventions, max_rays)
     writer = bar = None
-    # the metadata and the grid's tables (the scene's content hash, a copy of the voxel lists) are
-    # made on a thread of their own while the tiles are traced
+    # the metadata and the grid's tables (the scene's content hash, a copy of the voxel lists, and
+    # for a file their members) are made on a thread of their own while the tiles are traced
     side = ThreadPoolExecutor(max_workers=1)
-    static = side.submit(lambda: (_meta(grid, desc, tiling, sel, tiles, sample), grid_arrays(grid)))
+
+    def made_aside():
+        meta, arrays = _meta(grid, desc, tiling, sel, tiles, sample), grid_arrays(grid)
+        # to disk: the file's members of the grid and scene, stored compactly and deflated, too
+        return meta, arrays, tracewriter.StaticMembers(meta, arrays) if path else None
+    static = side.submit(made_aside)
     try:
         if path:
             writer = tracewriter.TraceWriter(path, depth=CHUNKS - 1)
@@ -407,11 +412,11 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
         if progress:
             bar = tqdm(total=len(sel), unit="tile", desc="trace", leave=False)
         _run_tiles(grid, desc, sel.astype(np.intc), records, samples, bar)
-        meta, arrays = static.result()
+        meta, arrays, members = static.result()
         arrays["samples"] = samples
         if path:
             records.flush()
-            meta = writer.finish(meta, arrays)
+            meta = writer.finish(meta, arrays, members)
             # the tracer's own records, mapped from the file as written (not read back, nor checked
             # again: like the trace in memory below); the metadata as a reader gets it
             arrays.update(writer.records())
