@@ -1,5 +1,7 @@
-"""A trace file written while the trace is made (``TraceWriter``), in bounded memory, the same
-bytes as ``tracefile.write`` would make of the whole trace.
+"""A trace file written while the trace is made (``TraceWriter``), in bounded memory: a file of
+``tracefile``'s format, ``visits.npy`` first (its .npy header of fixed width, the count put in
+place at the end), then ``rays.npy``, the grid's members, the samples and ``meta.json``, each
+member the bytes ``tracefile.write`` makes of it but for the records' header.
 
 The records go to the disk past the page cache where the file system allows it (``O_DIRECT``):
 copying 0.1-0.7 GB of records into the kernel's page cache was most of what a trace to disk cost
@@ -12,10 +14,10 @@ blocks are written through the page cache: the same bytes either way.
 """
 from __future__ import annotations
 
-import json
-import mmap
 import errno
 import io
+import json
+import mmap
 import os
 import tempfile
 import zipfile
