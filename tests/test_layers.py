@@ -22,6 +22,7 @@ ORDER = [
     "pages",       # arrays read in chunks, memory-mapped pages released
     "tracevalid",  # the one validation of a trace: meta schema, dtypes, shapes, ranges
     "tracefile",   # the .npz format of (meta, arrays)
+    "tracewriter", # a trace file written while tracing (records past the page cache)
     "tracecheck",  # trace invariants
     "stats",       # the paper's statistics of a trace
     "trace",       # Trace, load_trace, the record enums and dtypes

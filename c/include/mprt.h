@@ -469,6 +469,13 @@ int mprt_grid_trace_tiles(mprt_grid *grid, const mprt_render_desc *desc, const i
 /* Write rgb (width*height*3 floats in [0,1], clamped) as an 8-bit PNG. */
 int mprt_image_write_png(const char *path, int width, int height, const float *rgb);
 
+/* CRC-32 of n bytes at src (the polynomial of zip, gzip and PNG: zlib's
+ * crc32(crc, src, n)), crc being the value so far (0 to start); when dst is
+ * not NULL the bytes are copied to dst (n bytes, not overlapping src) in the
+ * same pass.  Folded with carry-less multiplications where the processor
+ * has them (x86-64 PCLMULQDQ); a portable loop elsewhere; the same value. */
+uint32_t mprt_crc32_copy(void *dst, const void *src, size_t n, uint32_t crc);
+
 /* ---- Visit costs -----------------------------------------------------------
  * What every visit of a trace costs on given processors, in one pass (the
  * cost model's arithmetic, python/mprt/cost/model.py; the tables come from

@@ -178,28 +178,36 @@ ESTIMATE_FROM = 64     # estimate only runs of at least this many tiles
 ESTIMATE_BLOCKS, ESTIMATE_BLOCK = 16, 1 << 16   # deflated to estimate --compress: at most 1 MiB of each array
 
 
-def _packed_size(a) -> float:
-    """About how many bytes deflate (at --compress's level) makes of the array: its bytes, or
-    ESTIMATE_BLOCKS blocks spread over them when more, deflated and scaled."""
+def _deflate_sample(a) -> tuple:
+    """(bytes, scale): what to deflate (at --compress's level) to estimate the array's deflated
+    size, and the factor to scale that by: its bytes, or ESTIMATE_BLOCKS blocks spread over them
+    when more (copies: the array itself may go)."""
     b = a.view(np.uint8).reshape(-1)
     if b.size <= ESTIMATE_BLOCKS * ESTIMATE_BLOCK:
-        return len(zlib.compress(b.tobytes(), tracefile.DEFLATE_LEVEL))
+        return b.tobytes(), 1.0
     step = (b.size - ESTIMATE_BLOCK) // (ESTIMATE_BLOCKS - 1)
     part = b"".join(b[i * step:i * step + ESTIMATE_BLOCK].tobytes() for i in range(ESTIMATE_BLOCKS))
-    return len(zlib.compress(part, tracefile.DEFLATE_LEVEL)) * b.size / len(part)
+    return part, b.size / len(part)
 
 
 def _estimate(grid, kw: dict, sel, static: int):
-    """(bytes, bytes with --compress, tiles used): the size of a trace of the tiles ``sel``
-    from ESTIMATE_TILES of them (or 1%) spread evenly, traced in memory first; ``static`` is the
-    size of what does not depend on the tiles (voxel lists, primitive table, samples)."""
+    """(bytes, packed, tiles used): the size of a trace of the tiles ``sel`` from ESTIMATE_TILES
+    of them (or 1%) spread evenly, traced in memory first, and ``packed()`` the size with
+    --compress (deflating samples of the records: called when the figure is wanted, on any
+    thread; the records themselves are let go, for the trace to reuse their pages); ``static``
+    is the size of what does not depend on the tiles (voxel lists, primitive table, samples)."""
     k = max(ESTIMATE_TILES, len(sel) // 100)
     pick = sorted({int(sel[round(i * (len(sel) - 1) / (k - 1))]) for i in range(k)})
     rays, visits = trace_records(grid, pick, **kw)
     raw = rays.nbytes + visits.nbytes
-    packed = _packed_size(rays) + _packed_size(visits)
+    parts = [_deflate_sample(rays), _deflate_sample(visits)]
+    del rays, visits
     per_tile = raw / len(pick)
-    return static + per_tile * len(sel), static + packed / len(pick) * len(sel), len(pick)
+
+    def packed() -> float:
+        deflated = sum(len(zlib.compress(part, tracefile.DEFLATE_LEVEL)) * scale for part, scale in parts)
+        return static + deflated / len(pick) * len(sel)
+    return static + per_tile * len(sel), packed, len(pick)
 
 
 def cmd_trace(a) -> int:
@@ -212,16 +220,26 @@ def cmd_trace(a) -> int:
     kw = options.render_kwargs(a)
     start, ids = grid.lists()
     static = start.nbytes + ids.nbytes + 12 * scene.info()["prims"] + tiling[0] * tiling[1] * 24
+    said = None    # the size line, printed by a thread of its own while tracing (deflate lets go of the GIL)
     if len(sel) >= ESTIMATE_FROM:
-        est, est_c, k = _estimate(grid, kw, sel, static)
-        print(f"size    about {_size(est)} (about {_size(est_c)} with --compress, which is slower to write and "
-              f"loads into memory instead of being memory-mapped); estimated from {k} of the {len(sel)} tiles")
+        est, packed, k = _estimate(grid, kw, sel, static)
+
+        def say(est_c: float) -> None:
+            print(f"size    about {_size(est)} (about {_size(est_c)} with --compress, which is slower to write "
+                  f"and loads into memory instead of being memory-mapped); estimated from {k} of the {len(sel)} "
+                  "tiles", flush=True)
         d = os.path.dirname(a.output) or "."
-        need = est + (est_c if a.compress else 0)
         free = shutil.disk_usage(d).free
-        if need > free:
-            raise UsageError(f"-o {a.output}: the trace needs about {_size(need)} but {d} has {_size(free)} free; "
-                             "use --sample, a smaller --res or --compress")
+        if a.compress or est > free:    # the --compress figure is wanted before tracing
+            est_c = packed()
+            say(est_c)
+            need = est + (est_c if a.compress else 0)
+            if need > free:
+                raise UsageError(f"-o {a.output}: the trace needs about {_size(need)} but {d} has {_size(free)} "
+                                 "free; use --sample, a smaller --res or --compress")
+        else:
+            said = threading.Thread(target=lambda: say(packed()), daemon=True)
+            said.start()
     t0 = time.perf_counter()
     target = a.output
     if a.compress:   # stream uncompressed beside the output, then deflate into it
@@ -235,6 +253,8 @@ def cmd_trace(a) -> int:
     except OSError as e:   # (disk full, ...) name the user's file, not the temporary ones beside it
         raise OSError(f"-o {a.output}: {e.strerror or e}") from None
     finally:
+        if said is not None:
+            said.join()
         if a.compress:
             os.unlink(target)
     t1 = time.perf_counter()

@@ -6,7 +6,7 @@ an unknown version, a truncated file or edited data are each a clear
 ``TraceError``.  The records (``rays``, ``visits``) are stored as they are in
 memory, uncompressed unless asked, so that they are memory-mapped on request
 (a trace of any size opens in bounded memory), and a trace can be written while
-it is traced (``TraceWriter``) without holding its records in memory.  The
+it is traced (``mprt.tracewriter``) without holding its records in memory.  The
 samples follow the records (deflate gains little on them); everything else is
 small once stored compactly and is always deflated: version 3 keeps the
 voxel lists of the non-empty voxels only (the ids of those voxels as gaps, the
@@ -23,16 +23,12 @@ import io
 import json
 import os
 import math
-import shutil
-import tempfile
 import tokenize
 import zipfile
 import zlib
-from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
-from ._lowlevel import RAY_DTYPE, VISIT_DTYPE
 from .errors import TraceError
 from . import tracevalid
 from .pages import chunks, release  # noqa: F401  (tracefile.chunks, tracefile.release: kept for callers)
@@ -246,118 +242,6 @@ def npy_header(dtype: np.dtype, count: int) -> bytes:
         np.lib.format.dtype_to_descr(np.dtype(dtype)), _COUNT_DIGITS, count)
     total = -(-(12 + len(d) + 1) // 64) * 64   # magic, version, length, dict, newline: 64-byte aligned
     return b"\x93NUMPY\x02\x00" + (total - 12).to_bytes(4, "little") + (d.ljust(total - 13) + "\n").encode("latin1")
-
-
-class TraceWriter:
-    """A trace file written while the trace is made, in bounded memory: ``write`` hands over a
-    chunk of records, written in the background (visits straight into the file's stored
-    ``visits.npy``, rays into an unnamed file beside it) while the caller makes the next;
-    ``finish`` completes the file (the visits' count and checksum put in place, the rays
-    copied in, the other arrays, ``meta.json`` last) and moves it onto the path; ``abort``
-    leaves the path untouched.  The records' checksums for ``meta`` come from the ones the zip
-    computes as it writes: no pass of its own over the records."""
-
-    def __init__(self, path):
-        self.path = os.fspath(path)
-        where = os.path.dirname(os.path.abspath(self.path))
-        fd, self.part = tempfile.mkstemp(prefix=os.path.basename(self.path) + ".", suffix=".part", dir=where)
-        os.close(fd)
-        self.z = self.rays = self.visits = self.pending = None
-        self.pool = ThreadPoolExecutor(max_workers=1)
-        try:
-            self.z = zipfile.ZipFile(self.part, "w", allowZip64=True)
-            self.rays = tempfile.TemporaryFile(dir=where)
-            self.info = _stored("visits", False)
-            self.visits = self.z.open(self.info, "w", force_zip64=True)
-            self.visits.write(npy_header(VISIT_DTYPE, 0))
-        except BaseException:
-            self.abort()
-            raise
-        self.count = {"rays": 0, "visits": 0}
-
-    def _write(self, rays: np.ndarray, visits: np.ndarray) -> None:
-        for f, a in ((self.rays, rays), (self.visits, visits)):
-            if len(a):
-                f.write(memoryview(as_bytes(a)))   # crc32 and write let other threads run
-
-    def _wait(self) -> None:
-        """Wait for the write in flight (raising its error)."""
-        pending, self.pending = self.pending, None
-        if pending is not None:
-            pending.result()
-
-    def write(self, rays: np.ndarray, visits: np.ndarray) -> None:
-        """Append records (contiguous RAY_DTYPE and VISIT_DTYPE arrays), written in the background:
-        the caller leaves the arrays alone until its next call of write, finish or abort."""
-        self._wait()
-        self.count["rays"] += len(rays)
-        self.count["visits"] += len(visits)
-        self.pending = self.pool.submit(self._write, rays, visits)
-
-    def _records_crc(self, info, header: bytes, nbytes: int) -> int:
-        """The CRC-32 of a record member's data alone, from the zip's CRC of header + data."""
-        return info.CRC ^ crc32_combine(zlib.crc32(header), 0, nbytes)
-
-    def finish(self, meta: dict, arrays: dict) -> dict:
-        """Complete the file with the arrays other than the records and the metadata, and move it
-        onto the path.  Returns the metadata as written."""
-        try:
-            self._wait()
-            sums = {}
-            nbytes = self.count["visits"] * VISIT_DTYPE.itemsize
-            self.visits.close()   # the zip wrote the member's local header: CRC and sizes
-            self.visits = None
-            placeholder, header = npy_header(VISIT_DTYPE, 0), npy_header(VISIT_DTYPE, self.count["visits"])
-            data_crc = self._records_crc(self.info, placeholder, nbytes)
-            sig = zlib.crc32(signature(VISIT_DTYPE, (self.count["visits"],)))
-            sums["visits"] = crc32_combine(sig, data_crc, nbytes)
-            self.info.CRC = crc32_combine(zlib.crc32(header), data_crc, nbytes)
-            fp, end = self.z.fp, self.z.fp.tell()
-            local = self.info.FileHeader(True)
-            fp.seek(self.info.header_offset + len(local))
-            fp.write(header)
-            fp.seek(self.info.header_offset)
-            fp.write(self.info.FileHeader(True))
-            fp.seek(end)
-            header = npy_header(RAY_DTYPE, self.count["rays"])
-            info = _stored("rays", False)
-            with self.z.open(info, "w", force_zip64=True) as f:
-                f.write(header)
-                self.rays.seek(0)
-                shutil.copyfileobj(self.rays, f, 1 << 22)
-            nbytes = self.count["rays"] * RAY_DTYPE.itemsize
-            sums["rays"] = crc32_combine(zlib.crc32(signature(RAY_DTYPE, (self.count["rays"],))),
-                                         self._records_crc(info, header, nbytes), nbytes)
-            members = file_members(meta, arrays)
-            for k in MEMBERS:
-                if k not in RECORDS:
-                    _write_array(self.z, k, members[k], False)
-                    sums[k] = typed_crc(np.asarray(members[k]))
-            meta = dict(meta, format=FORMAT, version=FORMAT_VERSION, crc32=sums)
-            self.z.writestr("meta.json", json.dumps(meta, sort_keys=True))
-            self.z.close()
-            self.z = None
-            os.replace(self.part, self.path)
-        finally:
-            self.abort()
-        return meta
-
-    def abort(self) -> None:
-        """Close and remove what was written (the path is left as it was)."""
-        try:
-            self._wait()
-        except (OSError, ValueError):
-            pass
-        self.pool.shutdown()
-        for f in (self.visits, self.z, self.rays):
-            if f is not None:
-                try:
-                    f.close()
-                except (OSError, ValueError, zipfile.BadZipFile):
-                    pass
-        self.visits = self.z = self.rays = None
-        if os.path.exists(self.part):
-            os.unlink(self.part)
 
 
 def _member_offset(f, info) -> int:

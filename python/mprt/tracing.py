@@ -14,6 +14,7 @@ This module also gives ``Grid`` its ``trace`` method (a thin call of
 """
 from __future__ import annotations
 
+import json
 import math
 import sys
 import threading
@@ -24,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 from tqdm import tqdm
 
-from . import tracefile, tracevalid
+from . import tracefile, tracevalid, tracewriter
 from ._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Rules
 from .errors import InvalidArgument
 from .grid import CONVENTIONS, Grid, render_desc
@@ -139,8 +140,10 @@ _POOL_ENTRIES = 2
 # 16 rays and 128 visits per sample is over twice what any SPD scene needs at 512x512 (rings:
 # 58 visits); a trace needing more grows its arrays by doubling.
 RESERVE_RAYS, RESERVE_VISITS = 16, 128
-# The chunk a trace streamed to disk records into before each write (bounded memory).
-CHUNK_RAYS, CHUNK_VISITS = 1 << 15, 1 << 17
+# The chunks a trace streamed to disk records into, one after the other, each written while the
+# next ones fill (bounded memory: 22 MB); larger ones cost fewer thread switches, smaller ones
+# fewer pages to touch (on a virtual machine a page touched first costs a host fault).
+CHUNK_RAYS, CHUNK_VISITS, CHUNKS = 1 << 15, 1 << 17, 3
 # Tiles per library call: progress is reported between calls.
 TILES_PER_CALL = 64
 
@@ -184,14 +187,17 @@ def _reserve(rays: int, visits: int) -> dict:
 
 class _Records:
     """Where a trace's records go: straight into the trace's arrays in memory, or (``writer``, a
-    tracefile.TraceWriter) into one of two reused chunks: each time one fills, the writer
-    writes it to the file in the background while the other fills."""
+    tracewriter.TraceWriter) into a ring of ``CHUNKS`` reused chunks: each time one fills, the
+    writer writes it to the file in the background while the next ones fill."""
 
     def __init__(self, samples: int, writer=None):
         self.writer = writer
         with _POOL_LOCK:   # taken (referred to here) before another trace looks for idle arrays
-            if writer:
-                self.chunks = [dict(_reserve(CHUNK_RAYS, CHUNK_VISITS)) for _ in range(2)]
+            if writer:   # the ring: parts of one pooled pair (pages a trace before may have touched)
+                whole = _reserve(CHUNKS * CHUNK_RAYS, CHUNKS * CHUNK_VISITS)
+                self.chunks = [{k: whole[k][i * size:(i + 1) * size]
+                                for k, size in (("rays", CHUNK_RAYS), ("visits", CHUNK_VISITS))}
+                               for i in range(CHUNKS)]
                 self.arrays = self.chunks[0]
             else:
                 self.arrays = dict(_reserve(max(samples * RESERVE_RAYS, CHUNK_RAYS),
@@ -238,12 +244,12 @@ class _Records:
         self.commit(len(rays), len(visits))
 
     def flush(self) -> None:
-        """Hand the chunk to the writer and go on in the other one (whose write the writer has
-        finished: it has one write in flight at most)."""
+        """Hand the chunk to the writer and go on in the next one (whose write the writer has
+        finished: it has CHUNKS - 1 writes in flight at most)."""
         self.writer.write(self.arrays["rays"][:self.n["rays"]], self.arrays["visits"][:self.n["visits"]])
         self.first_ray += self.n["rays"]
         self.n = {"rays": 0, "visits": 0}
-        self.chunks.reverse()
+        self.chunks.append(self.chunks.pop(0))
         self.arrays = self.chunks[0]
 
     def result(self, key):
@@ -350,15 +356,16 @@ def _give_back(sets: list) -> None:
 
 
 def _setup(grid: Grid, width, height, rules, threshold, max_depth, mailbox, ambient, tile, threads, tiles, sample,
-           conventions, max_rays):
-    """(desc, tiling, selected tiles, sample image (NaN where not traced), samples traced)."""
+           conventions, max_rays, fill=True):
+    """(desc, tiling, selected tiles, sample image (NaN where not traced, unless not ``fill``),
+    samples traced)."""
     desc = grid.resolve(render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox,
                                     conventions, max_rays))
     tiling = grid.tiling(desc)
     sw, sh, tx, ty = tiling
     sel = select_tiles(tx * ty, tiles, sample, tiles_x=tx)
     subset = len(sel) < tx * ty
-    samples = np.full((sh, sw, 3), np.nan) if subset else np.empty((sh, sw, 3))
+    samples = np.full((sh, sw, 3), np.nan) if subset and fill else np.empty((sh, sw, 3))
     nsamples = sum((i1 - i0) * (j1 - j0) for i0, j0, i1, j1 in (grid.tile_rect(desc, int(t)) for t in sel)) \
         if subset else sw * sh
     return desc, tiling, sel, samples, nsamples
@@ -367,9 +374,10 @@ def _setup(grid: Grid, width, height, rules, threshold, max_depth, mailbox, ambi
 def trace_records(grid: Grid, tiles, width=0, height=0, rules="paper", threshold=None, max_depth=0, mailbox=False,
                   ambient=None, tile=None, threads=1, conventions=None, max_rays=None):
     """The records alone (rays, visits) of the given tiles, as ``trace`` would record them (for a
-    quick look at a trace's size: no image, grid tables or metadata)."""
+    quick look at a trace's size: no image, grid tables or metadata).  The arrays are pooled: a
+    trace after this one writes into their pages (touched already) once they are let go."""
     desc, _, sel, samples, nsamples = _setup(grid, width, height, rules, threshold, max_depth, mailbox, ambient,
-                                             tile, threads, tiles, None, conventions, max_rays)
+                                             tile, threads, tiles, None, conventions, max_rays, fill=False)
     records = _Records(nsamples)
     _run_tiles(grid, desc, sel.astype(np.intc), records, samples, None)
     return records.result("rays"), records.result("visits")
@@ -388,24 +396,33 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
     desc, tiling, sel, samples, nsamples = _setup(grid, width, height, rules, threshold, max_depth, mailbox, ambient,
                                                   tile, threads, tiles, sample, conventions, max_rays)
     writer = bar = None
-    # the metadata and the grid's tables (the scene's content hash, a copy of the voxel lists) are
-    # made on a thread of their own while the tiles are traced
+    # the metadata and the grid's tables (the scene's content hash, a copy of the voxel lists, and
+    # for a file their members) are made on a thread of their own while the tiles are traced
     side = ThreadPoolExecutor(max_workers=1)
-    static = side.submit(lambda: (_meta(grid, desc, tiling, sel, tiles, sample), grid_arrays(grid)))
+
+    def made_aside():
+        meta, arrays = _meta(grid, desc, tiling, sel, tiles, sample), grid_arrays(grid)
+        # to disk: the file's members of the grid and scene, stored compactly and deflated, too
+        return meta, arrays, tracewriter.StaticMembers(meta, arrays) if path else None
+    static = side.submit(made_aside)
     try:
         if path:
-            writer = tracefile.TraceWriter(path)
+            writer = tracewriter.TraceWriter(path, depth=CHUNKS - 1)
         records = _Records(nsamples, writer)
         if progress:
             bar = tqdm(total=len(sel), unit="tile", desc="trace", leave=False)
         _run_tiles(grid, desc, sel.astype(np.intc), records, samples, bar)
-        meta, arrays = static.result()
+        meta, arrays, members = static.result()
         arrays["samples"] = samples
         if path:
             records.flush()
-            writer.finish(meta, arrays)
+            meta = writer.finish(meta, arrays, members)
+            # the tracer's own records, mapped from the file as written (not read back, nor checked
+            # again: like the trace in memory below); the metadata as a reader gets it
+            arrays.update(writer.records())
             writer = None
-            result = load_trace(path, mmap=True, verify=False)
+            result = Trace.from_arrays(json.loads(json.dumps(meta, sort_keys=True)), arrays, path)
+            tracevalid.mark_checked(result)
         else:
             arrays["rays"] = records.result("rays")
             arrays["visits"] = records.result("visits")
