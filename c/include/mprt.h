@@ -759,6 +759,46 @@ typedef struct {
 int mprt_replay_get_memory(const mprt_replay *r, mprt_replay_memory *out, size_t cap, int64_t *stall,
                            size_t stall_cap);
 
+/* ---- Trace check -----------------------------------------------------------
+ * The checks every reader of a trace runs on its records (python/mprt/
+ * tracevalid.py: each field's range; python/mprt/tracecheck.py: the
+ * invariants between records), in one pass over the records where they lie
+ * (a memory-mapped file is read in place), in chunks so the caller can let
+ * the pages go between calls.  It answers whether the records pass, with a
+ * short reason; the Python checkers name the first fault in their own words.
+ * Memory: 9 bytes a ray. */
+typedef struct {
+    int64_t pixels;      /* samples_w * samples_h: a ray's pixel is below */
+    int64_t lights;      /* a ray's light is -1 .. lights - 1; made, suppressed 0 .. lights + 2 */
+    int64_t max_depth;   /* a ray's depth is at most this */
+    int64_t voxels;      /* a visit's voxel_id is -1 .. voxels - 1 */
+    int64_t prims;       /* a visit's prim is -1 .. prims - 1 */
+    int64_t steps;       /* a visit's steps are 0 .. steps */
+    int64_t tests;       /* each of a visit's tests is 0 .. tests */
+    int64_t vertices;    /* a visit's vertices are 0 .. vertices */
+    int invariants;      /* nonzero: the invariants too, else the ranges only */
+} mprt_trace_limits;
+
+typedef struct mprt_trace_checker mprt_trace_checker;
+
+/* Fault kinds (mprt_trace_checker_fault). */
+enum { MPRT_TRACE_SOUND = 0, MPRT_TRACE_RANGE = 1, MPRT_TRACE_INVARIANT = 2 };
+
+/* A checker of rays[0..nrays-1] (kept, not copied: they must stay until the
+ * last call) under lim; NULL when out of memory. */
+mprt_trace_checker *mprt_trace_checker_create(const mprt_trace_limits *lim, const mprt_trace_ray *rays,
+                                              size_t nrays);
+void mprt_trace_checker_destroy(mprt_trace_checker *c);
+/* Check rays [lo, hi) (every ray once, in order, before the visits), then the
+ * visits a chunk at a time in order (visits: the next nvisits of them), then
+ * finish.  Each returns the fault kind found so far (0: none; after a fault
+ * the later calls do nothing and return it). */
+int mprt_trace_checker_rays(mprt_trace_checker *c, size_t lo, size_t hi);
+int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *visits, size_t nvisits);
+int mprt_trace_checker_finish(mprt_trace_checker *c);
+/* The first fault's reason ("" when none). */
+const char *mprt_trace_checker_errmsg(const mprt_trace_checker *c);
+
 #ifdef __cplusplus
 }
 #endif

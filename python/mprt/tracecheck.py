@@ -283,3 +283,15 @@ def check(trace, chunk: int = CHUNK) -> None:
         _first_wrong_parent(rays, visits, chunk)
     if tot.to_ic != tot.ic:
         _fail("OS->IC handoffs and IC visits differ")
+
+
+def settle(trace, found: str | None) -> None:
+    """The invariants, after ``tracevalid.check_arrays(..., invariants=True)`` answered ``found``:
+    nothing more when "" (C found them hold), this module's check when None (not checked in C),
+    and when C found one broken, this module's check to name it in its words (C's reason if it
+    names none)."""
+    if found == "":
+        return
+    check(trace)
+    if found is not None:
+        _fail(found)
