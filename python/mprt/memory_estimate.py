@@ -6,7 +6,10 @@ Each estimate adds up the parts a run holds at its peak, from what is known befo
 - the trace as loaded (visits, rays, samples, voxel lists, primitive table): from a trace
   file's array headers (read without its records) or, for a scene, from the resolution and
   the grid (a frame traced in memory has at least one primary ray and one visit a sample);
-- the cost arrays (process, receive, send, flits: ``COSTS`` bytes a visit);
+- the cost arrays (process, receive, send, flits: ``COSTS`` bytes a visit; counted for every
+  engine, though the compiled replay of the default cost model prices the visits as it loads
+  them and holds none of them unless a level 0 or a sample's estimate asks for them);
+- the trace's check (``mprt.recordcheck``: 9 bytes a ray, freed before the costs are made);
 - the engine's state: the compiled replay's visit infos (``COMPILED`` bytes a visit), its
   caches (sets x ways per PE, 8 bytes an entry, limited by the lines the data can fill, as
   ``c/src/replay_memory.c`` sizes them) and level 3's per-visit keys; SimPy's objects (per

@@ -257,7 +257,8 @@ def _probe(trace, cfg, level: int) -> dict:
 
 def _phased_replay(ev, trace, cfg, level: int, engine: str, timeline: bool):
     """The replay of a large trace in phases, each with a line on stderr (a bar against its
-    estimate on a terminal): costing the visits, loading them into the engine, replaying."""
+    estimate on a terminal): costing the visits, loading them into the engine, replaying (on the
+    compiled engine the visits are priced as they load: two phases)."""
     from ..progress import Phases
     from .levels import at_level
 
@@ -273,6 +274,13 @@ def _phased_replay(ev, trace, cfg, level: int, engine: str, timeline: bool):
     total = sum(v for k, v in est.items() if k != "rate") if "replaying" in est else None
     print(f"replay  {visits:,} visits at level {level} on the {eng} engine"
           + (f": estimated {total:.1f} s ({how})" if total else ""), file=sys.stderr, flush=True)
+    if eng == "compiled":       # the visits priced in C as they load: one phase
+        ph = Phases(2)
+        loading = est.get("loading", 0.0) + est.get("costing", 0.0) if est else None
+        with ph.step(f"costing and loading {visits:,} visits into the compiled engine", loading):
+            ev.prepare(cfg, level, engine)
+        with ph.step(f"replaying at level {level}", est.get("replaying")):
+            return ev.evaluate(cfg, level, engine, timeline=timeline, progress=sys.stderr.isatty())
     ph = Phases(3)
     with ph.step(f"costing {visits:,} visits", est.get("costing")):
         ev.costed(at_level(cfg, level))
