@@ -87,3 +87,22 @@ def test_a_visit_c_cannot_price_is_a_trace_error():
     hit = int(np.flatnonzero(trace.visits["prim"] >= 0)[0])
     with pytest.raises(mprt.TraceError, match=f"cannot cost this trace: visit {hit}: primitive"):
         Compiled(trace, priced)
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_memory_keys_and_references_in_c_equal_numpy(name):
+    """Level 3's keys and reference counts, counted in C in one pass (mprt_visit_keys), equal
+    memdata.visit_keys and DataLayout's own counts; so do the memory estimate's reads."""
+    from mprt.fidelity.memdata import MemoryData, visit_keys
+    from mprt.machine.memory import DataLayout
+
+    trace = mprt.load_trace(GOLDEN[NAMES.index(name)])
+    md = MemoryData(trace)
+    assert np.array_equal(md.keys, visit_keys(trace))
+    own = DataLayout(trace)
+    assert np.array_equal(md.layout.voxel_refs, own.voxel_refs)
+    assert np.array_equal(md.layout.material_refs, own.material_refs)
+    keys = md.keys
+    for tag, sel in (("ic", keys[keys >= 0]), ("sc", -2 - keys[keys <= -2].astype(np.int64))):
+        per = np.diff(md.get(tag, 1024, 32)[0]["line_start"])
+        assert md.reads(tag, per) == int(per[sel].sum())

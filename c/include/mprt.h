@@ -768,6 +768,19 @@ typedef struct {
 int mprt_replay_get_memory(const mprt_replay *r, mprt_replay_memory *out, size_t cap, int64_t *stall,
                            size_t stall_cap);
 
+/* ---- Level 3's memory keys -------------------------------------------------
+ * Per visit the key of the data level 3 reads (python/mprt/fidelity/
+ * memdata.py): an IC visit's voxel_id (>= 0, or -1), an SC visit that names
+ * a primitive -2 - its material (prim_material[prim]), else -1; and the
+ * references to each key: voxel_refs[nvoxels] (IC visits by voxel),
+ * material_refs[nmaterials] (SC visits by material).  A voxel, primitive or
+ * material outside those arrays, or a key below INT32_MIN, is
+ * MPRT_ERR_INVALID_ARG with errmsg naming the visit.  OUT: keys, voxel_refs,
+ * material_refs. */
+int mprt_visit_keys(const mprt_trace_visit *visits, size_t nvisits, const int64_t *prim_material, size_t nprims,
+                    int32_t *keys, int64_t *voxel_refs, size_t nvoxels, int64_t *material_refs, size_t nmaterials,
+                    char *errmsg, size_t errlen);
+
 /* ---- Trace check -----------------------------------------------------------
  * The checks every reader of a trace runs on its records (python/mprt/
  * tracevalid.py: each field's range; python/mprt/tracecheck.py: the

@@ -632,6 +632,21 @@ class Binding:
                                                    self._in("mprt_trace_visit", visits, n), n, int(prev_ray),
                                                    int(prev_outcome), *outs, int(threads), msg, len(msg)), msg)
 
+    def visit_keys(self, visits: np.ndarray, prim_material: np.ndarray, nvoxels: int, nmaterials: int):
+        """mprt_visit_keys: (keys int32 per visit, voxel_refs int64[nvoxels], material_refs
+        int64[nmaterials]); ValueError naming a visit whose key does not fit."""
+        visits = self._records("visits", visits, VISIT_DTYPE)
+        mat = np.ascontiguousarray(prim_material, dtype=np.int64)
+        keys = np.empty(len(visits), np.int32)
+        vref, mref = np.empty(int(nvoxels), np.int64), np.empty(int(nmaterials), np.int64)
+        msg = self._cost_errmsg()
+        if self.lib.mprt_visit_keys(self._in("mprt_trace_visit", np.ascontiguousarray(visits), len(visits)),
+                                    len(visits), self._in("int64_t", mat), len(mat), self._out("int32_t", keys),
+                                    self._out("int64_t", vref), len(vref), self._out("int64_t", mref), len(mref),
+                                    msg, len(msg)) != Status.OK:
+            raise ValueError(self.ffi.string(msg).decode(errors="replace"))
+        return keys, vref, mref
+
     # -- replay: level 3, the memories ---------------------------------------------------
     def replay_set_memory(self, h, key: np.ndarray, ic: dict | None, sc: dict | None) -> None:
         """Give the loaded trace its memory data (copied): ``key`` int32 per visit (>= 0 an IC

@@ -198,9 +198,7 @@ def memory_figures(memory, tag: str, mc) -> tuple[int, int]:
     line + 1), and the lines the trace's visits read from it in all."""
     data = memory.get(tag, mc.resident, mc.cache.line if mc.cache is not None else 32)[0]
     lines, per = data["lines"], np.diff(data["line_start"])
-    keys = memory.keys
-    sel = keys[keys >= 0] if tag == "ic" else -2 - keys[keys <= -2].astype(np.int64)
-    return (int(lines.max()) + 1 if len(lines) else 0), int(per[sel].sum(dtype=np.int64))
+    return (int(lines.max()) + 1 if len(lines) else 0), memory.reads(tag, per)
 
 
 def cache_entries(cache, span: int) -> tuple[int, int]:
