@@ -37,9 +37,16 @@ def test_priced_loading_equals_the_arrays_on_every_golden_trace(name):
 
 
 def test_priced_flits_equal_the_arrays_flits():
+    """Made as the replay loads (a ring configuration) or when first asked for (another)."""
     trace = mprt.load_trace(GOLDEN[0])
     cfg = config("3mppe", 2)
-    assert np.array_equal(priced_for(trace, cfg).flits, costs_for(trace, cfg).flits)
+    want = costs_for(trace, cfg).flits
+    loaded = priced_for(trace, cfg)
+    Compiled(trace, loaded)
+    assert loaded._flits is not None and np.array_equal(loaded.flits, want)
+    later = priced_for(trace, config("3mppe", 1))
+    Compiled(trace, later)
+    assert later._flits is None and np.array_equal(later.flits, want)
 
 
 def test_one_priced_load_runs_ring_and_ideal_configurations():

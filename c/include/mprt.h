@@ -619,11 +619,13 @@ int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, c
 /* mprt_replay_load with each visit priced as it is loaded, a few thousand at
  * a time (mprt_cost_visits's arithmetic, with table, children and prim_kind
  * as it takes them): the same replay as loading the arrays mprt_cost_visits
- * gives, without making them.  A visit it cannot price is
- * MPRT_ERR_INVALID_ARG, the message starting "cannot cost this trace: ". */
+ * gives, without making them; flits (nvisits entries, or NULL) receives
+ * each visit's flits out, as mprt_cost_visits gives them (for the ring:
+ * mprt_replay_set_flits).  A visit it cannot price is MPRT_ERR_INVALID_ARG,
+ * the message starting "cannot cost this trace: ". */
 int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
                             size_t nvisits, const mprt_cost_table *table, const int64_t *children,
-                            const int32_t *prim_kind, size_t nprims);
+                            const int32_t *prim_kind, size_t nprims, int32_t *flits);
 
 /* The packets' sizes for the ring (level 2), for the loaded trace: flits[j]
  * (nvisits entries) of the packet visit j sends on to its ray's next visit;

@@ -103,6 +103,7 @@ typedef struct {
     const int32_t *prim_kind;
     size_t nprims;
     int64_t *buf;       /* PRICE_CHUNK process, then receive, then send */
+    int32_t *flits;     /* the visits' flits out (or NULL) */
 } pricer;
 #define PRICE_CHUNK ((size_t)4096)
 
@@ -114,7 +115,7 @@ static int price(mprt_replay *r, const pricer *pr, const mprt_trace_ray *rays, c
     size_t n = nv - j < PRICE_CHUNK ? nv - j : PRICE_CHUNK;
     int rc = mprt__cost_range(pr->table, rays, pr->children, r->nr, pr->prim_kind, pr->nprims, v, j, n,
                               j ? v[j - 1].ray : -1, j ? v[j - 1].outcome : 0, pr->buf, pr->buf + PRICE_CHUNK,
-                              pr->buf + 2 * PRICE_CHUNK, NULL, msg, sizeof msg);
+                              pr->buf + 2 * PRICE_CHUNK, pr->flits ? pr->flits + j : NULL, msg, sizeof msg);
     return rc == MPRT_OK ? MPRT_OK : fail(r, rc, "cannot cost this trace: %s", msg);
 }
 
@@ -270,7 +271,7 @@ int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, c
 
 int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
                             size_t nvisits, const mprt_cost_table *table, const int64_t *children,
-                            const int32_t *prim_kind, size_t nprims)
+                            const int32_t *prim_kind, size_t nprims, int32_t *flits)
 {
     pricer pr;
     int rc;
@@ -285,6 +286,7 @@ int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t n
     pr.children = children;
     pr.prim_kind = prim_kind;
     pr.nprims = nprims;
+    pr.flits = flits;
     pr.buf = malloc(3 * PRICE_CHUNK * sizeof *pr.buf);
     if (!pr.buf) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the costs of %zu visits", PRICE_CHUNK);
     rc = load(r, rays, nrays, visits, nvisits, NULL, NULL, NULL, &pr);

@@ -129,7 +129,12 @@ class Compiled:
             if isinstance(costs, Priced):       # priced by C as it loads: no per-visit arrays
                 self.gen_process, self.gen_send = costs.inject_process, costs.inject_send
                 rec = costs.records
-                _LIB.replay_load_priced(self.h, rays, visits, costs.table, rec.children, rec.prim_kind)
+                out = costs.load_flits()       # (the ring's: made in the same pass when wanted)
+                try:
+                    _LIB.replay_load_priced(self.h, rays, visits, costs.table, rec.children, rec.prim_kind, out)
+                except InvalidArgument:
+                    costs._flits = None if out is not None else costs._flits
+                    raise
             else:
                 process, receive, send, self.gen_process, self.gen_send = _cost_arrays(trace, costs)
                 _LIB.replay_load(self.h, rays, visits, process, receive, send)
@@ -275,7 +280,7 @@ def priced_for(trace, config: SystemConfig, cost_model=None):
     if type(cost_model) is not CostModel or not fast.usable(trace):
         return None
     check_trace(trace)
-    return fast.Priced(cost_model, trace, config.processors())
+    return fast.Priced(cost_model, trace, config.processors(), flits=config.ring is not None)
 
 
 def costs_for(trace, config: SystemConfig, cost_model=None):
