@@ -113,3 +113,23 @@ def test_memory_keys_and_references_in_c_equal_numpy(name):
     for tag, sel in (("ic", keys[keys >= 0]), ("sc", -2 - keys[keys <= -2].astype(np.int64))):
         per = np.diff(md.get(tag, 1024, 32)[0]["line_start"])
         assert md.reads(tag, per) == int(per[sel].sum())
+
+
+@pytest.mark.parametrize("at", [0, 1, 0.5, -1])
+def test_one_long_visit_late_widens_the_packed_records(at):
+    """Records are packed as they load until a visit of 2^24 cycles or more: those before it are
+    widened then; the machine is the SimPy model's wherever it comes (first, second, middle, last)."""
+    from types import SimpleNamespace
+
+    from mprt.fidelity import replay
+    from mprt.machine import simulate
+    from test_fidelity import head
+
+    t = head(mprt.load_trace(GOLDEN[NAMES.index("balls-g9")]), 20)
+    vc = costs_for(t, builtin("M"))
+    process = vc.process.copy()
+    k = int(at * (len(process) - 1)) if at != -1 else len(process) - 1
+    process[k] = (1 << 24) + 5
+    long = SimpleNamespace(process=process, receive=vc.receive, send=vc.send, flits=vc.flits,
+                           inject_process=vc.inject_process, inject_send=vc.inject_send)
+    assert same(simulate(t, "M", costs=long), replay(t, "M", costs=long))

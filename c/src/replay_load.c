@@ -74,21 +74,27 @@ static int prepare_rays(mprt_replay *r, const mprt_trace_ray *rays, size_t nr)
     return MPRT_OK;
 }
 
-/* Pack the visit infos in 8 bytes each when they fit (half the memory the
- * replay walks). */
-static void pack(mprt_replay *r, int64_t maxdur)
+/* The visit infos are written packed in 8 bytes each (vp) while they fit
+ * (half the memory the replay walks, and no second pass); the first that
+ * does not turns them into 16-byte ones (vi) from there on. */
+static uint64_t packed(int64_t dur, int64_t next)
+{
+    uint64_t nx = (uint64_t)next;
+    return (nx >> 10) << 34 | (uint64_t)dur << 10 | (nx & 1023);
+}
+
+/* Visits 0 .. n-1, packed so far, unpacked into vi: the replay reads wide ones from here on. */
+static int widen(mprt_replay *r, size_t n)
 {
     size_t j;
-    r->wide = 1;
-    if (maxdur >= ((int64_t)1 << PACK_DUR_BITS) || r->child_start[r->nr] >= PACK_KID_LIMIT ||
-        RESERVE(r, vp, cap_vp, r->nv + 1))
-        return;
-    for (j = 0; j < r->nv; j++) {
-        uint64_t nx = (uint64_t)r->vi[j].next;
-        r->vp[j] = (nx >> 10) << 34 | (uint64_t)r->vi[j].dur << 10 | (nx & 1023);
+    if (RESERVE(r, vi, cap_vi, r->nv + 1)) return -1;
+    for (j = 0; j < n; j++) {
+        uint64_t w = r->vp[j];
+        r->vi[j].dur = (int64_t)(w >> 10 & (((uint64_t)1 << PACK_DUR_BITS) - 1));
+        r->vi[j].next = (int64_t)((w >> 34) << 10 | (w & 1023));
     }
-    r->vp[r->nv] = 0;
-    r->wide = 0;
+    r->wide = 1;
+    return 0;
 }
 
 /* The visits, in one pass: each tree's visits contiguous and in order,
@@ -123,10 +129,11 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
                           const int64_t *process, const int64_t *receive, const int64_t *send, const pricer *pr)
 {
     size_t j, nt = (size_t)r->ntrees;
-    int64_t prev_t = -1, total = 0, maxdur = 0, *tc = NULL;
+    int64_t prev_t = -1, total = 0, *tc = NULL;
     const int64_t *cs = r->child_start;
     if (nv && !pr && (!process || !receive || !send)) return fail(r, MPRT_ERR_INVALID_ARG, "costs: missing array");
-    if (RESERVE(r, vi, cap_vi, nv + 1) || RESERVE(r, tree_first, cap_tree, nt + 1) ||
+    r->wide = cs[r->nr] >= PACK_KID_LIMIT || RESERVE(r, vp, cap_vp, nv + 1);
+    if ((r->wide && RESERVE(r, vi, cap_vi, nv + 1)) || RESERVE(r, tree_first, cap_tree, nt + 1) ||
         RESERVE(r, tree_cost, cap_tree9, 9 * nt + 1) || RESERVE(r, tree_pe, cap_tree_pe, nt + 1) ||
         RESERVE(r, tree_admit, cap_tree_admit, nt + 1))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu visits", nv);
@@ -183,9 +190,14 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
         } else {
             next = NEXT_RETIRE;
         }
-        r->vi[j].dur = p + c;
-        r->vi[j].next = next;
-        if (p + c > maxdur) maxdur = p + c;
+        if (!r->wide && p + c >= ((int64_t)1 << PACK_DUR_BITS) && widen(r, j))
+            return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu visits", nv);
+        if (r->wide) {
+            r->vi[j].dur = p + c;
+            r->vi[j].next = next;
+        } else {
+            r->vp[j] = packed(p + c, next);
+        }
         tc[st] += p;
         tc[3 + st] += c;
         tc[6 + st]++;
@@ -194,7 +206,7 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
     for (j = 0; j < r->nr; j++)
         if (r->ray_first[j] < 0) return TRACE_FAIL(r, "ray %zu has no visits", j);
     r->total = total;
-    pack(r, maxdur);
+    if (!r->wide) r->vp[nv] = 0;
     /* the rays made, as their first visits */
     for (j = 0; j < (size_t)cs[r->nr]; j++) r->child[j] = r->ray_first[r->child[j]];
     return MPRT_OK;
