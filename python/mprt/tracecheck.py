@@ -26,6 +26,10 @@ one except with probability about 2^-64; when they differ, two more passes
 find the first ray at fault, to name it.  Pages of a memory-mapped trace are
 released as soon as a chunk is done (``tracefile.chunks``), so the resident set stays
 near the chunk size instead of growing to the file's.
+
+Readers (``load_trace(invariants=True)``, ``Trace.validate``) check the same rules in C first,
+with the ranges, in one pass (``mprt.recordcheck``); this module then runs only on a trace C
+found at fault, to name the fault in its words (``settle``).
 """
 from __future__ import annotations
 

@@ -13,7 +13,9 @@ member and the field.
   primitives, stages, outcomes, steps, tests, vertices, children), read in chunks
   (``tracefile.chunks``: bounded memory, pages of a memory-mapped trace released).
 
-The invariants between records (``mprt.tracecheck``) come after, streamed as well.
+The invariants between records (``mprt.tracecheck``) come after, streamed as well; where the
+records are in the C layout the ranges and (when asked) the invariants are checked together in
+one C pass (``mprt.recordcheck``), the checks here naming any fault it finds.
 """
 from __future__ import annotations
 
