@@ -24,7 +24,7 @@ children of a hash of the parent id against the sum over SC visits of made
 times the hash of the ray): equal for a correct trace, and unequal for a wrong
 one except with probability about 2^-64; when they differ, two more passes
 find the first ray at fault, to name it.  Pages of a memory-mapped trace are
-released as soon as a chunk is done (``tracefile.chunks``), so the resident set stays
+released as soon as a chunk is done (``pages.chunks``), so the resident set stays
 near the chunk size instead of growing to the file's.
 
 Readers (``load_trace(invariants=True)``, ``Trace.validate``) check the same rules in C first,
@@ -37,7 +37,7 @@ import numpy as np
 
 from ._lowlevel import Outcome, RayKind, Stage
 from .errors import TraceError
-from .tracefile import chunks, release
+from .pages import chunks, release
 
 OS, IC, SC = Stage.OS, Stage.IC, Stage.SC
 O = Outcome

@@ -29,12 +29,13 @@ import tokenize
 import zipfile
 import zlib
 from concurrent.futures import ThreadPoolExecutor
+from types import SimpleNamespace
 
 import numpy as np
 
 from ._lowlevel import RAY_DTYPE, VISIT_DTYPE
 from .errors import TraceError
-from . import tracevalid
+from . import tracecheck, tracevalid
 from .pages import chunks, release  # noqa: F401  (tracefile.chunks, tracefile.release: kept for callers)
 
 FORMAT = "mprt-trace"
@@ -556,10 +557,6 @@ def read(path, mmap: bool | None = None, verify: bool = True, invariants: bool =
             raise TraceError(f"{path}: {e}") from None
         _settle(pending, path)
         if invariants:
-            from types import SimpleNamespace
-
-            from . import tracecheck
-
             tracecheck.settle(SimpleNamespace(rays=arrays["rays"], visits=arrays["visits"]), found)
     except TraceError:
         _settle(pending, path)      # a member's checksum, met first by a sequential reading
