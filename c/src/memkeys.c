@@ -1,7 +1,9 @@
 /* memkeys.c: each visit's memory key for level 3 (python/mprt/fidelity/
  * memdata.py, visit_keys) and the references to each key (machine/memory.py,
- * DataLayout's counts), in one pass over the records where they lie. */
+ * DataLayout's counts), in one pass over the records where they lie (read
+ * through memcpy: a memory-mapped member need not be aligned). */
 #include <stdio.h>
+#include <string.h>
 
 #include "mprt.h"
 
@@ -19,8 +21,10 @@ int mprt_visit_keys(const mprt_trace_visit *visits, size_t nvisits, const int64_
     for (j = 0; j < nvoxels; j++) voxel_refs[j] = 0;
     for (j = 0; j < nmaterials; j++) material_refs[j] = 0;
     for (j = 0; j < nvisits; j++) {
-        const mprt_trace_visit *a = &visits[j];
+        mprt_trace_visit va;
+        const mprt_trace_visit *a = &va;
         int64_t k = -1;
+        memcpy(&va, (const unsigned char *)visits + j * sizeof va, sizeof va);
         if (a->stage == MPRT_STAGE_IC) {
             k = a->voxel_id;
             if (k >= 0) {

@@ -6,11 +6,14 @@
  * the difference between its children and the rays its SC visit says it
  * made: 9 bytes a ray.  The visits come in order, a chunk per call; a
  * ray's first visit is checked against its parent's SC visit (seen before
- * it), its later ones against the pipeline's transitions. */
+ * it), its later ones against the pipeline's transitions.  Records are read
+ * through memcpy: a memory-mapped trace's members lie at any offset of the
+ * file, so they need not be aligned. */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
+#include <string.h>
 
 #include "mprt.h"
 
@@ -20,7 +23,7 @@ enum { BEGUN = 1, SC_SEEN = 2, CODES = 16 };
 
 struct mprt_trace_checker {
     mprt_trace_limits lim;
-    const mprt_trace_ray *rays;
+    const unsigned char *rays;      /* the records, possibly unaligned */
     size_t nrays;
     size_t next_ray;        /* rays checked: 0 .. next_ray - 1 */
     size_t seen;            /* visits checked */
@@ -60,6 +63,13 @@ static const uint64_t SHADOW_ONLY = BIT(MPRT_STAGE_IC, MPRT_OUT_BLOCKED) | BIT(M
 static const uint64_t NEVER_SHADOW = BIT(MPRT_STAGE_IC, MPRT_OUT_HIT) | BIT(MPRT_STAGE_SC, MPRT_OUT_SHADED) |
                                      BIT(MPRT_STAGE_OS, MPRT_OUT_LEFT);
 
+static mprt_trace_ray ray_at(const mprt_trace_checker *c, int64_t i)
+{
+    mprt_trace_ray y;
+    memcpy(&y, c->rays + (size_t)i * sizeof y, sizeof y);
+    return y;
+}
+
 static int fault(mprt_trace_checker *c, int kind, const char *fmt, ...)
 {
     va_list ap;
@@ -78,7 +88,7 @@ mprt_trace_checker *mprt_trace_checker_create(const mprt_trace_limits *lim, cons
     c = calloc(1, sizeof *c);
     if (!c) return NULL;
     c->lim = *lim;
-    c->rays = rays;
+    c->rays = (const unsigned char *)rays;
     c->nrays = nrays;
     c->prev_ray = -1;
     if (lim->invariants && nrays) {
@@ -122,7 +132,7 @@ int mprt_trace_checker_rays(mprt_trace_checker *c, size_t lo, size_t hi)
     L = &c->lim;
     n = (int64_t)c->nrays;
     for (i = lo; i < hi; i++) {
-        const mprt_trace_ray *y = &c->rays[i];
+        const mprt_trace_ray yr = ray_at(c, (int64_t)i), *y = &yr;
         if (y->id != (int64_t)i) return fault(c, MPRT_TRACE_RANGE, "ray %zu: id %lld", i, (long long)y->id);
         if (outside(y->parent, -1, n - 1) || outside(y->pixel, 0, L->pixels - 1) ||
             outside(y->light, -1, L->lights - 1) || y->kind > MPRT_RAY_SHADOW || y->depth > L->max_depth ||
@@ -132,7 +142,7 @@ int mprt_trace_checker_rays(mprt_trace_checker *c, size_t lo, size_t hi)
         if ((y->kind == MPRT_RAY_PRIMARY) != (y->parent < 0))
             return fault(c, MPRT_TRACE_INVARIANT, "ray %zu: primary rays and only they have no parent", i);
         if (y->parent >= 0) {
-            const mprt_trace_ray *p = &c->rays[y->parent];
+            const mprt_trace_ray pr = ray_at(c, y->parent), *p = &pr;
             if (y->depth < p->depth) return fault(c, MPRT_TRACE_INVARIANT, "ray %zu is shallower than its parent", i);
             if (y->pixel != p->pixel)
                 return fault(c, MPRT_TRACE_INVARIANT, "ray %zu belongs to another pixel than its parent", i);
@@ -166,8 +176,11 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
     made_max = L->lights + 2;
     inv = L->invariants;
     for (j = 0; j < nvisits; j++, c->seen++) {
-        const mprt_trace_visit *a = &visits[j];
-        int64_t ray = a->ray;
+        mprt_trace_visit va;
+        const mprt_trace_visit *a = &va;
+        int64_t ray;
+        memcpy(&va, (const unsigned char *)visits + j * sizeof va, sizeof va);
+        ray = a->ray;
         int st = a->stage, code, k, tested = 0;
         for (k = 0; k < MPRT_NKINDS; k++) {
             if (outside(a->tests[k], 0, L->tests)) break;
@@ -181,7 +194,7 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
         if (!inv) continue;
         code = CODE(st, a->outcome);
         if (ray != c->prev_ray) {
-            int64_t parent = c->rays[ray].parent;
+            int64_t parent = ray_at(c, ray).parent;
             if (c->prev_ray >= 0 && ends(c, c->prev_code)) return c->fault;
             if (c->state[ray] & BEGUN)
                 return fault(c, MPRT_TRACE_INVARIANT, "ray %lld: its visits are not contiguous", (long long)ray);
@@ -193,7 +206,7 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
         } else if (!(next_of(c->prev_code) >> code & 1)) {
             return fault(c, MPRT_TRACE_INVARIANT, "visit %zu: code %d after code %d", c->seen, code, c->prev_code);
         }
-        if (c->rays[ray].kind == MPRT_RAY_SHADOW ? NEVER_SHADOW >> code & 1 : SHADOW_ONLY >> code & 1)
+        if (ray_at(c, ray).kind == MPRT_RAY_SHADOW ? NEVER_SHADOW >> code & 1 : SHADOW_ONLY >> code & 1)
             return fault(c, MPRT_TRACE_INVARIANT, "visit %zu: a shadow ray's outcome on another ray, or the reverse",
                          c->seen);
         if ((tested && st != MPRT_STAGE_IC) || (a->steps != 0 && st != MPRT_STAGE_OS))
