@@ -120,3 +120,20 @@ def test_the_probe_samples_whole_trees_from_stretches_of_the_file():
     assert np.array_equal(s.rays["id"], np.arange(len(s.rays)))
     cfg = builtin("3mppe")
     assert Compiled(s, costs_for(s, cfg)).cycles(cfg) > 0
+
+
+def test_a_short_replay_is_not_probed_and_a_long_one_is(monkeypatch, capsys):
+    """The phases' estimate comes from typical rates unless they put the run over PROBE_FROM
+    seconds: only then is a sample of the trees replayed first (it costs about 5% of the run)."""
+    from mprt import cli
+    from mprt.fidelity import cli as fcli
+    probed = []
+    real = fcli._probe
+    monkeypatch.setattr(fcli, "PHASE_VISITS", 0)
+    monkeypatch.setattr(fcli, "_probe", lambda *a: probed.append(1) or real(*a))
+    argv = ["simulate", "balls:1", "--res", "24x24", "--model", "M", "--threads", "1"]
+    assert cli.main(argv) == 0
+    assert not probed and "at a typical" in capsys.readouterr().err
+    monkeypatch.setattr(fcli, "PROBE_FROM", 0.0)
+    assert cli.main(argv) == 0
+    assert probed and f"a 1/{fcli.PROBE_RUNS} sample of its trees" in capsys.readouterr().err

@@ -20,10 +20,11 @@ ORDER = [
     "scene",       # Scene
     "grid",        # Grid (adds Scene.grid), render, intersect, camera rays, per-tile calls
     "pages",       # arrays read in chunks, memory-mapped pages released
+    "recordcheck",  # a trace's records checked in C in one pass (ranges and invariants)
     "tracevalid",  # the one validation of a trace: meta schema, dtypes, shapes, ranges
+    "tracecheck",  # trace invariants (named in Python)
     "tracefile",   # the .npz format of (meta, arrays)
     "tracewriter", # a trace file written while tracing (records past the page cache)
-    "tracecheck",  # trace invariants
     "stats",       # the paper's statistics of a trace
     "trace",       # Trace, load_trace, the record enums and dtypes
     "tracing",     # trace(grid, ...) -> (image, Trace) (adds Grid.trace)

@@ -623,6 +623,17 @@ int mprt_replay_set_config(mprt_replay *r, const mprt_replay_config *cfg);
 int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
                      size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send);
 
+/* mprt_replay_load with each visit priced as it is loaded, a few thousand at
+ * a time (mprt_cost_visits's arithmetic, with table, children and prim_kind
+ * as it takes them): the same replay as loading the arrays mprt_cost_visits
+ * gives, without making them; flits (nvisits entries, or NULL) receives
+ * each visit's flits out, as mprt_cost_visits gives them (for the ring:
+ * mprt_replay_set_flits).  A visit it cannot price is MPRT_ERR_INVALID_ARG,
+ * the message starting "cannot cost this trace: ". */
+int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                            size_t nvisits, const mprt_cost_table *table, const int64_t *children,
+                            const int32_t *prim_kind, size_t nprims, int32_t *flits);
+
 /* The packets' sizes for the ring (level 2), for the loaded trace: flits[j]
  * (nvisits entries) of the packet visit j sends on to its ray's next visit;
  * kid_flits[kind] (nkinds entries, a kind per mprt_ray_kind) of a packet
@@ -765,6 +776,59 @@ typedef struct {
  * memory figures of the last run. */
 int mprt_replay_get_memory(const mprt_replay *r, mprt_replay_memory *out, size_t cap, int64_t *stall,
                            size_t stall_cap);
+
+/* ---- Level 3's memory keys -------------------------------------------------
+ * Per visit the key of the data level 3 reads (python/mprt/fidelity/
+ * memdata.py): an IC visit's voxel_id (>= 0, or -1), an SC visit that names
+ * a primitive -2 - its material (prim_material[prim]), else -1; and the
+ * references to each key: voxel_refs[nvoxels] (IC visits by voxel),
+ * material_refs[nmaterials] (SC visits by material).  A voxel, primitive or
+ * material outside those arrays, or a key below INT32_MIN, is
+ * MPRT_ERR_INVALID_ARG with errmsg naming the visit.  OUT: keys, voxel_refs,
+ * material_refs. */
+int mprt_visit_keys(const mprt_trace_visit *visits, size_t nvisits, const int64_t *prim_material, size_t nprims,
+                    int32_t *keys, int64_t *voxel_refs, size_t nvoxels, int64_t *material_refs, size_t nmaterials,
+                    char *errmsg, size_t errlen);
+
+/* ---- Trace check -----------------------------------------------------------
+ * The checks every reader of a trace runs on its records (python/mprt/
+ * tracevalid.py: each field's range; python/mprt/tracecheck.py: the
+ * invariants between records), in one pass over the records where they lie
+ * (a memory-mapped file is read in place), in chunks so the caller can let
+ * the pages go between calls.  It answers whether the records pass, with a
+ * short reason; the Python checkers name the first fault in their own words.
+ * Memory: 9 bytes a ray. */
+typedef struct {
+    int64_t pixels;      /* samples_w * samples_h: a ray's pixel is below */
+    int64_t lights;      /* a ray's light is -1 .. lights - 1; made, suppressed 0 .. lights + 2 */
+    int64_t max_depth;   /* a ray's depth is at most this */
+    int64_t voxels;      /* a visit's voxel_id is -1 .. voxels - 1 */
+    int64_t prims;       /* a visit's prim is -1 .. prims - 1 */
+    int64_t steps;       /* a visit's steps are 0 .. steps */
+    int64_t tests;       /* each of a visit's tests is 0 .. tests */
+    int64_t vertices;    /* a visit's vertices are 0 .. vertices */
+    int invariants;      /* nonzero: the invariants too, else the ranges only */
+} mprt_trace_limits;
+
+typedef struct mprt_trace_checker mprt_trace_checker;
+
+/* Fault kinds (mprt_trace_checker_fault). */
+enum { MPRT_TRACE_SOUND = 0, MPRT_TRACE_RANGE = 1, MPRT_TRACE_INVARIANT = 2 };
+
+/* A checker of rays[0..nrays-1] (kept, not copied: they must stay until the
+ * last call) under lim; NULL when out of memory. */
+mprt_trace_checker *mprt_trace_checker_create(const mprt_trace_limits *lim, const mprt_trace_ray *rays,
+                                              size_t nrays);
+void mprt_trace_checker_destroy(mprt_trace_checker *c);
+/* Check rays [lo, hi) (every ray once, in order, before the visits), then the
+ * visits a chunk at a time in order (visits: the next nvisits of them), then
+ * finish.  Each returns the fault kind found so far (0: none; after a fault
+ * the later calls do nothing and return it). */
+int mprt_trace_checker_rays(mprt_trace_checker *c, size_t lo, size_t hi);
+int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *visits, size_t nvisits);
+int mprt_trace_checker_finish(mprt_trace_checker *c);
+/* The first fault's reason ("" when none). */
+const char *mprt_trace_checker_errmsg(const mprt_trace_checker *c);
 
 #ifdef __cplusplus
 }

@@ -6,7 +6,7 @@
 #include <stdarg.h>
 #include <stdio.h>
 
-#include "mprt.h"
+#include "mprt_internal.h"
 
 enum { KINDS = 4, COST_THREADS = 16 };
 #define COST_SHARE_MIN ((size_t)1 << 20)  /* visits: fewer per thread are not worth one */
@@ -176,8 +176,11 @@ static void fold(const mprt_cost_table *t, folded *f)
     f->sc_flit = (uint64_t)t->send_flit[MPRT_STAGE_SC];
 }
 
-/* The fast pass: costs and flits only, stage by stage in straight lines. */
-static int cost_fast(const mprt_cost_table *t, const mprt_trace_ray *rays, const int64_t *children, size_t nrays,
+/* The fast pass: costs and flits only, stage by stage in straight lines:
+ * visits[base .. base + nvisits - 1] into process[0 .. nvisits - 1] (and the
+ * others).  Also the compiled replay's loading, a chunk at a time
+ * (mprt__cost_range, mprt_internal.h). */
+int mprt__cost_range(const mprt_cost_table *t, const mprt_trace_ray *rays, const int64_t *children, size_t nrays,
                      const int32_t *prim_kind, size_t nprims, const mprt_trace_visit *visits, size_t base,
                      size_t nvisits, int64_t prev_ray, int prev_outcome, int64_t *process, int64_t *receive,
                      int64_t *send, int32_t *flits, char *errmsg, size_t errlen)
@@ -242,10 +245,10 @@ static int cost_fast(const mprt_cost_table *t, const mprt_trace_ray *rays, const
             y = f.send1[st][dst][kind];
             fo = f.flits1[st][dst][kind];
         }
-        if (process) process[base + j] = (int64_t)p;
-        if (receive) receive[base + j] = (int64_t)x;
-        if (send) send[base + j] = (int64_t)y;
-        if (flits) flits[base + j] = (int32_t)(uint32_t)fo;
+        if (process) process[j] = (int64_t)p;
+        if (receive) receive[j] = (int64_t)x;
+        if (send) send[j] = (int64_t)y;
+        if (flits) flits[j] = (int32_t)(uint32_t)fo;
         prev = ray;
         pout = out;
     }
@@ -273,8 +276,10 @@ static void *cost_share(void *arg)
     share *w = arg;
     int64_t pr = w->lo ? w->visits[w->lo - 1].ray : *w->prev_ray;
     int po = w->lo ? w->visits[w->lo - 1].outcome : *w->prev_outcome;
-    w->rc = cost_fast(w->t, w->rays, w->children, w->nrays, w->prim_kind, w->nprims, w->visits, w->lo, w->hi - w->lo,
-                      pr, po, w->process, w->receive, w->send, w->flits, w->msg, sizeof w->msg);
+    w->rc = mprt__cost_range(w->t, w->rays, w->children, w->nrays, w->prim_kind, w->nprims, w->visits, w->lo,
+                             w->hi - w->lo, pr, po, w->process ? w->process + w->lo : NULL,
+                             w->receive ? w->receive + w->lo : NULL, w->send ? w->send + w->lo : NULL,
+                             w->flits ? w->flits + w->lo : NULL, w->msg, sizeof w->msg);
     return NULL;
 }
 
@@ -295,7 +300,7 @@ int mprt_cost_visits(const mprt_cost_table *t, const mprt_trace_ray *rays, const
     n = threads < 1 ? 1 : threads > COST_THREADS ? COST_THREADS : threads;
     if ((size_t)n > nvisits / COST_SHARE_MIN) n = (int)(nvisits / COST_SHARE_MIN);
     if (n <= 1)
-        return cost_fast(t, rays, children, nrays, prim_kind, nprims, visits, 0, nvisits, prev_ray, prev_outcome,
+        return mprt__cost_range(t, rays, children, nrays, prim_kind, nprims, visits, 0, nvisits, prev_ray, prev_outcome,
                          process, receive, send, flits, errmsg, errlen);
     for (i = 0; i < n; i++) {
         share *x = &w[i];

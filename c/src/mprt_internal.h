@@ -294,4 +294,12 @@ void mprt__cone_bounds(const mprt__cone *c, vec3 *lo, vec3 *hi);
 /* The C library's decimal point in the current locale (NFF text uses '.'). */
 char mprt__decimal_point(void);
 
+/* cost.c: visits[base .. base + nvisits - 1] priced into process[0 ..
+ * nvisits - 1], receive, send, flits (each may be NULL), as mprt_cost_visits
+ * prices them; prev_ray and prev_outcome: the visit before visits[base]. */
+int mprt__cost_range(const mprt_cost_table *t, const mprt_trace_ray *rays, const int64_t *children, size_t nrays,
+                     const int32_t *prim_kind, size_t nprims, const mprt_trace_visit *visits, size_t base,
+                     size_t nvisits, int64_t prev_ray, int prev_outcome, int64_t *process, int64_t *receive,
+                     int64_t *send, int32_t *flits, char *errmsg, size_t errlen);
+
 #endif

@@ -74,43 +74,88 @@ static int prepare_rays(mprt_replay *r, const mprt_trace_ray *rays, size_t nr)
     return MPRT_OK;
 }
 
-/* Pack the visit infos in 8 bytes each when they fit (half the memory the
- * replay walks). */
-static void pack(mprt_replay *r, int64_t maxdur)
+/* The visit infos are written packed in 8 bytes each (vp) while they fit
+ * (half the memory the replay walks, and no second pass); the first that
+ * does not turns them into 16-byte ones (vi) from there on. */
+static uint64_t packed(int64_t dur, int64_t next)
+{
+    uint64_t nx = (uint64_t)next;
+    return (nx >> 10) << 34 | (uint64_t)dur << 10 | (nx & 1023);
+}
+
+/* Visits 0 .. n-1, packed so far, unpacked into vi: the replay reads wide ones from here on. */
+static int widen(mprt_replay *r, size_t n)
 {
     size_t j;
-    r->wide = 1;
-    if (maxdur >= ((int64_t)1 << PACK_DUR_BITS) || r->child_start[r->nr] >= PACK_KID_LIMIT ||
-        RESERVE(r, vp, cap_vp, r->nv + 1))
-        return;
-    for (j = 0; j < r->nv; j++) {
-        uint64_t nx = (uint64_t)r->vi[j].next;
-        r->vp[j] = (nx >> 10) << 34 | (uint64_t)r->vi[j].dur << 10 | (nx & 1023);
+    if (RESERVE(r, vi, cap_vi, r->nv + 1)) return -1;
+    for (j = 0; j < n; j++) {
+        uint64_t w = r->vp[j];
+        r->vi[j].dur = (int64_t)(w >> 10 & (((uint64_t)1 << PACK_DUR_BITS) - 1));
+        r->vi[j].next = (int64_t)((w >> 34) << 10 | (w & 1023));
     }
-    r->vp[r->nv] = 0;
-    r->wide = 0;
+    r->wide = 1;
+    return 0;
 }
 
 /* The visits, in one pass: each tree's visits contiguous and in order,
  * starting with its primary's; each ray's contiguous; known stages; costs
  * of at least one cycle; an SC visit that ends its ray made as many rays as
  * have it as parent.  Fills the visit infos and the trees' costs. */
+/* What prices the visits as they load (mprt_replay_load_priced): the cost
+ * table and what it reads, and a chunk's costs. */
+typedef struct {
+    const mprt_cost_table *table;
+    const int64_t *children;
+    const int32_t *prim_kind;
+    size_t nprims;
+    int64_t *buf;       /* PRICE_CHUNK process, then receive, then send */
+    int32_t *flits;     /* the visits' flits out (or NULL) */
+} pricer;
+#define PRICE_CHUNK ((size_t)4096)
+
+/* Price visits [j, j + PRICE_CHUNK) into the pricer's buffer. */
+static int price(mprt_replay *r, const pricer *pr, const mprt_trace_ray *rays, const mprt_trace_visit *v, size_t nv,
+                 size_t j)
+{
+    char msg[256];
+    size_t n = nv - j < PRICE_CHUNK ? nv - j : PRICE_CHUNK;
+    mprt_trace_visit before;
+    int rc;
+    if (j) memcpy(&before, (const unsigned char *)v + (j - 1) * sizeof before, sizeof before);
+    rc = mprt__cost_range(pr->table, rays, pr->children, r->nr, pr->prim_kind, pr->nprims, v, j, n,
+                          j ? before.ray : -1, j ? before.outcome : 0, pr->buf, pr->buf + PRICE_CHUNK,
+                          pr->buf + 2 * PRICE_CHUNK, pr->flits ? pr->flits + j : NULL, msg, sizeof msg);
+    return rc == MPRT_OK ? MPRT_OK : fail(r, rc, "cannot cost this trace: %s", msg);
+}
+
 static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt_trace_visit *v, size_t nv,
-                          const int64_t *process, const int64_t *receive, const int64_t *send)
+                          const int64_t *process, const int64_t *receive, const int64_t *send, const pricer *pr)
 {
     size_t j, nt = (size_t)r->ntrees;
-    int64_t prev_t = -1, total = 0, maxdur = 0, *tc = NULL;
+    int64_t prev_t = -1, total = 0, *tc = NULL;
     const int64_t *cs = r->child_start;
-    if (nv && (!process || !receive || !send)) return fail(r, MPRT_ERR_INVALID_ARG, "costs: missing array");
-    if (RESERVE(r, vi, cap_vi, nv + 1) || RESERVE(r, tree_first, cap_tree, nt + 1) ||
+    if (nv && !pr && (!process || !receive || !send)) return fail(r, MPRT_ERR_INVALID_ARG, "costs: missing array");
+    r->wide = cs[r->nr] >= PACK_KID_LIMIT || RESERVE(r, vp, cap_vp, nv + 1);
+    if ((r->wide && RESERVE(r, vi, cap_vi, nv + 1)) || RESERVE(r, tree_first, cap_tree, nt + 1) ||
         RESERVE(r, tree_cost, cap_tree9, 9 * nt + 1) || RESERVE(r, tree_pe, cap_tree_pe, nt + 1) ||
         RESERVE(r, tree_admit, cap_tree_admit, nt + 1))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu visits", nv);
     memset(r->tree_cost, 0, (9 * nt + 1) * sizeof *r->tree_cost);
     for (j = 0; j < nv; j++) {
         const mprt_trace_visit *a = &v[j];
-        int64_t ray = a->ray, t, p = process[j], x = receive[j], y = send[j], c, next;
+        int64_t ray = a->ray, t, p, x, y, c, next;
         int st = a->stage;
+        if (pr) {
+            size_t k = j % PRICE_CHUNK;
+            if (k == 0 && price(r, pr, rays, v, nv, j) != MPRT_OK) return MPRT_ERR_INVALID_ARG;
+            p = pr->buf[k];
+            x = pr->buf[PRICE_CHUNK + k];
+            y = pr->buf[2 * PRICE_CHUNK + k];
+        } else {
+            p = process[j];
+            x = receive[j];
+            y = send[j];
+        }
         if (ray < 0 || ray >= (int64_t)r->nr) return TRACE_FAIL(r, "a visit names a ray that does not exist");
         t = r->tree_of[ray];
         if (t != prev_t) {
@@ -148,9 +193,14 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
         } else {
             next = NEXT_RETIRE;
         }
-        r->vi[j].dur = p + c;
-        r->vi[j].next = next;
-        if (p + c > maxdur) maxdur = p + c;
+        if (!r->wide && p + c >= ((int64_t)1 << PACK_DUR_BITS) && widen(r, j))
+            return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu visits", nv);
+        if (r->wide) {
+            r->vi[j].dur = p + c;
+            r->vi[j].next = next;
+        } else {
+            r->vp[j] = packed(p + c, next);
+        }
         tc[st] += p;
         tc[3 + st] += c;
         tc[6 + st]++;
@@ -159,7 +209,7 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
     for (j = 0; j < r->nr; j++)
         if (r->ray_first[j] < 0) return TRACE_FAIL(r, "ray %zu has no visits", j);
     r->total = total;
-    pack(r, maxdur);
+    if (!r->wide) r->vp[nv] = 0;
     /* the rays made, as their first visits */
     for (j = 0; j < (size_t)cs[r->nr]; j++) r->child[j] = r->ray_first[r->child[j]];
     return MPRT_OK;
@@ -205,8 +255,9 @@ static void free_ray_arrays(mprt_replay *r)
     r->cap_ray = r->cap_ray2 = r->cap_ray3 = 0;
 }
 
-int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
-                     size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send)
+static int load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send,
+                const pricer *pr)
 {
     int rc;
     if (!r) return MPRT_ERR_INVALID_ARG;
@@ -220,9 +271,40 @@ int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, c
     r->nv = nvisits;
     r->nr = nrays;
     rc = prepare_rays(r, rays, nrays);
-    if (rc == MPRT_OK) rc = prepare_visits(r, rays, visits, nvisits, process, receive, send);
+    if (rc == MPRT_OK) rc = prepare_visits(r, rays, visits, nvisits, process, receive, send, pr);
     free_ray_arrays(r);
     if (rc != MPRT_OK) return rc;
     r->loaded = 1;
     return MPRT_OK;
+}
+
+int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                     size_t nvisits, const int64_t *process, const int64_t *receive, const int64_t *send)
+{
+    return load(r, rays, nrays, visits, nvisits, process, receive, send, NULL);
+}
+
+int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                            size_t nvisits, const mprt_cost_table *table, const int64_t *children,
+                            const int32_t *prim_kind, size_t nprims, int32_t *flits)
+{
+    pricer pr;
+    int rc;
+    if (!r) return MPRT_ERR_INVALID_ARG;
+    if (!table || (nrays && !children) || (nprims && !prim_kind)) {
+        mprt__replay_free_run(r);
+        mprt__replay_memory_free(r);
+        r->loaded = 0;
+        return fail(r, MPRT_ERR_INVALID_ARG, "cannot cost this trace: a table or array is missing");
+    }
+    pr.table = table;
+    pr.children = children;
+    pr.prim_kind = prim_kind;
+    pr.nprims = nprims;
+    pr.flits = flits;
+    pr.buf = malloc(3 * PRICE_CHUNK * sizeof *pr.buf);
+    if (!pr.buf) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the costs of %zu visits", PRICE_CHUNK);
+    rc = load(r, rays, nrays, visits, nvisits, NULL, NULL, NULL, &pr);
+    free(pr.buf);
+    return rc;
 }

@@ -455,6 +455,23 @@ class Binding:
         """Another configuration for the replay (the loaded trace stays)."""
         self._check(self.lib.mprt_replay_set_config(h, self._replay_config(config)), self.lib.mprt_replay_errmsg, h)
 
+    def replay_load_priced(self, h, rays: np.ndarray, visits: np.ndarray, table: dict, children: np.ndarray,
+                           prim_kind: np.ndarray, flits: np.ndarray | None = None) -> None:
+        """Load the records, each visit priced as it loads with ``table`` (mprt_cost_table's fields
+        by name, lights included) and ``children`` (as cost_children gives it), as ``replay_load``
+        of the arrays ``cost_visits`` would make; ``flits`` (int32 per visit) receives their flits."""
+        rays, visits = self._records("rays", rays, RAY_DTYPE), self._records("visits", visits, VISIT_DTYPE)
+        if children.shape != (len(rays), 4) or children.dtype != np.int64 or not children.flags.c_contiguous:
+            raise InvalidArgument(f"replay_load_priced: children must be int64[{len(rays)}, 4] as cost_children "
+                                  "makes it")
+        pk = np.ascontiguousarray(prim_kind, dtype=np.int32)
+        self._check(self.lib.mprt_replay_load_priced(
+            h, self._in("mprt_trace_ray", np.ascontiguousarray(rays), len(rays)), len(rays),
+            self._in("mprt_trace_visit", np.ascontiguousarray(visits), len(visits)), len(visits),
+            self.ffi.new("mprt_cost_table *", table), self._in("int64_t", children, 4 * len(rays)),
+            self._in("int32_t", pk, len(pk)), len(pk),
+            self.ffi.NULL if flits is None else self._out("int32_t", flits, len(visits))), self.lib.mprt_replay_errmsg, h)
+
     def replay_load(self, h, rays: np.ndarray, visits: np.ndarray, process: np.ndarray, receive: np.ndarray,
                     send: np.ndarray) -> None:
         """Load the records (RAY_DTYPE, VISIT_DTYPE) with int64 costs per visit (copied)."""
@@ -472,7 +489,12 @@ class Binding:
     def replay_set_flits(self, h, flits: np.ndarray, kid_flits, inject_flits: int) -> None:
         """The packets' sizes for the ring: flits per visit (of the packet it sends on), per ray
         kind of a ray SC made, and of a primary ray SC made (copied)."""
-        f = np.ascontiguousarray(flits, dtype=np.int64)
+        f = np.asarray(flits)
+        if f.dtype != np.int64 or not f.flags.c_contiguous:   # widened into 4 KiB pages (cost.fast.fresh's reason)
+            import mmap
+
+            f = np.frombuffer(mmap.mmap(-1, max(8 * f.size, 1)), dtype=np.int64, count=f.size).reshape(f.shape)
+            np.copyto(f, flits, casting="same_kind")
         k = np.ascontiguousarray(kid_flits, dtype=np.int64)
         self._check(self.lib.mprt_replay_set_flits(h, self._in("int64_t", f), f.size, self._in("int64_t", k), k.size,
                                                    int(inject_flits)), self.lib.mprt_replay_errmsg, h)
@@ -615,6 +637,21 @@ class Binding:
                                                    len(rays), self._in("int32_t", pk, len(pk)), len(pk),
                                                    self._in("mprt_trace_visit", visits, n), n, int(prev_ray),
                                                    int(prev_outcome), *outs, int(threads), msg, len(msg)), msg)
+
+    def visit_keys(self, visits: np.ndarray, prim_material: np.ndarray, nvoxels: int, nmaterials: int):
+        """mprt_visit_keys: (keys int32 per visit, voxel_refs int64[nvoxels], material_refs
+        int64[nmaterials]); ValueError naming a visit whose key does not fit."""
+        visits = self._records("visits", visits, VISIT_DTYPE)
+        mat = np.ascontiguousarray(prim_material, dtype=np.int64)
+        keys = np.empty(len(visits), np.int32)
+        vref, mref = np.empty(int(nvoxels), np.int64), np.empty(int(nmaterials), np.int64)
+        msg = self._cost_errmsg()
+        if self.lib.mprt_visit_keys(self._in("mprt_trace_visit", np.ascontiguousarray(visits), len(visits)),
+                                    len(visits), self._in("int64_t", mat), len(mat), self._out("int32_t", keys),
+                                    self._out("int64_t", vref), len(vref), self._out("int64_t", mref), len(mref),
+                                    msg, len(msg)) != Status.OK:
+            raise ValueError(self.ffi.string(msg).decode(errors="replace"))
+        return keys, vref, mref
 
     # -- replay: level 3, the memories ---------------------------------------------------
     def replay_set_memory(self, h, key: np.ndarray, ic: dict | None, sc: dict | None) -> None:

@@ -6,7 +6,10 @@ Each estimate adds up the parts a run holds at its peak, from what is known befo
 - the trace as loaded (visits, rays, samples, voxel lists, primitive table): from a trace
   file's array headers (read without its records) or, for a scene, from the resolution and
   the grid (a frame traced in memory has at least one primary ray and one visit a sample);
-- the cost arrays (process, receive, send, flits: ``COSTS`` bytes a visit);
+- the cost arrays (process, receive, send, flits: ``COSTS`` bytes a visit; counted for every
+  engine, though the compiled replay of the default cost model prices the visits as it loads
+  them and holds none of them unless a level 0 or a sample's estimate asks for them);
+- the trace's check (``mprt.recordcheck``: 9 bytes a ray, freed before the costs are made);
 - the engine's state: the compiled replay's visit infos (``COMPILED`` bytes a visit), its
   caches (sets x ways per PE, 8 bytes an entry, limited by the lines the data can fill, as
   ``c/src/replay_memory.c`` sizes them) and level 3's per-visit keys; SimPy's objects (per
@@ -38,7 +41,7 @@ VISIT = VISIT_DTYPE.itemsize            # 48: a visit record as loaded
 RAY = RAY_DTYPE.itemsize                # 32: a ray record
 SAMPLE = 24                             # a sample's colour (float64 x 3)
 COSTS = 28                              # process, receive, send (int64) and flits (int32) a visit
-COMPILED = 25                           # the C replay's visit infos (16 + 8 packed) and its children
+COMPILED = 25                           # the C replay's visit infos (8 packed; 16 + 8 when a visit lasts 2^24 cycles or more) and its children
 COMPILED_RAY = 40                       # ... per ray while loading (ray_first, child_start, tree_of, child)
 COMPILED_MEMORY = 12                    # level 3: the visits' memory keys (here and in C) and their lines
 SIMPY = 16                              # SimPy's per-visit arrays (Replay: orders, next visits)
@@ -195,9 +198,7 @@ def memory_figures(memory, tag: str, mc) -> tuple[int, int]:
     line + 1), and the lines the trace's visits read from it in all."""
     data = memory.get(tag, mc.resident, mc.cache.line if mc.cache is not None else 32)[0]
     lines, per = data["lines"], np.diff(data["line_start"])
-    keys = memory.keys
-    sel = keys[keys >= 0] if tag == "ic" else -2 - keys[keys <= -2].astype(np.int64)
-    return (int(lines.max()) + 1 if len(lines) else 0), int(per[sel].sum(dtype=np.int64))
+    return (int(lines.max()) + 1 if len(lines) else 0), memory.reads(tag, per)
 
 
 def cache_entries(cache, span: int) -> tuple[int, int]:

@@ -98,10 +98,10 @@ class Trace:
         schema, each array's dtype, shape and ranges, then (``invariants``) the invariants
         between records (``mprt.tracecheck``), all in bounded memory; raise TraceError naming
         the member and the field of the first fault."""
-        tracevalid.validate(self.meta, self.arrays())
+        found = tracevalid.validate(self.meta, self.arrays(), invariants=invariants)
         tracevalid.mark_checked(self)
         if invariants:
-            tracecheck.check(self)
+            tracecheck.settle(self, found)
 
     def check(self) -> dict:
         """Validate the trace (``validate``: schema, ranges and invariants); raise TraceError
@@ -122,9 +122,7 @@ def load_trace(path, mmap: bool | None = None, verify: bool = True, invariants: 
     (``mprt.tracecheck``).  Uncompressed traces are memory-mapped (``mmap``; default:
     when the file is over 256 MB), so a trace of any size opens in bounded
     memory."""
-    meta, arrays = tracefile.read(path, mmap, verify)
+    meta, arrays = tracefile.read(path, mmap, verify, invariants)   # (the invariants in the same pass)
     trace = Trace.from_arrays(meta, arrays, path)
     tracevalid.mark_checked(trace)      # tracefile.read ran tracevalid's checks
-    if invariants:
-        tracecheck.check(trace)
     return trace

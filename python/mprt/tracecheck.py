@@ -24,8 +24,12 @@ children of a hash of the parent id against the sum over SC visits of made
 times the hash of the ray): equal for a correct trace, and unequal for a wrong
 one except with probability about 2^-64; when they differ, two more passes
 find the first ray at fault, to name it.  Pages of a memory-mapped trace are
-released as soon as a chunk is done (``tracefile.chunks``), so the resident set stays
+released as soon as a chunk is done (``pages.chunks``), so the resident set stays
 near the chunk size instead of growing to the file's.
+
+Readers (``load_trace(invariants=True)``, ``Trace.validate``) check the same rules in C first,
+with the ranges, in one pass (``mprt.recordcheck``); this module then runs only on a trace C
+found at fault, to name the fault in its words (``settle``).
 """
 from __future__ import annotations
 
@@ -33,7 +37,7 @@ import numpy as np
 
 from ._lowlevel import Outcome, RayKind, Stage
 from .errors import TraceError
-from .tracefile import chunks, release
+from .pages import chunks, release
 
 OS, IC, SC = Stage.OS, Stage.IC, Stage.SC
 O = Outcome
@@ -283,3 +287,15 @@ def check(trace, chunk: int = CHUNK) -> None:
         _first_wrong_parent(rays, visits, chunk)
     if tot.to_ic != tot.ic:
         _fail("OS->IC handoffs and IC visits differ")
+
+
+def settle(trace, found: str | None) -> None:
+    """The invariants, after ``tracevalid.check_arrays(..., invariants=True)`` answered ``found``:
+    nothing more when "" (C found them hold), this module's check when None (not checked in C),
+    and when C found one broken, this module's check to name it in its words (C's reason if it
+    names none)."""
+    if found == "":
+        return
+    check(trace)
+    if found is not None:
+        _fail(found)

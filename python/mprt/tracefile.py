@@ -19,18 +19,19 @@ and writes (meta, arrays) pairs whose arrays are those of ``ARRAYS``;
 from __future__ import annotations
 
 import hashlib
-import io
 import json
 import os
 import math
 import tokenize
 import zipfile
 import zlib
+from concurrent.futures import ThreadPoolExecutor
+from types import SimpleNamespace
 
 import numpy as np
 
 from .errors import TraceError
-from . import tracevalid
+from . import tracecheck, tracevalid
 from .pages import chunks, release  # noqa: F401  (tracefile.chunks, tracefile.release: kept for callers)
 
 FORMAT = "mprt-trace"
@@ -364,14 +365,29 @@ def _rename_v1(visits: np.ndarray) -> np.ndarray:
                                  "itemsize": visits.dtype.itemsize}))
 
 
-def read(path, mmap: bool | None = None, verify: bool = True):
+BACKGROUND_CRC = 64 << 20  # bytes: a memory-mapped record member this large is checksummed on a thread
+
+
+def _settle(pending: list, path: str) -> None:
+    """Wait for the checksums computed in the background; raise the first that does not match."""
+    for k, done in pending:
+        if not done.result():
+            raise TraceError(f"{path}: array {k!r} does not match its checksum (tampered or damaged)")
+    pending.clear()
+
+
+def read(path, mmap: bool | None = None, verify: bool = True, invariants: bool = False):
     """Read a trace file: (meta, arrays), the arrays those of ``ARRAYS``.  Checks the format
     version, the metadata (``tracevalid.check_meta``: before any array is read), that every
     member is present and whole, (``verify``) the checksums, and the arrays
-    (``tracevalid.check_arrays``).  Uncompressed members are memory-mapped when ``mmap``
+    (``tracevalid.check_arrays``), then (``invariants``) the invariants between the records
+    (``mprt.tracecheck``).  Uncompressed members are memory-mapped when ``mmap``
     (default: when the file is over 256 MB).  A version 1, 2 or 3 file is returned with
     today's field names and version.  Every failure is one TraceError naming the file, the
-    member and the field; memory is bounded by the file's size."""
+    member and the field (an invariant: the rule and the ray, as ``tracecheck.check`` names
+    it); memory is bounded by the file's size.  The checksum of a large memory-mapped record
+    member is computed on a thread while the rest is read and checked (CRC-32 lets go of the
+    interpreter), the errors raised in the order a sequential reading would meet them."""
     path = os.fspath(path)
     try:
         z = zipfile.ZipFile(path)
@@ -381,41 +397,55 @@ def read(path, mmap: bool | None = None, verify: bool = True):
         raise TraceError(f"{path}: not a readable trace file ({reason:.200})") from None
     if mmap is None:
         mmap = size > (256 << 20)
-    with z, open(path, "rb") as raw:
-        names = set(z.namelist())
-        meta = _read_meta(path, z, names)
+    pending, pool = [], None
+    try:
+        with z, open(path, "rb") as raw:
+            names = set(z.namelist())
+            meta = _read_meta(path, z, names)
+            try:
+                tracevalid.check_meta(meta, size)
+            except TraceError as e:
+                raise TraceError(f"{path}: {e}") from None
+            version = meta["version"]
+            arrays = {}
+            for k in MEMBERS if version >= 3 else ARRAYS:
+                if k + ".npy" not in names:
+                    raise TraceError(f"{path}: array {k!r} is missing")
+                info = z.getinfo(k + ".npy")
+                try:
+                    arrays[k] = _read_npy(path, z, raw, info, mmap)
+                except _NPY_ERRORS as e:
+                    reason = str(e).splitlines()[0] if str(e) else type(e).__name__
+                    raise TraceError(f"{path}: array {k!r} is truncated or corrupt ({reason:.200})") from None
+                if verify and isinstance(arrays[k], np.memmap) and arrays[k].nbytes >= BACKGROUND_CRC:
+                    pool = pool or ThreadPoolExecutor(max_workers=1)
+                    pending.append((k, pool.submit(_checksum_matches, meta, k, arrays[k])))
+                elif verify and not _checksum_matches(meta, k, arrays[k]):
+                    raise TraceError(f"{path}: array {k!r} does not match its checksum (tampered or damaged)")
         try:
-            tracevalid.check_meta(meta, size)
+            if version >= 3:
+                for k in ("voxel_gaps", "voxel_count"):
+                    if arrays[k].ndim != 1 or arrays[k].dtype.kind != "u":
+                        raise TraceError(f"{k}: has dtype {arrays[k].dtype} and shape {arrays[k].shape}, "
+                                         "expected one dimension of unsigned integers")
+                arrays["voxel_start"] = expand_voxels(arrays.pop("voxel_gaps"), arrays.pop("voxel_count"),
+                                                      grid_voxels(meta))
+                if arrays["voxel_start"][-1] != len(arrays["voxel_ids"]):
+                    raise TraceError(f"the voxel lists hold {arrays['voxel_start'][-1]} entries, "
+                                     f"voxel_ids {len(arrays['voxel_ids'])}")
+            if version == 1:
+                arrays["visits"] = _rename_v1(arrays["visits"])
+            meta["version"] = FORMAT_VERSION
+            found = tracevalid.check_arrays(meta, arrays, invariants=invariants)
         except TraceError as e:
             raise TraceError(f"{path}: {e}") from None
-        version = meta["version"]
-        arrays = {}
-        for k in MEMBERS if version >= 3 else ARRAYS:
-            if k + ".npy" not in names:
-                raise TraceError(f"{path}: array {k!r} is missing")
-            info = z.getinfo(k + ".npy")
-            try:
-                arrays[k] = _read_npy(path, z, raw, info, mmap)
-            except _NPY_ERRORS as e:
-                reason = str(e).splitlines()[0] if str(e) else type(e).__name__
-                raise TraceError(f"{path}: array {k!r} is truncated or corrupt ({reason:.200})") from None
-            if verify and not _checksum_matches(meta, k, arrays[k]):
-                raise TraceError(f"{path}: array {k!r} does not match its checksum (tampered or damaged)")
-    try:
-        if version >= 3:
-            for k in ("voxel_gaps", "voxel_count"):
-                if arrays[k].ndim != 1 or arrays[k].dtype.kind != "u":
-                    raise TraceError(f"{k}: has dtype {arrays[k].dtype} and shape {arrays[k].shape}, "
-                                     "expected one dimension of unsigned integers")
-            arrays["voxel_start"] = expand_voxels(arrays.pop("voxel_gaps"), arrays.pop("voxel_count"),
-                                                  grid_voxels(meta))
-            if arrays["voxel_start"][-1] != len(arrays["voxel_ids"]):
-                raise TraceError(f"the voxel lists hold {arrays['voxel_start'][-1]} entries, "
-                                 f"voxel_ids {len(arrays['voxel_ids'])}")
-        if version == 1:
-            arrays["visits"] = _rename_v1(arrays["visits"])
-        meta["version"] = FORMAT_VERSION
-        tracevalid.check_arrays(meta, arrays)
-    except TraceError as e:
-        raise TraceError(f"{path}: {e}") from None
+        _settle(pending, path)
+        if invariants:
+            tracecheck.settle(SimpleNamespace(rays=arrays["rays"], visits=arrays["visits"]), found)
+    except TraceError:
+        _settle(pending, path)      # a member's checksum, met first by a sequential reading
+        raise
+    finally:
+        if pool is not None:
+            pool.shutdown(cancel_futures=True)
     return meta, arrays

@@ -13,7 +13,9 @@ member and the field.
   primitives, stages, outcomes, steps, tests, vertices, children), read in chunks
   (``tracefile.chunks``: bounded memory, pages of a memory-mapped trace released).
 
-The invariants between records (``mprt.tracecheck``) come after, streamed as well.
+The invariants between records (``mprt.tracecheck``) come after, streamed as well; where the
+records are in the C layout the ranges and (when asked) the invariants are checked together in
+one C pass (``mprt.recordcheck``), the checks here naming any fault it finds.
 """
 from __future__ import annotations
 
@@ -24,6 +26,7 @@ import numpy as np
 
 from ._lowlevel import KINDS, RAY_DTYPE, RULES, VISIT_DTYPE, Outcome, RayKind, Stage
 from .errors import TraceError
+from . import recordcheck
 from .pages import chunks, release
 
 GRID_MAX = 1024             # voxels per axis (options.GRID_MAX)
@@ -161,9 +164,13 @@ def _range(member: str, field: str | None, x: np.ndarray, lo: int, hi: int, offs
 
 
 
-def check_arrays(meta: dict, arrays: dict, chunk: int = CHUNK) -> None:
+def check_arrays(meta: dict, arrays: dict, chunk: int = CHUNK, invariants: bool = False) -> str | None:
     """Raise TraceError naming the member and field of the first array or value a trace with
-    this (valid) metadata cannot hold.  Reads the records in chunks of ``chunk``."""
+    this (valid) metadata cannot hold.  Reads the records in chunks of ``chunk``.  The records'
+    ranges (and with ``invariants`` the invariants between them, ``mprt.tracecheck``'s rules) are
+    checked in one pass in C where it reads them in place (``mprt.recordcheck``), a fault named
+    by the Python checks below.  Returns None when the invariants were not checked, "" when they
+    hold, else C's reason for the broken one (``tracecheck.settle`` names it)."""
     voxels = meta["grid"][0] * meta["grid"][1] * meta["grid"][2]
     for k in ("voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material", "samples", "rays", "visits"):
         if k not in arrays:
@@ -190,6 +197,24 @@ def check_arrays(meta: dict, arrays: dict, chunk: int = CHUNK) -> None:
     rays, visits = arrays["rays"], arrays["visits"]
     _dtype("rays", rays, RAY_DTYPE, 1)
     _dtype("visits", visits, VISIT_DTYPE, 1)
+    if recordcheck.usable(rays, visits):
+        fault, reason = recordcheck.check(recordcheck.limits(meta, arrays, invariants), rays, visits)
+        if fault == recordcheck.SOUND:
+            return "" if invariants else None
+        if fault == recordcheck.INVARIANT:
+            return reason
+        _record_ranges(meta, arrays, chunk)       # names the fault C found
+        _fail("rays or visits", None, reason)
+    _record_ranges(meta, arrays, chunk)
+    return None
+
+
+def _record_ranges(meta: dict, arrays: dict, chunk: int) -> None:
+    """The records' ranges in numpy, a chunk at a time: TraceError naming the first fault."""
+    rays, visits = arrays["rays"], arrays["visits"]
+    ids = arrays["voxel_ids"]
+    voxels = meta["grid"][0] * meta["grid"][1] * meta["grid"][2]
+    nprim = len(arrays["prim_kind"])
     n, lights = len(rays), meta["lights"]
     pixels = meta["samples_w"] * meta["samples_h"]
     depth = meta.get("max_depth", DEPTH_MAX)
@@ -258,10 +283,11 @@ def _visit_ranges(v: np.ndarray, i: int, bounds: dict) -> None:
         _range("visits", field, v[field], lo, hi, i)
 
 
-def validate(meta, arrays: dict, file_bytes: int | None = None, chunk: int = CHUNK) -> None:
-    """``check_meta`` then ``check_arrays``."""
+def validate(meta, arrays: dict, file_bytes: int | None = None, chunk: int = CHUNK,
+             invariants: bool = False) -> str | None:
+    """``check_meta`` then ``check_arrays`` (its answer on the invariants)."""
     check_meta(meta, file_bytes)
-    check_arrays(meta, arrays, chunk)
+    return check_arrays(meta, arrays, chunk, invariants)
 
 
 _META_KEYS = ("grid", "width", "height", "samples_w", "samples_h", "lights", "max_depth", "rules")

@@ -194,11 +194,61 @@ static void test_bad_traces_are_named(void)
                            msg, sizeof msg) == MPRT_ERR_INVALID_ARG);
 }
 
+/* The replay loaded with the visits priced as they load runs as the one
+ * loaded with mprt_cost_visits's arrays, and gives the same flits; a chunk
+ * of the replay's pricing that fails names the visit. */
+static void test_priced_loading_agrees(void)
+{
+    mprt_cost_table t;
+    mprt_replay_config c;
+    mprt_replay *a = NULL, *b = NULL;
+    mprt_replay_info ia, ib;
+    int64_t kids[12], p[6], x[6], y[6];
+    int32_t f[6], f2[6];
+    build();
+    table(&t);
+    CHECK(mprt_cost_children(rays, 3, kids, NULL, 0) == MPRT_OK);
+    CHECK(mprt_cost_visits(&t, rays, kids, 3, prim_kind, 2, visits, 6, -1, 0, p, x, y, f, NULL, NULL, 1, NULL, 0) ==
+          MPRT_OK);
+    mprt_replay_config_init(&c);
+    CHECK(mprt_replay_create(&c, &a) == MPRT_OK && mprt_replay_create(&c, &b) == MPRT_OK);
+    CHECK(mprt_replay_load(a, rays, 3, visits, 6, p, x, y) == MPRT_OK);
+    CHECK(mprt_replay_load_priced(b, rays, 3, visits, 6, &t, kids, prim_kind, 2, f2) == MPRT_OK);
+    CHECK(!memcmp(f, f2, sizeof f));
+    CHECK(mprt_replay_run(a, NULL, 0) == MPRT_OK && mprt_replay_run(b, NULL, 0) == MPRT_OK);
+    CHECK(mprt_replay_get_info(a, &ia) == MPRT_OK && mprt_replay_get_info(b, &ib) == MPRT_OK);
+    CHECK(ia.cycles > 0 && ia.cycles == ib.cycles && ia.retired == ib.retired);
+    CHECK(mprt_replay_load_priced(b, rays, 3, visits, 6, &t, kids, prim_kind, 0, NULL) == MPRT_ERR_INVALID_ARG);
+    CHECK(strstr(mprt_replay_errmsg(b), "cannot cost this trace: visit 1: primitive") != NULL);
+    CHECK(mprt_replay_load_priced(b, rays, 3, visits, 6, NULL, kids, prim_kind, 2, NULL) == MPRT_ERR_INVALID_ARG);
+    mprt_replay_destroy(a);
+    mprt_replay_destroy(b);
+}
+
+/* Level 3's memory keys: IC visits their voxel, SC visits naming a primitive
+ * -2 - its material, the rest -1; references counted per key. */
+static void test_visit_keys(void)
+{
+    int64_t mat[2] = {1, 0}, vref[8], mref[2];
+    int32_t keys[6];
+    char msg[200];
+    build();
+    visits[1].voxel_id = 5;
+    CHECK(mprt_visit_keys(visits, 6, mat, 2, keys, vref, 8, mref, 2, msg, sizeof msg) == MPRT_OK);
+    CHECK(keys[0] == -1 && keys[1] == 5 && keys[2] == -2 - 1 && keys[3] == -1 && keys[4] == -1 && keys[5] == -1);
+    CHECK(vref[5] == 1 && vref[0] == 0 && mref[1] == 1 && mref[0] == 0);
+    visits[1].voxel_id = 8;
+    CHECK(mprt_visit_keys(visits, 6, mat, 2, keys, vref, 8, mref, 2, msg, sizeof msg) == MPRT_ERR_INVALID_ARG);
+    CHECK(strstr(msg, "visit 1") != NULL);
+}
+
 int main(void)
 {
     RUN(test_costs_by_hand);
     RUN(test_counted_pass_agrees);
     RUN(test_threads_give_the_same_results);
     RUN(test_bad_traces_are_named);
+    RUN(test_priced_loading_agrees);
+    RUN(test_visit_keys);
     return CHECK_DONE();
 }

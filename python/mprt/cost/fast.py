@@ -70,6 +70,37 @@ class Records:
             raise TraceError(f"cannot cost this trace: {_shifted(str(e), a)}") from None
 
 
+class Priced:
+    """A trace's visit costs on some processors left for C to compute as the compiled replay loads
+    the visits (``mprt_replay_load_priced``: the same arithmetic, a few thousand visits at a
+    time, no per-visit arrays): the table, what it reads (``Records``), SC's injection figures,
+    and the visits' flits (for the ring): made as the replay loads when ``flits`` (``load_flits``),
+    else when first asked for."""
+
+    def __init__(self, model, trace, procs, flits: bool = False):
+        self.records = Records(trace)
+        self.table = dict(model.cost_table(procs), lights=self.records.lights)
+        self.inject_process, self.inject_send, self.inject_flits = model.injection(procs)
+        self._flits = None
+        self._want = flits
+
+    def load_flits(self) -> np.ndarray | None:
+        """The array the loading fills with the visits' flits (None: not asked for, or made)."""
+        if not self._want or self._flits is not None:
+            return None
+        self._flits = fresh(len(self.records.visits), np.int32)
+        return self._flits
+
+    @property
+    def flits(self) -> np.ndarray:
+        if self._flits is None:
+            n = len(self.records.visits)
+            flits = fresh(n, np.int32)
+            self.records.run(self.table, 0, n, flits=flits)
+            self._flits = flits
+        return self._flits
+
+
 def _shifted(msg: str, a: int) -> str:
     """A C message naming 'visit j' of a chunk, with j made the trace's visit number."""
     if a and msg.startswith("visit "):

@@ -164,6 +164,20 @@ PROBE_RUNS = 64             # the estimate replays runs of trees holding 1/PROBE
 
 
 PROBE_SLICES = 4            # ... in this many stretches spread over the trace
+# Phase rates (visits/s) for the estimate without a probe, about half those measured on balls
+# 512x512 (fidelity README, "The whole command"): costing, loading, replaying at levels 0-1 and 2-3.
+RATES = {"costing": 25e6, "loading": 20e6, "replaying": 20e6}
+RATE_RING_MEMORIES = 4e6    # replaying at levels 2 and 3
+PROBE_FROM = 30.0           # seconds: a run these rates put under this is not probed (a probe costs ~5%)
+
+
+def _rough(visits: int, level: int) -> dict:
+    """Seconds each phase of a compiled replay should take at the typical rates (no probe)."""
+    est = {k: visits / r for k, r in RATES.items()}
+    rate = RATES["replaying"] if level <= 1 else RATE_RING_MEMORIES
+    est["replaying"] = visits / rate
+    est["rate"] = rate
+    return est
 
 
 def _probe_sample(trace):
@@ -243,17 +257,30 @@ def _probe(trace, cfg, level: int) -> dict:
 
 def _phased_replay(ev, trace, cfg, level: int, engine: str, timeline: bool):
     """The replay of a large trace in phases, each with a line on stderr (a bar against its
-    estimate on a terminal): costing the visits, loading them into the engine, replaying."""
+    estimate on a terminal): costing the visits, loading them into the engine, replaying (on the
+    compiled engine the visits are priced as they load: two phases)."""
     from ..progress import Phases
     from .levels import at_level
 
     eng = ev.engine_for(cfg, level, engine)
     visits = len(trace.visits)
-    est = _probe(trace, cfg, level) if eng == "compiled" else {}
+    est, how = {}, ""
+    if eng == "compiled":
+        est = _rough(visits, level)
+        how = f"at a typical {est['rate'] / 1e6:.0f} M visits/s"
+        if sum(v for k, v in est.items() if k != "rate") >= PROBE_FROM:      # long: worth a probe
+            est = _probe(trace, cfg, level)
+            how = f"a 1/{PROBE_RUNS} sample of its trees replayed at {est.get('rate', 0) / 1e6:.2f} M visits/s"
     total = sum(v for k, v in est.items() if k != "rate") if "replaying" in est else None
     print(f"replay  {visits:,} visits at level {level} on the {eng} engine"
-          + (f": estimated {total:.1f} s (a 1/{PROBE_RUNS} sample of its trees replayed at "
-             f"{est['rate'] / 1e6:.2f} M visits/s)" if total else ""), file=sys.stderr, flush=True)
+          + (f": estimated {total:.1f} s ({how})" if total else ""), file=sys.stderr, flush=True)
+    if eng == "compiled":       # the visits priced in C as they load: one phase
+        ph = Phases(2)
+        loading = est.get("loading", 0.0) + est.get("costing", 0.0) if est else None
+        with ph.step(f"costing and loading {visits:,} visits into the compiled engine", loading):
+            ev.prepare(cfg, level, engine)
+        with ph.step(f"replaying at level {level}", est.get("replaying")):
+            return ev.evaluate(cfg, level, engine, timeline=timeline, progress=sys.stderr.isatty())
     ph = Phases(3)
     with ph.step(f"costing {visits:,} visits", est.get("costing")):
         ev.costed(at_level(cfg, level))

@@ -116,30 +116,44 @@ class Compiled:
     packets of the rays SC makes (default: the default cost model's)."""
 
     def __init__(self, trace, costs, packet_flits=None, memory: MemoryData | None = None):
+        from ..cost.fast import Priced
+
         check_trace(trace)          # a trace built in memory: its ranges before C reads it
-        process, receive, send, self.gen_process, self.gen_send = _cost_arrays(trace, costs)
         self.trace = trace
         self.memory = memory if memory is not None else MemoryData.of(trace)
         self._sent = None            # the memory data the C replay holds: ((tag, resident, line) | None) x 2
         self._residents = {}
         self.h = _LIB.replay_create({})
+        rays, visits = np.asarray(trace.rays), np.asarray(trace.visits)
         try:
-            _LIB.replay_load(self.h, np.asarray(trace.rays), np.asarray(trace.visits), process, receive, send)
+            if isinstance(costs, Priced):       # priced by C as it loads: no per-visit arrays
+                self.gen_process, self.gen_send = costs.inject_process, costs.inject_send
+                rec = costs.records
+                out = costs.load_flits()       # (the ring's: made in the same pass when wanted)
+                try:
+                    _LIB.replay_load_priced(self.h, rays, visits, costs.table, rec.children, rec.prim_kind, out)
+                except InvalidArgument:
+                    costs._flits = None if out is not None else costs._flits
+                    raise
+            else:
+                process, receive, send, self.gen_process, self.gen_send = _cost_arrays(trace, costs)
+                _LIB.replay_load(self.h, rays, visits, process, receive, send)
         except InvalidArgument as e:
             msg = str(e)
-            raise (TraceError(msg) if msg.startswith("cannot replay this trace:") else ValueError(msg)) from None
+            raise (TraceError(msg) if msg.startswith(("cannot replay this trace:", "cannot cost this trace:"))
+                   else ValueError(msg)) from None
         self.info = _LIB.replay_get_info(self.h)
-        self.flits = hasattr(costs, "flits")
+        self.flits = hasattr(type(costs), "flits") or hasattr(costs, "flits")
         self._flits = None       # the ring's packet sizes, handed to C with the first ring run
-        if self.flits:      # the ring's packet sizes, as the SimPy model's Replay takes them
-            flits = np.asarray(costs.flits)
-            if flits.shape != (len(trace.visits),):
-                raise ValueError(f"costs.flits has shape {flits.shape}, the trace has {len(trace.visits)} visits")
-            self._flits = (flits, packet_flits, int(getattr(costs, "inject_flits", 0)))
+        if self.flits:      # the ring's packet sizes, as the SimPy model's Replay takes them (read then)
+            self._flits = (costs, packet_flits, int(getattr(costs, "inject_flits", 0)))
 
     def _set_flits(self) -> None:
         """Hand the C replay the packets' sizes (once: levels 1 and 3 without a ring need none)."""
-        flits, packet_flits, inject = self._flits
+        costs, packet_flits, inject = self._flits
+        flits = np.asarray(costs.flits)
+        if flits.shape != (len(self.trace.visits),):
+            raise ValueError(f"costs.flits has shape {flits.shape}, the trace has {len(self.trace.visits)} visits")
         if packet_flits is None:
             from ..cost import CostModel
 
@@ -252,6 +266,21 @@ class Compiled:
         res = view.result()
         res.wall_seconds = time.perf_counter() - t0
         return res
+
+
+def priced_for(trace, config: SystemConfig, cost_model=None):
+    """The visit costs for a configuration's processors left for C to compute as ``Compiled``
+    loads the trace (``cost.fast.Priced``: the default arithmetic, no per-visit arrays), or None
+    where only arrays serve (another cost model, records not in the C layout): ``costs_for``."""
+    from ..cost import CostModel
+    from ..cost import fast
+
+    if cost_model is None:
+        cost_model = CostModel.default()
+    if type(cost_model) is not CostModel or not fast.usable(trace):
+        return None
+    check_trace(trace)
+    return fast.Priced(cost_model, trace, config.processors(), flits=config.ring is not None)
 
 
 def costs_for(trace, config: SystemConfig, cost_model=None):

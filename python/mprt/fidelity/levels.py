@@ -23,7 +23,7 @@ from dataclasses import dataclass
 from ..machine.config import SystemConfig, builtin
 from ..machine.errors import ConfigError
 from .analytical import Analytical
-from .compiled import Compiled, costs_for, unsupported
+from .compiled import Compiled, costs_for, priced_for, unsupported
 from .memdata import MemoryData
 from ..tracevalid import check_trace
 
@@ -128,11 +128,12 @@ class Evaluator:
         return tuple((t, repr(p)) for t, p in sorted(config.processors().items()))
 
     def costed(self, config: SystemConfig) -> dict:
-        key = self._key(config)
-        if key not in self._costed:
-            vc = self.costs if self.costs is not None else costs_for(self.trace, config, self.cost_model)
-            self._costed[key] = {"costs": vc}
-        return self._costed[key]
+        """The forms of the trace costed for the configuration's processors: ``costs`` (the
+        per-visit arrays, made here once), and ``compiled``, ``analytical`` once made."""
+        c = self._costed.setdefault(self._key(config), {})
+        if "costs" not in c:
+            c["costs"] = self.costs if self.costs is not None else costs_for(self.trace, config, self.cost_model)
+        return c
 
     def prepare(self, config: SystemConfig | str, level: int | None = None, engine: str = "auto") -> tuple:
         """(configuration at the level, engine, its costed forms, level): the visits costed and the
@@ -143,13 +144,18 @@ class Evaluator:
         level = native_level(config) if level is None else level
         cfg = at_level(config, level)
         eng = self.engine_for(config, level, engine)
-        c = self.costed(cfg)
-        if eng == "analytical" and "analytical" not in c:
-            c["analytical"] = Analytical(self.trace, c["costs"])
-        elif eng == "compiled" and "compiled" not in c:
-            c["compiled"] = Compiled(self.trace, c["costs"],      # the ring's packets as SimPy sizes them
+        c = self._costed.setdefault(self._key(cfg), {})
+        if eng == "compiled" and "compiled" not in c:
+            costs = c.get("costs", self.costs)
+            if costs is None:       # priced by C as the visits load (no per-visit arrays), where it can
+                costs = priced_for(self.trace, cfg, self.cost_model) or self.costed(cfg)["costs"]
+            c["compiled"] = Compiled(self.trace, costs,      # the ring's packets as SimPy sizes them
                                      None if self.cost_model is None else self.cost_model.packet_flits,
                                      self._memory)
+        elif eng != "compiled":
+            c = self.costed(cfg)
+            if eng == "analytical" and "analytical" not in c:
+                c["analytical"] = Analytical(self.trace, c["costs"])
         return cfg, eng, c, level
 
     def evaluate(self, config: SystemConfig | str, level: int | None = None, engine: str = "auto",

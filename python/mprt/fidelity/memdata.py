@@ -18,6 +18,8 @@ import weakref
 
 import numpy as np
 
+from .._lowlevel import binding
+from ..cost.fast import usable as fast_usable
 from ..machine.memory import CELL_BYTES, MATERIAL_BYTES, DataLayout
 from ..trace import IC, SC
 
@@ -122,19 +124,44 @@ class MemoryData:
         self.trace = trace
         self._layout = None
         self._keys = None
+        self._refs = None       # (voxel_refs, material_refs) when counted in C with the keys
         self._data = {}
 
     @property
     def layout(self) -> DataLayout:
         if self._layout is None:
-            self._layout = DataLayout(self.trace)
+            self._scan()
+            self._layout = DataLayout(self.trace, self._refs)
         return self._layout
 
     @property
     def keys(self) -> np.ndarray:
-        if self._keys is None:
-            self._keys = visit_keys(self.trace)
+        self._scan()
         return self._keys
+
+    def _scan(self) -> None:
+        """The keys, and with them in C the references to each (one pass over the records)."""
+        if self._keys is not None:
+            return
+        t = self.trace
+        mat = np.asarray(t.prim_material, dtype=np.int64)
+        if fast_usable(t):
+            nmat = int(mat.max()) + 1 if len(mat) else 1
+            self._keys, vref, mref = binding("double").visit_keys(t.visits, mat, len(t.voxel_start) - 1, nmat)
+            self._refs = (vref, mref)
+        else:
+            self._keys = visit_keys(t)
+
+    def reads(self, tag: str, per: np.ndarray) -> int:
+        """Lines read by all the trace's visits from memory ``tag`` whose keys read ``per`` lines
+        each: the sum over its visits' keys."""
+        layout = self.layout
+        refs = layout.voxel_refs if tag == "ic" else layout.material_refs
+        if len(refs) == len(per):
+            return int(np.dot(per.astype(np.int64), refs))
+        keys = self.keys
+        sel = keys[keys >= 0] if tag == "ic" else -2 - keys[keys <= -2].astype(np.int64)
+        return int(per[sel].sum(dtype=np.int64))
 
     def get(self, tag: str, resident: int, line: int):
         """(data dict for mprt_replay_set_memory, ResidentMemory) of memory ``tag`` ("ic", "sc")."""

@@ -148,7 +148,9 @@ def _greedy(nbytes, size: int) -> np.ndarray:
 class DataLayout:
     """Addresses and reference counts of the IC and SC data of a trace."""
 
-    def __init__(self, trace):
+    def __init__(self, trace, refs: tuple | None = None):
+        """``refs``: (voxel_refs, material_refs) when already counted (``fidelity.memdata``,
+        in C); else counted here over the trace's visits."""
         self.voxel_start = np.asarray(trace.voxel_start, dtype=np.int64)
         self.voxel_ids = np.asarray(trace.voxel_ids, dtype=np.int64)
         words = np.asarray(trace.prim_words, dtype=np.int64)
@@ -163,6 +165,9 @@ class DataLayout:
         self.voxel_refs = np.zeros(nvox, dtype=np.int64)
         self.material_refs = np.zeros(nmat, dtype=np.int64)
         v = trace.visits
+        if refs is not None:
+            self.voxel_refs[:], self.material_refs[:] = refs
+            v = v[:0]
         for a in range(0, len(v), SCAN):
             c = np.asarray(v[a:a + SCAN])
             st = c["stage"]

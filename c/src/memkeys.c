@@ -1,0 +1,52 @@
+/* memkeys.c: each visit's memory key for level 3 (python/mprt/fidelity/
+ * memdata.py, visit_keys) and the references to each key (machine/memory.py,
+ * DataLayout's counts), in one pass over the records where they lie (read
+ * through memcpy: a memory-mapped member need not be aligned). */
+#include <stdio.h>
+#include <string.h>
+
+#include "mprt.h"
+
+int mprt_visit_keys(const mprt_trace_visit *visits, size_t nvisits, const int64_t *prim_material, size_t nprims,
+                    int32_t *keys, int64_t *voxel_refs, size_t nvoxels, int64_t *material_refs, size_t nmaterials,
+                    char *errmsg, size_t errlen)
+{
+    size_t j;
+    if (errmsg && errlen) errmsg[0] = '\0';
+    if ((nvisits && (!visits || !keys)) || (nprims && !prim_material) || (nvoxels && !voxel_refs) ||
+        (nmaterials && !material_refs)) {
+        if (errmsg && errlen) snprintf(errmsg, errlen, "mprt_visit_keys: an array is missing");
+        return MPRT_ERR_INVALID_ARG;
+    }
+    for (j = 0; j < nvoxels; j++) voxel_refs[j] = 0;
+    for (j = 0; j < nmaterials; j++) material_refs[j] = 0;
+    for (j = 0; j < nvisits; j++) {
+        mprt_trace_visit va;
+        const mprt_trace_visit *a = &va;
+        int64_t k = -1;
+        memcpy(&va, (const unsigned char *)visits + j * sizeof va, sizeof va);
+        if (a->stage == MPRT_STAGE_IC) {
+            k = a->voxel_id;
+            if (k >= 0) {
+                if ((uint64_t)k >= nvoxels) break;
+                voxel_refs[k]++;
+            }
+        } else if (a->stage == MPRT_STAGE_SC && a->prim >= 0) {
+            int64_t m;
+            if ((size_t)a->prim >= nprims) break;
+            m = prim_material[a->prim];
+            if (m < 0 || (uint64_t)m >= nmaterials) break;
+            material_refs[m]++;
+            k = -2 - m;
+        }
+        if (k < INT32_MIN) break;
+        keys[j] = (int32_t)k;
+    }
+    if (j < nvisits) {
+        if (errmsg && errlen)
+            snprintf(errmsg, errlen, "memory keys: visit %zu's voxel or material is outside the trace's, or does not "
+                     "fit 32 bits", j);
+        return MPRT_ERR_INVALID_ARG;
+    }
+    return MPRT_OK;
+}

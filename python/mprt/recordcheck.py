@@ -1,0 +1,71 @@
+"""A trace's records checked in C in one pass (``mprt_trace_checker_*``, ``c/src/tracecheck.c``):
+every field's range (``tracevalid.check_arrays``'s rules for the rays and the visits) and, when
+asked, the invariants between records (``tracecheck``'s rules), read where they lie (a
+memory-mapped trace in place, its pages let go after each chunk: ``pages.release``), in
+memory of 9 bytes a ray.
+
+C only says whether the records pass (and a short reason); the Python checkers, run on a
+trace that does not, name the first fault in their words, so every message stays theirs.
+``sound`` is False for records C cannot read in place (another layout or byte order): the
+caller then checks them in Python.
+"""
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+
+from ._lowlevel import RAY_DTYPE, VISIT_DTYPE, binding
+from .pages import release
+
+CHUNK = 1 << 20     # visits a call (48 MB of records): their pages are let go after each
+SOUND, RANGE, INVARIANT = 0, 1, 2      # mprt_trace_checker's fault kinds
+
+
+def usable(rays, visits) -> bool:
+    """Whether C reads these records in place: contiguous arrays of the C layouts."""
+    return sys.byteorder == "little" and all(
+        isinstance(a, np.ndarray) and a.ndim == 1 and a.dtype == dt and a.flags.c_contiguous
+        for a, dt in ((rays, RAY_DTYPE), (visits, VISIT_DTYPE)))
+
+
+def limits(meta: dict, arrays: dict, invariants: bool) -> dict:
+    """mprt_trace_limits for a trace with this (valid) metadata and (checked) small arrays:
+    tracevalid.check_arrays's bounds."""
+    grid = meta["grid"]
+    return {"pixels": meta["samples_w"] * meta["samples_h"], "lights": meta["lights"],
+            "max_depth": meta.get("max_depth", 255), "voxels": grid[0] * grid[1] * grid[2],
+            "prims": len(arrays["prim_kind"]), "steps": sum(grid), "tests": len(arrays["voxel_ids"]),
+            "vertices": int(np.sum(arrays["prim_words"], dtype=np.int64)), "invariants": int(bool(invariants))}
+
+
+def check(lim: dict, rays: np.ndarray, visits: np.ndarray, chunk: int = CHUNK) -> tuple[int, str]:
+    """(fault kind, reason) of the records under ``lim`` (``limits``): SOUND, RANGE (a field
+    outside its range) or INVARIANT (a broken invariant, when ``lim`` asks for them)."""
+    lib = binding("double")
+    ffi, c_lib = lib.ffi, lib.lib
+    ray_buf = lib._in("mprt_trace_ray", rays) if len(rays) else ffi.NULL    # (kept alive: C holds it)
+    h = c_lib.mprt_trace_checker_create(ffi.new("mprt_trace_limits *", lim), ray_buf, len(rays))
+    if h == ffi.NULL:
+        raise MemoryError(f"out of memory checking a trace of {len(rays)} rays")
+    h = ffi.gc(h, c_lib.mprt_trace_checker_destroy)
+    try:
+        step = max(1, int(chunk))
+        rc = SOUND
+        for i in range(0, len(rays), step):
+            rc = c_lib.mprt_trace_checker_rays(h, i, min(i + step, len(rays)))
+            release(rays[i:i + step])
+            if rc:
+                break
+        i = 0
+        while not rc and i < len(visits):
+            part = visits[i:i + step]
+            rc = c_lib.mprt_trace_checker_visits(h, lib._in("mprt_trace_visit", part), len(part))
+            release(part)
+            i += step
+        if not rc:
+            rc = c_lib.mprt_trace_checker_finish(h)
+        return int(rc), ffi.string(c_lib.mprt_trace_checker_errmsg(h)).decode(errors="replace")
+    finally:
+        ffi.release(h)
+        del ray_buf
