@@ -31,7 +31,7 @@ int mprt_cost_children(const mprt_trace_ray *rays, size_t nrays, int64_t *childr
         return cost_fail(errmsg, errlen, "mprt_cost_children: an array is missing");
     for (i = 0; i < nrays * KINDS; i++) children[i] = 0;
     for (i = 0; i < nrays; i++) {
-        const mprt_trace_ray *y = &rays[i];
+        const mprt_trace_ray yv = mprt__ray_at(rays, i), *y = &yv;
         if (y->kind >= KINDS)
             return cost_fail(errmsg, errlen, "ray %zu: kind %d is not a ray kind", i, (int)y->kind);
         if (y->parent < 0) continue;
@@ -53,7 +53,7 @@ static int cost_counted(const mprt_cost_table *t, const mprt_trace_ray *rays, co
     uint64_t c[MPRT_COST_KERNELS];
     size_t j, k;
     for (j = 0; j < nvisits; j++) {
-        const mprt_trace_visit *a = &visits[j];
+        const mprt_trace_visit av = mprt__visit_at(visits, j), *a = &av;
         const int64_t *kd;
         int64_t ray = a->ray, pk = -1, src, dst = -1;
         int st = a->stage, out = a->outcome, kind, pout, first, shaded;
@@ -67,12 +67,18 @@ static int cost_counted(const mprt_cost_table *t, const mprt_trace_ray *rays, co
                                  (int)a->prim);
             pk = prim_kind[a->prim];
         }
-        kind = rays[ray].kind;
+        kind = mprt__ray_at(rays, (size_t)ray).kind;
         if (kind >= KINDS)
             return cost_fail(errmsg, errlen, "ray %lld: kind %d is not a ray kind", (long long)ray, kind);
         kd = children + (size_t)ray * KINDS;
-        first = ray != (j ? a[-1].ray : prev_ray);
-        pout = j ? a[-1].outcome : prev_outcome;
+        if (j) {
+            const mprt_trace_visit before = mprt__visit_at(visits, j - 1);
+            first = ray != before.ray;
+            pout = before.outcome;
+        } else {
+            first = ray != prev_ray;
+            pout = prev_outcome;
+        }
         shaded = st == MPRT_STAGE_SC && out == MPRT_OUT_SHADED;
         for (k = 0; k < MPRT_COST_KERNELS; k++) c[k] = 0;
         if (st == MPRT_STAGE_OS) {
@@ -191,7 +197,7 @@ int mprt__cost_range(const mprt_cost_table *t, const mprt_trace_ray *rays, const
     int pout = prev_outcome;
     fold(t, &f);
     for (j = 0; j < nvisits; j++) {
-        const mprt_trace_visit *a = &visits[base + j];
+        const mprt_trace_visit av = mprt__visit_at(visits, base + j), *a = &av;
         int64_t ray = a->ray, pk = -1;
         int st = a->stage, out = a->outcome, kind, first, src, dst = -1;
         uint64_t p, x, y = 0, fo = 0;
@@ -204,7 +210,7 @@ int mprt__cost_range(const mprt_cost_table *t, const mprt_trace_ray *rays, const
                                  (int)a->prim);
             pk = prim_kind[a->prim];
         }
-        kind = rays[ray].kind;
+        kind = mprt__ray_at(rays, (size_t)ray).kind;
         if (kind >= KINDS)
             return cost_fail(errmsg, errlen, "ray %lld: kind %d is not a ray kind", (long long)ray, kind);
         first = ray != prev;
@@ -274,8 +280,8 @@ typedef struct {
 static void *cost_share(void *arg)
 {
     share *w = arg;
-    int64_t pr = w->lo ? w->visits[w->lo - 1].ray : *w->prev_ray;
-    int po = w->lo ? w->visits[w->lo - 1].outcome : *w->prev_outcome;
+    int64_t pr = w->lo ? mprt__visit_at(w->visits, w->lo - 1).ray : *w->prev_ray;
+    int po = w->lo ? mprt__visit_at(w->visits, w->lo - 1).outcome : *w->prev_outcome;
     w->rc = mprt__cost_range(w->t, w->rays, w->children, w->nrays, w->prim_kind, w->nprims, w->visits, w->lo,
                              w->hi - w->lo, pr, po, w->process ? w->process + w->lo : NULL,
                              w->receive ? w->receive + w->lo : NULL, w->send ? w->send + w->lo : NULL,

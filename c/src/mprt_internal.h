@@ -9,6 +9,7 @@
 #include <pthread.h>
 #include <stdarg.h>
 #include <stddef.h>
+#include <string.h>
 
 #ifdef MPRT_SINGLE
 typedef float real;
@@ -301,5 +302,21 @@ int mprt__cost_range(const mprt_cost_table *t, const mprt_trace_ray *rays, const
                      const int32_t *prim_kind, size_t nprims, const mprt_trace_visit *visits, size_t base,
                      size_t nvisits, int64_t prev_ray, int prev_outcome, int64_t *process, int64_t *receive,
                      int64_t *send, int32_t *flits, char *errmsg, size_t errlen);
+
+/* Record i of a trace's rays or visits, read through memcpy: a memory-mapped member of a
+ * trace file lies at any offset of the file, so its records need not be aligned. */
+static inline mprt_trace_ray mprt__ray_at(const mprt_trace_ray *rays, size_t i)
+{
+    mprt_trace_ray y;
+    memcpy(&y, (const unsigned char *)rays + i * sizeof y, sizeof y);
+    return y;
+}
+
+static inline mprt_trace_visit mprt__visit_at(const mprt_trace_visit *visits, size_t j)
+{
+    mprt_trace_visit a;
+    memcpy(&a, (const unsigned char *)visits + j * sizeof a, sizeof a);
+    return a;
+}
 
 #endif

@@ -33,7 +33,7 @@ static int prepare_rays(mprt_replay *r, const mprt_trace_ray *rays, size_t nr)
     cs = r->child_start;
     memset(cs, 0, (nr + 2) * sizeof *cs);
     for (i = 0; i < nr; i++) {
-        const mprt_trace_ray *y = &rays[i];
+        const mprt_trace_ray yv = mprt__ray_at(rays, i), *y = &yv;
         if (y->id != (int64_t)i) return TRACE_FAIL(r, "ray ids are not 0..n-1 in order");
         if (y->kind > MPRT_RAY_SHADOW) return TRACE_FAIL(r, "ray %zu: kind %d is not a ray kind", i, y->kind);
         if (y->kind == MPRT_RAY_PRIMARY) {
@@ -56,16 +56,18 @@ static int prepare_rays(mprt_replay *r, const mprt_trace_ray *rays, size_t nr)
     r->nchild = (size_t)cs[nr + 1];
     if (RESERVE(r, child, cap_child, r->nchild + 1) || RESERVE(r, child_kind, cap_child_kind, r->nchild + 1))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu rays", nr);
-    for (i = 0; i < nr; i++)
-        if (rays[i].kind != MPRT_RAY_PRIMARY) {
-            int64_t c = cs[rays[i].parent + 1]++;
+    for (i = 0; i < nr; i++) {
+        const mprt_trace_ray y = mprt__ray_at(rays, i);
+        if (y.kind != MPRT_RAY_PRIMARY) {
+            int64_t c = cs[y.parent + 1]++;
             r->child[c] = (int64_t)i;
-            r->child_kind[c] = rays[i].kind;     /* for the ring's packet sizes (mprt_replay_set_flits) */
+            r->child_kind[c] = y.kind;           /* for the ring's packet sizes (mprt_replay_set_flits) */
         }
+    }
     /* now cs[p] .. cs[p + 1] are p's children; the most leaves of any tree */
     r->max_leaves = 0;
     for (i = 0; i <= nr; i++) {
-        if (i == nr || rays[i].kind == MPRT_RAY_PRIMARY) {
+        if (i == nr || mprt__ray_at(rays, i).kind == MPRT_RAY_PRIMARY) {
             if (leaves > r->max_leaves) r->max_leaves = leaves;
             leaves = 0;
         }
@@ -142,7 +144,7 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu visits", nv);
     memset(r->tree_cost, 0, (9 * nt + 1) * sizeof *r->tree_cost);
     for (j = 0; j < nv; j++) {
-        const mprt_trace_visit *a = &v[j];
+        const mprt_trace_visit av = mprt__visit_at(v, j), *a = &av;
         int64_t ray = a->ray, t, p, x, y, c, next;
         int st = a->stage;
         if (pr) {
@@ -162,12 +164,12 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
             if (t != prev_t + 1)
                 return TRACE_FAIL(r, "the visits of each primary ray's tree are not contiguous, in the primaries' "
                                      "order (traces made by mprt are)");
-            if (rays[ray].kind != MPRT_RAY_PRIMARY) return TRACE_FAIL(r, "a tree's first visit is not its primary ray's");
+            if (mprt__ray_at(rays, (size_t)ray).kind != MPRT_RAY_PRIMARY) return TRACE_FAIL(r, "a tree's first visit is not its primary ray's");
             r->tree_first[t] = (int64_t)j;
             tc = r->tree_cost + 9 * t;
             prev_t = t;
         }
-        if (j == 0 || a[-1].ray != ray) {
+        if (j == 0 || mprt__visit_at(v, j - 1).ray != ray) {
             if (r->ray_first[ray] >= 0)
                 return TRACE_FAIL(r, "the visits of ray %lld are not contiguous", (long long)ray);
             r->ray_first[ray] = (int64_t)j;
@@ -183,8 +185,8 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
         if (p + c > INT64_MAX / 2 - total)
             return fail(r, MPRT_ERR_INVALID_ARG, "costs: the visits' cycles add up to more than 2^62");
         total += p + c;
-        if (j + 1 < nv && a[1].ray == ray) {
-            next = NEXT_VISIT | (int64_t)(a[1].stage & 3) << 2;
+        if (j + 1 < nv && mprt__visit_at(v, j + 1).ray == ray) {
+            next = NEXT_VISIT | (int64_t)(mprt__visit_at(v, j + 1).stage & 3) << 2;
         } else if (st == MPRT_STAGE_SC && a->made > 0) {
             int64_t k = cs[ray + 1] - cs[ray];
             if (k != a->made)

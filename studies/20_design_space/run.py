@@ -4,7 +4,9 @@ how the best subdivision moves with the machine.
 
     .venv/bin/python studies/20_design_space/run.py [--res RES] [--out DIR] [--scenes a,b] [--quick]
 Writes DIR/design_space.{csv,md} (default studies/out) and prints the Markdown.  The full run
-explores at level auto (1% tolerance); --quick: tetra at SPD size 1, 32x32, one budget, level 1
+explores, and runs the prepass, at level auto (1% tolerance: level 3 on every SPD scene);
+--prepass-from CSV: only the prepass table, for the best designs of an earlier run's CSV
+(DIR/prepass.md); --quick: tetra at SPD size 1, 32x32, one budget, level 1
 and 300 global evaluations (the committed ref/; the full run's results are in ref/full/).
 """
 import argparse
@@ -35,6 +37,8 @@ def main(argv=None):
     ap.add_argument("--out", type=Path, default=OUT)
     ap.add_argument("--threads", type=int, default=2)
     ap.add_argument("--quick", action="store_true")
+    ap.add_argument("--prepass-from", type=Path, metavar="CSV",
+                    help="only the prepass table, for the best designs in this earlier run's design_space.csv")
     ap.add_argument("--scenes", default=",".join(mprt.SPD_SCENES),
                     help="comma-separated SPD scenes (default: all six)")
     a = ap.parse_args(argv)
@@ -44,6 +48,16 @@ def main(argv=None):
         ap.error(f"--scenes: {', '.join(bad) or 'none given'}: not SPD scenes ({', '.join(mprt.SPD_SCENES)})")
     scenes = [("tetra", 1)] if a.quick else [(n, None) for n in names]
     budgets = BUDGETS[1:2] if a.quick else BUDGETS
+    if a.prepass_from:
+        rows = _read_rows(a.prepass_from)
+        subs = [(n, _subdivisions(n, mprt.Scene.spd(n, s), rows, a.res, a.threads, "auto")) for n, s in scenes]
+        md = ["| scene | model S | model M | 3MPPE | best design at 800 kGE | level |", "|---|---|---|---|---|---|"]
+        md += [f"| {n} | " + " | ".join(v for k, v in sb.items() if k != "level") + f" | {sb['level']} |"
+               for n, sb in subs]
+        a.out.mkdir(parents=True, exist_ok=True)
+        (a.out / "prepass.md").write_text("\n".join(md) + "\n")
+        print("\n".join(md))
+        return 0
     run(32 if a.quick else a.res, a.out, scenes, budgets, a.threads, 1 if a.quick else "auto",
         300 if a.quick else 1000)
     return 0
@@ -83,11 +97,8 @@ def run(res, out, scenes, budgets, threads, level, max_evals):
             per[mapping] = r["best"]["cycles"]
         sc_rows.append((name, per))
         # the best subdivision per machine (prepass at this resolution)
-        subs = {}
-        for label, d in (("S", model_s()), ("M", model_m()), ("3MPPE", paper_3mppe()),
-                         ("best@800", _design(rows, name, BUDGETS[1]))):
-            pre = prepass(scene, res, res, design=d, fraction=2, threads=threads)
-            subs[label] = "x".join(map(str, pre["subdivision"]))
+        subs = _subdivisions(name, scene, rows, res, threads, level)
+        subs.pop("level")
         sub_rows.append((name, subs))
         _write(out, md, rows, sc_rows, sub_rows, final=False)
     _write(out, md, rows, sc_rows, sub_rows)
@@ -116,6 +127,26 @@ def _write(out, md, rows, sc_rows, sub_rows, final=True):
     (out / "design_space.md").write_text(text)
     if final:
         print(text)
+
+
+def _subdivisions(name, scene, rows, res, threads, level) -> dict:
+    """The prepass's subdivision (at ``level``) for models S and M, the 3MPPE and the best design
+    at the middle budget in ``rows``; "level": the levels the prepass used."""
+    subs, levels = {}, []
+    for label, d in (("S", model_s()), ("M", model_m()), ("3MPPE", paper_3mppe()),
+                     ("best@800", _design(rows, name, BUDGETS[1]))):
+        pre = prepass(scene, res, res, design=d, fraction=2, threads=threads, level=level)
+        subs[label] = "x".join(map(str, pre["subdivision"]))
+        levels.append(str(pre["level"]))
+        print(name, label, subs[label], "level", pre["level"], file=sys.stderr, flush=True)
+    subs["level"] = "/".join(levels)
+    return subs
+
+
+def _read_rows(path) -> list:
+    import ast
+    with open(path, newline="") as f:
+        return [dict(r, budget=float(r["budget"]), design=ast.literal_eval(r["design"])) for r in csv.DictReader(f)]
 
 
 def _design(rows, name, budget):
