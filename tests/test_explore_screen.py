@@ -111,3 +111,22 @@ def test_screen_errors_and_what_it_ruled_out_are_reported():
     assert r["margin"] == 0.5 and r["checked"] == len(ran) >= 1
     assert r["ruled_out"] <= sum(e.bound for e in fp.memo.values())
     assert (r["worst_below"], r["worst_above"]) == (min(errs), max(errs))
+
+
+def test_explore_with_the_screen_is_the_same_for_any_workers_and_keeps_the_answer():
+    """``explore`` searching at 32x32 and polishing at 64x64 (level 3): with the screen, one and
+    two workers give the same report (every history row), the answer is the one without the
+    screen, and the report says what the screen did."""
+    from mprt.explore.explorer import explore
+    scene = mprt.Scene.spd("tetra", 1)
+    sp = load_space(SMALL)
+    kw = dict(space=sp, budget=400, level=3, max_evals=16, fraction=2, refine_evals=40)
+    got = [explore(scene, 64, 64, workers=w, **kw) for w in (1, 2)]
+    plain = explore(scene, 64, 64, workers=1, screen=None, **kw)
+    for key in ("best", "references", "history", "evaluations", "runs", "screen"):
+        assert got[0][key] == got[1][key], key
+    s = got[0]["screen"]
+    assert s["margin"] == SCREEN_MARGIN and s["ruled_out"] > 0 and s["checked"] >= 0
+    assert plain["screen"] is None
+    assert (got[0]["best"]["cycles"], got[0]["best"]["cost"]) == (plain["best"]["cycles"], plain["best"]["cost"])
+    assert got[0]["runs"]["full"] <= plain["runs"]["full"]

@@ -11,7 +11,7 @@ from .hwcost import UnitCosts, cost_breakdown, hardware_cost
 from .parallel import Pool
 from .prepass import low_resolution
 from .refine import SCREEN_MARGIN, Screen, refine as _refine
-from .search import Problem, compass, cost_range, global_start, pareto, search
+from .search import Problem, cost_range, global_start, pareto, search
 from .space import REFERENCE_DESIGNS, Point, Space, default_space
 from ..atomic import replacing
 
