@@ -188,7 +188,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
             evaluations += n
             runs.update(full=ran, full_bounded=n - ran)
             say(f"full    {n} designs at level {lv}, {width}x{height}"
-                f"{' (' + sample + ')' if sample else ''}{_ruled_out(n=n, ran=ran)}"
+                f"{' (' + sample + ')' if sample else ''}{_ruled_out(n=n, ran=ran, screened=scr is not None)}"
                 f"{_screened(scr, low)}: best {best.cycles:,.0f} cycles, "
                 f"cost {best.cost:.0f} kGE, {time.perf_counter() - t0:.1f} s")
         ev = full
@@ -343,21 +343,22 @@ def _sample_fraction(sample: str, width: int, height: int) -> float:
     return min(s.k / tiles if s.method == "random" else 1 / max(s.k, 1), 1.0)
 
 
-def _ruled_out(problem=None, n=None, ran=None) -> str:
+def _ruled_out(problem=None, n=None, ran=None, screened: bool = False) -> str:
     """', N run, M ruled out by their bounds' (nothing when none was)."""
     if problem is not None:
         n, ran = len(problem.memo), problem.runs
-    return f" ({ran} replayed, {n - ran} ruled out by level {BOUND_LEVEL})" if n != ran else ""
+    by = f"level {BOUND_LEVEL}" + (" or the screen" if screened else "")
+    return f" ({ran} replayed, {n - ran} ruled out by {by})" if n != ran else ""
 
 
 def _screened(scr, low) -> str:
-    """'; the polish screened by the WxH replay: N ruled out by it, worst error E%' (nothing without)."""
+    """The full phase's line on the screen: margin, designs it alone ruled out, worst error (or nothing)."""
     if scr is None:
         return ""
     r = scr.report()
     worst = "" if r["worst_below"] is None else f", worst error on those replayed {100 * r['worst_below']:+.1f}%"
-    return (f"; polish screened by the {low[0]}x{low[1]} replay less {100 * r['margin']:g}%: "
-            f"{r['ruled_out']} ruled out by it alone{worst}")
+    return (f"; the polish screened by the {low[0]}x{low[1]} replay less {100 * r['margin']:g}%: "
+            f"{r['ruled_out']} of those ruled out by it alone{worst}")
 
 
 class NoLiveDesignError(MprtError, RuntimeError):
