@@ -130,3 +130,22 @@ def test_explore_with_the_screen_is_the_same_for_any_workers_and_keeps_the_answe
     assert plain["screen"] is None
     assert (got[0]["best"]["cycles"], got[0]["best"]["cost"]) == (plain["best"]["cycles"], plain["best"]["cost"])
     assert got[0]["runs"]["full"] <= plain["runs"]["full"]
+
+
+def test_explore_leaves_no_cycle_holding_its_traces():
+    """The screen's bounds refer to their polish weakly: with the garbage collector off, nothing
+    the exploration made (its evaluators, which hold the traces) outlives it."""
+    import gc
+
+    from mprt.explore.evaluate import SceneEvaluator
+    from mprt.explore.explorer import explore
+    sp = load_space(SMALL)
+    gc.collect()
+    gc.disable()
+    try:
+        r = explore(mprt.Scene.spd("tetra", 1), 64, 64, space=sp, budget=400, level=3, max_evals=16, fraction=2,
+                    refine_evals=40, workers=1)
+        assert r["screen"] is not None
+        assert not [o for o in gc.get_objects() if isinstance(o, SceneEvaluator)]
+    finally:
+        gc.enable()

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 import math
 import time
+import weakref
 from dataclasses import replace
 
 from .evaluate import DEADLOCK_CYCLES, Result
@@ -60,8 +61,10 @@ class Screen:
         if low0 >= DEADLOCK_CYCLES or start_cycles >= DEADLOCK_CYCLES or low0 <= 0:
             return level1
         ratio = start_cycles / low0
+        polish = weakref.ref(fp)        # fp holds these bounds: no cycle (it would keep the traces alive)
 
         def bounds(points):
+            fp = polish()
             est = []
             for p in points:
                 c = self.cycles(p)
