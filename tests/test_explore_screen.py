@@ -105,7 +105,11 @@ def test_screen_errors_and_what_it_ruled_out_are_reported():
     fp = _polish(sp, full, None, start, full(3)([start.point])[0], scr)
     scr.note(fp)
     r = scr.report()
-    ran = [e for e in fp.memo.values() if not e.bound and e.index != start.index]
+    # the errors are known where the search replayed the design (a design it only bounded, or
+    # never saw, has no exact low-resolution figure: the screen replays nothing of its own)
+    ran = [e for e in fp.memo.values() if not e.bound and e.index != start.index
+           and e.index in lp.memo and not lp.memo[e.index].bound]
+    assert len(ran) < sum(not e.bound for e in fp.memo.values()) - 1      # some it never saw
     ratio = full(3)([start.point])[0].cycles / low(3)([start.point])[0].cycles
     errs = [e.cycles / (low(3)([e.point])[0].cycles * ratio) - 1 for e in ran]
     assert r["margin"] == 0.5 and r["checked"] == len(ran) >= 1

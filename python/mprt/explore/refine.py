@@ -33,32 +33,33 @@ SCREEN_MARGIN = 0.15
 
 
 class Screen:
-    """Low-resolution cycles at the search's level (from the search's memo where it replayed
-    the design, else replayed here on its low-resolution evaluator ``low``), and the errors
-    of the estimates made from them on the designs replayed at full resolution."""
+    """Low-resolution cycles at the search's level from the search's memo (``low``, its
+    evaluator, is kept for the record: the screen replays nothing there: replaying each
+    design it had not seen cost as much as the full-resolution replays it saved), and the
+    errors of the estimates made from them on the designs replayed at full resolution."""
 
     def __init__(self, problem: Problem, low, level: int, margin: float = SCREEN_MARGIN):
         self.problem, self.low, self.level, self.margin = problem, low, level, margin
-        self._cycles: dict = {}
         self.errors: list = []           # full / estimate - 1 of each design replayed at full resolution
         self.ruled_out = 0               # designs the estimate alone ruled out (no level-1 replay)
 
-    def cycles(self, point) -> float:
+    def cycles(self, point, exact: bool = False):
+        """The design's low-resolution cycles as the search knows them: replayed, or its
+        level-1 bound there when it ruled the design out (a lower figure, so the estimate
+        only falls); None where the search never saw it (or, ``exact``, only bounded it),
+        so that the screen costs no replay of its own."""
         sp = self.problem.space
-        k = sp.canonical(sp.index_of(point))
-        e = self.problem.memo.get(k)
-        if e is not None and not e.bound:
-            return e.cycles
-        if k not in self._cycles:
-            self._cycles[k] = self.low.run(point, self.level).cycles
-        return self._cycles[k]
+        e = self.problem.memo.get(sp.canonical(sp.index_of(point)))
+        if e is None or (exact and e.bound):
+            return None
+        return e.cycles
 
     def bounder(self, fp: Problem, start_cycles: float, start_point, level1):
         """``Problem.bound_points`` for the polish ``fp`` from a start of ``start_cycles`` at full
         resolution: the screen's estimates, joined by level 1 (``level1``: points -> bounds, or
         None) where the estimate alone does not rule the design out."""
-        low0 = self.cycles(start_point)
-        if low0 >= DEADLOCK_CYCLES or start_cycles >= DEADLOCK_CYCLES or low0 <= 0:
+        low0 = self.cycles(start_point, exact=True)
+        if low0 is None or low0 >= DEADLOCK_CYCLES or start_cycles >= DEADLOCK_CYCLES or low0 <= 0:
             return level1
         ratio = start_cycles / low0
         polish = weakref.ref(fp)        # fp holds these bounds: no cycle (it would keep the traces alive)
@@ -70,7 +71,7 @@ class Screen:
                 c = self.cycles(p)
                 cost = float(fp.cost_of(p) if fp.cost_of is not None else
                              sum(cost_breakdown(p.design, getattr(self.low, "unit_costs", None)).values()))
-                guess = 0.0 if c >= DEADLOCK_CYCLES else float(math.floor(c * ratio * (1 - self.margin)))
+                guess = 0.0 if c is None or c >= DEADLOCK_CYCLES else float(math.floor(c * ratio * (1 - self.margin)))
                 est.append(Result(cycles=guess, level=self.level, cost=cost))
             inc = fp.incumbent()
             need = [i for i, r in enumerate(est) if fp.value(r.cycles, r.cost) <= inc]
@@ -81,8 +82,8 @@ class Screen:
             return est
 
         def record(e):
-            c = self.cycles(e.point)
-            if c < DEADLOCK_CYCLES and e.cycles < DEADLOCK_CYCLES:
+            c = self.cycles(e.point, exact=True)
+            if c is not None and c < DEADLOCK_CYCLES and e.cycles < DEADLOCK_CYCLES:
                 self.errors.append(e.cycles / (c * ratio) - 1)
         bounds.record = record
         return bounds
