@@ -8,8 +8,9 @@ few of them, while each costs a replay at full resolution.  The search has repla
 them, at the same level, on the low-resolution trace of the same grid, and the ratio of full
 to low resolution varies little between neighbours (measured:
 ``studies/20_design_space/screen_error.py``).  So a neighbour's full-resolution cycles are
-estimated as its low-resolution cycles times the polish start's ratio, less
-``SCREEN_MARGIN``; that estimate joins the level-1 bound (the larger of the two rules out),
+estimated as its low-resolution cycles as the search knows them (its replay, or its level-1
+bound where it ruled the design out; nothing where it never saw it) times the polish
+start's ratio, less ``SCREEN_MARGIN``; that estimate joins the level-1 bound (the larger of the two rules out),
 and level 1 is replayed only where the estimate does not rule the design out already.  A
 design ruled out is kept with the larger figure (``bound``), replayed when a choice would
 take it (``Problem.ranked``), as with the level-1 bounds alone.  Unlike level 1, the
@@ -33,10 +34,11 @@ SCREEN_MARGIN = 0.15
 
 
 class Screen:
-    """Low-resolution cycles at the search's level from the search's memo (``low``, its
-    evaluator, is kept for the record: the screen replays nothing there: replaying each
-    design it had not seen cost as much as the full-resolution replays it saved), and the
-    errors of the estimates made from them on the designs replayed at full resolution."""
+    """Low-resolution cycles at the search's level from the search's memo, and the errors of
+    the estimates made from them on the designs replayed at full resolution.  The screen
+    replays nothing at low resolution (``low``, the search's evaluator, only lends its unit
+    costs): replaying each design the search had not seen cost as much as the
+    full-resolution replays it saved (tetra at 512x512, side by side)."""
 
     def __init__(self, problem: Problem, low, level: int, margin: float = SCREEN_MARGIN):
         self.problem, self.low, self.level, self.margin = problem, low, level, margin
