@@ -24,6 +24,7 @@ import hashlib
 import json
 from collections import OrderedDict
 from dataclasses import dataclass, field
+from functools import lru_cache
 from types import SimpleNamespace
 
 import numpy as np
@@ -69,6 +70,7 @@ def trace_key(trace) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
+@lru_cache(maxsize=1)
 def _words_per_packet() -> int:
     from ..cost import CostModelError, packet_flits
 
@@ -151,7 +153,14 @@ def machine_fields(design: Design, leaves: int | None = None, dis_window: int | 
 
 def machine_config(design: Design, leaves: int | None = None, dis_window: int | None = None):
     """The design as a machine (``SystemConfig``), its DIS window ``dis_window`` if given;
-    the fidelity levels take parts of it away."""
+    the fidelity levels take parts of it away.  Kept for the designs asked for last (a
+    configuration is frozen; building and checking one took a third of a search's Python
+    time outside the replay: a design's level-1 bound and its level-3 replay share one)."""
+    return _machine_config(design, leaves, dis_window)
+
+
+@lru_cache(maxsize=4096)
+def _machine_config(design: Design, leaves: int | None, dis_window: int | None):
     from ..machine.config import config_from_dict
 
     return config_from_dict(machine_fields(design, leaves, dis_window), source="explored design")

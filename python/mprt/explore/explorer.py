@@ -10,7 +10,8 @@ from .evaluate import DEADLOCK_CYCLES, SceneEvaluator, grid_dims, machine_config
 from .hwcost import UnitCosts, cost_breakdown, hardware_cost
 from .parallel import Pool
 from .prepass import low_resolution
-from .search import Problem, compass, cost_range, global_start, pareto, search
+from .refine import SCREEN_MARGIN, Screen, refine as _refine
+from .search import Problem, cost_range, global_start, pareto, search
 from .space import REFERENCE_DESIGNS, Point, Space, default_space
 from ..atomic import replacing
 
@@ -45,7 +46,7 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
             budgets: int = 6, progress=None, threads: int = 1, fraction: int | None = None, refine: int = 2,
             refine_evals: int = 60, sample: str | None = "auto", verify: int = 4, workers: int | None = None,
             starts: str = "whole", log=None, rules: str = "paper", threshold: float | None = None,
-            grid=None, phases=None, bound: bool = True) -> dict:
+            grid=None, phases=None, bound: bool = True, screen: float | None = SCREEN_MARGIN) -> dict:
     """Search ``space`` for ``scene`` at width x height; returns the report
     as a dict (the JSON of ``mprt explore``).
 
@@ -87,14 +88,20 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
     than the best design run so far, or that is over the budget, is not replayed at the
     search's level (``Problem.bound_points``), and one known so is replayed as soon as a
     choice would take it.  The search then makes the choices it makes without bounds while
-    level 3 stays above level 1 less the slack, in far fewer level-3 replays."""
+    level 3 stays above level 1 less the slack, in far fewer level-3 replays.
+
+    ``screen`` (with ``bound``; None: off): the full-resolution polish's neighbours are first
+    estimated from the search's own low-resolution replay, scaled by the polish start's ratio
+    of full to low resolution, less this margin (``refine.Screen``); one whose estimate is
+    slower than the polish's best is not replayed at full resolution."""
     if grid is not None:
         space = (space or default_space()).with_subdivision((grid,) * 3 if isinstance(grid, int) else grid)
     pool = Pool(scene, workers)
     try:
         return _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish,
                         max_evals, seed, budgets, progress, threads, fraction, refine, refine_evals, sample, verify,
-                        starts, log or (lambda text: None), pool, rules, threshold, grid, phases or _Silent(), bound)
+                        starts, log or (lambda text: None), pool, rules, threshold, grid, phases or _Silent(), bound,
+                        screen)
     finally:
         pool.close()
 
@@ -108,7 +115,7 @@ def _global_task(sev, level, bound, task):
 
 def _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish, max_evals, seed,
              budgets, progress, threads, fraction, refine, refine_evals, sample, verify, starts, say, pool,
-             rules="paper", threshold=None, grid=None, phases=None, bound=True) -> dict:
+             rules="paper", threshold=None, grid=None, phases=None, bound=True, screen=SCREEN_MARGIN) -> dict:
     t0 = time.perf_counter()
     space = space or default_space()
     unit_costs = UnitCosts.from_table(space.cost)
@@ -156,6 +163,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
     say(f"search  {len(problem.memo)} designs at level {lv}, {low[0]}x{low[1]}"
         f"{_ruled_out(problem)}: best {best.cycles:,.0f} cycles, cost {best.cost:.0f} kGE, "
         f"{time.perf_counter() - t0:.1f} s")
+    scr = None
     history = []        # after the search's rows (below: the full-resolution phase may run designs it bounded)
     runs = {}
     evaluations = res.evaluations
@@ -173,13 +181,15 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
             history += [dict(r, phase="full", resolution=[width, height], level=lv) for r in fp.history()]
             evaluations += len(fp.memo)
         else:
+            scr = Screen(problem, ev, lv, screen) if screen is not None and problem.bound_points is not None else None
             best, rows, n, ran = _refine(problem, space, full, objective, budget, refine, refine_evals, verify,
-                                         pool, cost_of, phases, per_eval, bounder)
+                                         pool, cost_of, phases, per_eval, bounder, scr)
             history += [dict(r, resolution=[width, height], level=lv) for r in rows]
             evaluations += n
             runs.update(full=ran, full_bounded=n - ran)
             say(f"full    {n} designs at level {lv}, {width}x{height}"
-                f"{' (' + sample + ')' if sample else ''}{_ruled_out(n=n, ran=ran)}: best {best.cycles:,.0f} cycles, "
+                f"{' (' + sample + ')' if sample else ''}{_ruled_out(n=n, ran=ran, screened=scr is not None)}"
+                f"{_screened(scr, low)}: best {best.cycles:,.0f} cycles, "
                 f"cost {best.cost:.0f} kGE, {time.perf_counter() - t0:.1f} s")
         ev = full
     history[:0] = [dict(r, phase="search", resolution=list(low), level=lv) for r in problem.history()]
@@ -212,6 +222,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
         "evaluations": evaluations,
         "runs": runs,
         "bound": {"level": BOUND_LEVEL, "slack": BOUND_SLACK} if problem.bound_points is not None else None,
+        "screen": scr.report() if scr is not None else None,
         "search_resolution": list(low),
         "full_resolution_sample": sample if fraction > 1 else None,
         "nlopt_calls": problem.calls,
@@ -332,11 +343,22 @@ def _sample_fraction(sample: str, width: int, height: int) -> float:
     return min(s.k / tiles if s.method == "random" else 1 / max(s.k, 1), 1.0)
 
 
-def _ruled_out(problem=None, n=None, ran=None) -> str:
+def _ruled_out(problem=None, n=None, ran=None, screened: bool = False) -> str:
     """', N run, M ruled out by their bounds' (nothing when none was)."""
     if problem is not None:
         n, ran = len(problem.memo), problem.runs
-    return f" ({ran} replayed, {n - ran} ruled out by level {BOUND_LEVEL})" if n != ran else ""
+    by = f"level {BOUND_LEVEL}" + (" or the screen" if screened else "")
+    return f" ({ran} replayed, {n - ran} ruled out by {by})" if n != ran else ""
+
+
+def _screened(scr, low) -> str:
+    """The full phase's line on the screen: margin, designs it alone ruled out, worst error (or nothing)."""
+    if scr is None:
+        return ""
+    r = scr.report()
+    worst = "" if r["worst_below"] is None else f", worst error on those replayed {100 * r['worst_below']:+.1f}%"
+    return (f"; the polish screened by the {low[0]}x{low[1]} replay less {100 * r['margin']:g}%: "
+            f"{r['ruled_out']} of those ruled out by it alone{worst}")
 
 
 class NoLiveDesignError(MprtError, RuntimeError):
@@ -351,66 +373,6 @@ def settings(scene, width, height, threads, rules: str = "paper", threshold=None
             "rules": rules, "threshold": threshold_setting(rules, threshold),
             "grid": None if grid is None else ([grid] * 3 if isinstance(grid, int) else list(grid)),
             "threads": threads, "mprt_version": version()}
-
-
-def _refine(problem, space, full, objective, budget, refine, refine_evals, verify, pool, cost_of, phases=None,
-            per_eval=None, bounder=lambda sev: None):
-    """The full-resolution phase, at the search's level: the ``verify`` best designs of the
-    low-resolution search and its best of each stage mapping evaluated at full resolution in
-    one batch; then, from the best design there of each of the ``refine`` best subdivisions,
-    a lattice polish (``refine_evals`` designs each).  Returns the best, the history rows
-    (phases ``full-check`` and ``full``), the designs evaluated and those of them run at the
-    level (the rest known by their bounds, ``bounder``)."""
-    lv = full.level
-    ranked = problem.ranked()
-    checks = [e for _, e in zip(range(max(verify, 1)), ranked)]
-    by_map: dict = {}
-    for e in problem.memo.values():
-        by_map.setdefault(e.point.design.mapping, []).append(e)
-    for e in sorted((problem.best_of(es) for es in by_map.values()), key=problem.rank):
-        if e.index not in [c.index for c in checks]:
-            checks.append(e)
-    phases = phases or _Silent()
-    vp = Problem(space, lambda pts: pool.run(full, pts, lv), objective, budget, cost_of=cost_of,
-                 bound_points=bounder(full))
-    t0 = time.perf_counter()
-    with phases.step(f"full-resolution checks: {len(checks)} designs at {full.width}x{full.height}",
-                     None if per_eval is None else per_eval * len(checks) / max(min(pool.workers, len(checks)), 1)):
-        vp.evaluate_many([e.index for e in checks])
-    per_eval = (time.perf_counter() - t0) / max(len(checks), 1) * max(min(pool.workers, len(checks)), 1)
-    subs = []
-    for e in vp.ranked():
-        if e.point.subdivision not in [s for s, _ in subs]:
-            subs.append((e.point.subdivision, e))
-        if len(subs) == refine:
-            break
-    with phases.step(f"polish at {full.width}x{full.height}: up to {refine_evals} designs from each of "
-                     f"{len(subs)} subdivision(s)", per_eval * refine_evals * len(subs)):
-        polished = _polish(space, full, objective, budget, refine_evals, pool, cost_of, subs, lv, bounder)
-    # the best of the checks, then of each polish (its start, a check, left out): the first on ties
-    found = [vp.best()] + [p.best_of([e for e in p.memo.values() if e.index != start]) for p, start in polished]
-    best = min((e for e in found if e is not None), key=lambda e: vp.rank(e)[:2])
-    rows = [dict(r, phase="full-check") for r in vp.history()]
-    for p, _ in polished:
-        rows += [dict(r, phase="full") for r in p.history() if r["evaluation"] > 1]
-    n = len(vp.memo) + sum(len(p.memo) - 1 for p, _ in polished)
-    ran = vp.runs + sum(p.runs - 1 for p, _ in polished)
-    return best, rows, n, ran
-
-
-def _polish(space, full, objective, budget, refine_evals, pool, cost_of, subs, lv, bounder) -> list:
-    """The lattice polish from the best design of each subdivision in ``subs``; returns
-    each polish's (Problem, start)."""
-    out = []
-    for sub, e in subs:
-        sp = space.with_subdivision(sub)
-        fp = Problem(sp, lambda pts: pool.run(full, pts, lv), objective, budget, cost_of=cost_of,
-                     bound_points=bounder(full))
-        start = sp.canonical(sp.index_of(e.point))
-        fp.add(e.point, e.result)
-        compass(fp, start, refine_evals)
-        out.append((fp, start))
-    return out
 
 
 def _plain_log_axis(axis) -> None:

@@ -69,13 +69,13 @@ def _nlopt_run(problem: Problem, algorithm: str, x0, max_evals: int, seed: int, 
     problem.cap = start + max_evals
 
     # DIRECT-L asks about hundreds of points per distinct design (floor(x) is flat in a cell):
-    # the cell's objective is kept by its raw index vector, so a revisit costs a floor and a
-    # dictionary look-up (the same value the memo gives, so the search is unchanged)
-    hi = np.array(sizes, dtype=np.int64) - 1
+    # the cell's objective is kept by its raw index vector (x truncated, as bytes: within the
+    # bounds that is floor(x); any other x gets its own entry, holding what the memo gives it),
+    # so a revisit costs a conversion and a dictionary look-up (the search is unchanged)
     seen: dict = {}
 
     def f(x, grad):
-        raw = tuple(np.minimum(np.maximum(np.floor(x).astype(np.int64), 0), hi).tolist())
+        raw = np.asarray(x).astype(np.int64).tobytes()
         v = seen.get(raw)
         if v is None:
             v = problem(problem.x_to_index(x))
