@@ -50,6 +50,7 @@ INLINE void prefetch_visit(const mprt_replay *r, int64_t x)
 {
     PREFETCH(v_addr(r, x));
     if (r->mem_key) PREFETCH(&r->mem_key[x]);
+    if (r->cfg.ring) PREFETCH(&r->pflits[x]);      /* its packet's size, read when it is injected */
 }
 
 

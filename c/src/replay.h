@@ -98,7 +98,7 @@ typedef struct {
 
 /* The ring of one PE. */
 typedef struct {
-    int K, C;                    /* nodes, buffer classes */
+    int id, K, C;                /* its PE; nodes, buffer classes */
     node *nd;                    /* the PE's stages: node n is nd[n] */
     unsigned busy;               /* links held (bit n: link n) */
     unsigned ready;              /* nodes whose send FIFO holds a packet not in the network */

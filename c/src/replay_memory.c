@@ -28,6 +28,7 @@ typedef struct {
 
 typedef struct {
     mprt_replay_memory fig;
+    int64_t again;               /* the lines' start + 1 of this cache's last look-up if all of them hit, else 0 */
 } local_mem;
 
 typedef struct {
@@ -354,10 +355,12 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     lat = m->latency;
     lines = m->lines;
     if (m->cached) {
-        int64_t *tags = m->tags + (size_t)pe * (size_t)m->nsets * (size_t)m->ways, ways = m->ways;
+        int64_t *tags, ways = m->ways, first = a;
         const int64_t *where = m->where;
         lm->fig.cache_accesses += b - a;
         lm->fig.cache_hits += b - a;
+        if (lm->again == a + 1) return 0;      /* the same lines again, all hits: nothing changes */
+        tags = m->tags + (size_t)pe * (size_t)m->nsets * (size_t)ways;
         for (; a < b; a++) {
             int64_t x = lines[a], *w = tags + where[a], s;
             if (w[0] == x || lru_touch(w, ways, x)) continue;     /* a hit */
@@ -368,6 +371,7 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
             done = s + xfer + lat;
         }
         lm->fig.cache_hits -= reads;
+        lm->again = reads ? 0 : first + 1;
     } else {
         for (; a < b; a++) {
             int64_t s = done > port ? done : port;
