@@ -12,6 +12,14 @@
  * for the line's transfer, plus the latency.  The stall is when the last data
  * is back, less the start.
  *
+ * A look-up of the same lines as the cache's last one, which all hit, is skipped
+ * (counted as hits; no stall): that all of a key's lines hit means that no set holds
+ * more of them than its ways (the one past them would have missed), so afterwards each
+ * set has its lines of the key in front, the last touched first; touching the same
+ * lines in the same order again hits every time and puts them back in that order, the
+ * rest of the set unchanged behind them: the state is as it was.  (A key's lines are
+ * known by their start in lines[]: a key without lines looks nothing up.)
+ *
  * A cache is never allocated larger than its data can fill: with more sets
  * than lines (numbers 0..L-1) every line has a set of its own, as it has with
  * L sets (line mod L = line); a set never holds more lines than map to it, so
@@ -377,7 +385,6 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     local_mem *lm;
     const keyinfo *ki;
     int64_t k, a, b, now = r->now, done = now, port, xfer, lat, reads = 0, queued = 0;
-    const int64_t *lines;
     if (key == -1) return 0;
     m = &M->m[key >= 0 ? 0 : 1];
     if (!m->on) return 0;
@@ -392,7 +399,6 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     port = m->port_free[m->nports == 1 ? 0 : pe];
     xfer = m->xfer;
     lat = m->latency;
-    lines = m->lines;
     if (m->cached) {
         int64_t *tags, ways = m->ways, first = a;
         lm->fig.cache_accesses += b - a;
