@@ -116,6 +116,25 @@ def test_random_memory_configurations_equal_simpy(traces, seed):
     assert all(kinds.values()), kinds
 
 
+@pytest.mark.parametrize("ways", [1, 2, 3, 4, 8])
+def test_caches_of_each_way_count_equal_simpy(traces, ways):
+    # the C look-up has its own code for 2 and 4 ways (the 3MPPE's), a loop for the others,
+    # and skips a look-up of the same lines as the cache's last one when those all hit: each
+    # way count with caches that miss and caches that hold the scene, hits and misses counted
+    t = traces["balls-g9"]
+    base = builtin("3mppe").replace(ring=None, pes=2)
+    seen = {"hit": 0, "miss": 0}
+    for sets in (2, 16, 256):
+        cfg = base.replace(ic_memory=LocalMemoryConfig(0, CacheConfig(sets * ways * 16, 16, ways)),
+                           sc_memory=LocalMemoryConfig(0, CacheConfig(sets * ways * 16, 16, ways)))
+        res = check(t, cfg)
+        for tag in ("ic", "sc"):
+            m = res.memory[f"{tag}_cache"]
+            seen["hit"] += m["hits"] > 0
+            seen["miss"] += m["hits"] < m["accesses"]
+    assert seen["hit"] and seen["miss"], seen
+
+
 @pytest.mark.parametrize("seed", range(4))
 def test_event_logs_equal_simpy_with_memories(traces, seed):
     rng = random.Random(400 + seed)

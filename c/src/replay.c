@@ -50,6 +50,7 @@ INLINE void prefetch_visit(const mprt_replay *r, int64_t x)
 {
     PREFETCH(v_addr(r, x));
     if (r->mem_key) PREFETCH(&r->mem_key[x]);
+    if (r->cfg.ring) PREFETCH(&r->pflits[x]);      /* its packet's size, read when it is injected */
 }
 
 
@@ -461,16 +462,7 @@ void mprt__replay_loop(mprt_replay *r)
         int i = -1;
         if (r->nheap) {
             if (r->small) {
-                if (r->pmin < 0) {
-                    const int64_t *h = r->heap_t;
-                    int64_t low = h[0];
-                    int k, n = r->nproc, m = 0;
-                    for (k = 1; k < n; k++) {
-                        m = h[k] < low ? k : m;
-                        low = h[k] < low ? h[k] : low;
-                    }
-                    r->pmin = m;
-                }
+                if (r->pmin < 0) r->pmin = small_first(r);
                 i = r->pmin;
                 t = r->heap_t[i] >> SMALL_SHIFT;
             } else {

@@ -98,7 +98,7 @@ typedef struct {
 
 /* The ring of one PE. */
 typedef struct {
-    int K, C;                    /* nodes, buffer classes */
+    int id, K, C;                /* its PE; nodes, buffer classes */
     node *nd;                    /* the PE's stages: node n is nd[n] */
     unsigned busy;               /* links held (bit n: link n) */
     unsigned ready;              /* nodes whose send FIFO holds a packet not in the network */
@@ -344,7 +344,7 @@ INLINE void f_fill(mprt_replay *r, fifo *f, int64_t x)
 /* With few processors (and times that leave room) the pending events sit by
  * processor as one key, time << SMALL_SHIFT | priority (INT64_MAX: none; a
  * processor has at most one), and the first is found by a scan. */
-#define SMALL_PROCS 8
+#define SMALL_PROCS 8    /* (small_first compares 8 keys) */
 #define SMALL_SHIFT 5    /* priorities are below 2 x SMALL_PROCS + 2 <= 32 */
 
 /* ---- the processors' events (replay.c) ---------------------------------------- */
@@ -376,6 +376,18 @@ INLINE void heap_push(mprt_replay *r, int64_t t, int64_t prio, int i)
     hi[c] = i;
 }
 
+/* With few processors: the one whose event is first (there is one).  The least key
+ * names it: its priority is the processor's rank, or processors + rank. */
+INLINE int64_t min64(int64_t a, int64_t b) { return a < b ? a : b; }
+
+INLINE int small_first(const mprt_replay *r)
+{
+    const int64_t *h = r->heap_t;     /* (SMALL_PROCS keys: INT64_MAX past the processors) */
+    int64_t low = min64(min64(min64(h[0], h[1]), min64(h[2], h[3])), min64(min64(h[4], h[5]), min64(h[6], h[7])));
+    int n = r->nproc, prio = (int)(low & ((1 << SMALL_SHIFT) - 1));
+    return prio <= n ? prio - 1 : prio - n - 1;
+}
+
 /* Take the first event: its processor (its time in *t). */
 INLINE int heap_pop(mprt_replay *r, int64_t *t)
 {
@@ -385,8 +397,7 @@ INLINE int heap_pop(mprt_replay *r, int64_t *t)
     int64_t lt, lp;
     int32_t li;
     if (r->small) {
-        int k, m = 0;
-        for (k = 1; k < r->nproc; k++) m = ht[k] < ht[m] ? k : m;
+        int m = small_first(r);
         *t = ht[m] >> SMALL_SHIFT;
         ht[m] = INT64_MAX;
         return m;

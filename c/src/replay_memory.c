@@ -12,6 +12,14 @@
  * for the line's transfer, plus the latency.  The stall is when the last data
  * is back, less the start.
  *
+ * A look-up of the same lines as the cache's last one, which all hit, is skipped
+ * (counted as hits; no stall): that all of a key's lines hit means that no set holds
+ * more of them than its ways (the one past them would have missed), so afterwards each
+ * set has its lines of the key in front, the last touched first; touching the same
+ * lines in the same order again hits every time and puts them back in that order, the
+ * rest of the set unchanged behind them: the state is as it was.  (A key's lines are
+ * known by their start in lines[]: a key without lines looks nothing up.)
+ *
  * A cache is never allocated larger than its data can fill: with more sets
  * than lines (numbers 0..L-1) every line has a set of its own, as it has with
  * L sets (line mod L = line); a set never holds more lines than map to it, so
@@ -28,6 +36,7 @@ typedef struct {
 
 typedef struct {
     mprt_replay_memory fig;
+    int64_t again;               /* the lines' start + 1 of this cache's last look-up if all of them hit, else 0 */
 } local_mem;
 
 typedef struct {
@@ -314,10 +323,25 @@ int mprt__replay_memory_build(mprt_replay *r)
 /* Line x through a set of a cache (w: its ways, most recent first; -1 empty), not
  * its most recent line: 1 on a hit.  It becomes the set's most recent (front), the
  * lines before it moving back one; a miss drops the least recent (or an empty way). */
-static inline int lru_touch(int64_t *w, int64_t ways, int64_t x)
+INLINE int lru_touch(int64_t *w, int64_t ways, int64_t x)
 {
     int64_t i, prev = w[0], cur;
     int found = 0;
+    if (ways == 4) {                  /* the loop below, unrolled */
+        int64_t c1 = w[1], c2 = w[2], c3 = w[3];
+        int f1 = c1 == x, f2 = f1 | (c2 == x);
+        w[0] = x;
+        w[1] = prev;
+        w[2] = f1 ? c2 : c1;
+        w[3] = f2 ? c3 : c2;
+        return f2 | (c3 == x);
+    }
+    if (ways == 2) {
+        found = w[1] == x;
+        w[0] = x;
+        w[1] = prev;
+        return found;
+    }
     w[0] = x;
     for (i = 1; i < ways; i++) {      /* no branch on where x is: ways is the trip count */
         cur = w[i];
@@ -326,6 +350,30 @@ static inline int lru_touch(int64_t *w, int64_t ways, int64_t x)
         prev = cur;
     }
     return found;
+}
+
+/* Lines a .. b through the cache whose sets are at tags (a PE's), of ways ways: each miss
+ * read from the port (its first free cycle *port; the last data back at *done; *queued
+ * the cycles reads waited).  The misses.  Called with ways a constant where it is 2 or
+ * 4, so that the compiler unrolls the look-up for them. */
+INLINE int64_t look_up(const memory *m, int64_t *tags, int64_t ways, int64_t a, int64_t b, int64_t *done,
+                       int64_t *port, int64_t *queued)
+{
+    const int64_t *lines = m->lines, *where = m->where;
+    int64_t xfer = m->xfer, lat = m->latency, d = *done, p = *port, qd = *queued, reads = 0;
+    for (; a < b; a++) {
+        int64_t x = lines[a], *w = tags + where[a], s;
+        if (w[0] == x || lru_touch(w, ways, x)) continue;     /* a hit */
+        s = d > p ? d : p;              /* the port's first free cycle */
+        p = s + xfer;
+        qd += s - d;
+        reads++;
+        d = s + xfer + lat;
+    }
+    *done = d;
+    *port = p;
+    *queued = qd;
+    return reads;
 }
 
 int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
@@ -337,7 +385,6 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     local_mem *lm;
     const keyinfo *ki;
     int64_t k, a, b, now = r->now, done = now, port, xfer, lat, reads = 0, queued = 0;
-    const int64_t *lines;
     if (key == -1) return 0;
     m = &M->m[key >= 0 ? 0 : 1];
     if (!m->on) return 0;
@@ -352,22 +399,20 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     port = m->port_free[m->nports == 1 ? 0 : pe];
     xfer = m->xfer;
     lat = m->latency;
-    lines = m->lines;
     if (m->cached) {
-        int64_t *tags = m->tags + (size_t)pe * (size_t)m->nsets * (size_t)m->ways, ways = m->ways;
-        const int64_t *where = m->where;
+        int64_t *tags, ways = m->ways, first = a;
         lm->fig.cache_accesses += b - a;
         lm->fig.cache_hits += b - a;
-        for (; a < b; a++) {
-            int64_t x = lines[a], *w = tags + where[a], s;
-            if (w[0] == x || lru_touch(w, ways, x)) continue;     /* a hit */
-            s = done > port ? done : port;      /* the port's first free cycle */
-            port = s + xfer;
-            queued += s - done;
-            reads++;
-            done = s + xfer + lat;
-        }
+        if (lm->again == a + 1) return 0;      /* the same lines again, all hits: nothing changes */
+        tags = m->tags + (size_t)pe * (size_t)m->nsets * (size_t)ways;
+        if (ways == 4)
+            reads = look_up(m, tags, 4, a, b, &done, &port, &queued);
+        else if (ways == 2)
+            reads = look_up(m, tags, 2, a, b, &done, &port, &queued);
+        else
+            reads = look_up(m, tags, ways, a, b, &done, &port, &queued);
         lm->fig.cache_hits -= reads;
+        lm->again = reads ? 0 : first + 1;
     } else {
         for (; a < b; a++) {
             int64_t s = done > port ? done : port;

@@ -42,6 +42,7 @@ int mprt__ring_build(mprt_replay *r)
     r->rq_mask = cap - 1;
     for (p = 0; p < r->cfg.pes; p++) {
         ring_t *R = &r->rings[p];
+        R->id = p;
         R->K = r->cfg.nstages;
         R->C = r->cfg.buffer_classes;
         R->nd = &r->nodes[p * r->cfg.nstages];
@@ -55,32 +56,21 @@ int mprt__ring_build(mprt_replay *r)
     return MPRT_OK;
 }
 
-/* Packet q of PE pe's ring has an event delay (> 0) cycles from now: after the pending
+/* Packet q of ring R has an event delay (> 0) cycles from now: after the pending
  * ones of its time or before, so the list stays in time order, simultaneous events in
  * the order they were scheduled (one per packet: the list never overflows). */
-INLINE void ring_at(mprt_replay *r, int pe, int q, int64_t delay, int what)
+INLINE void ring_at(mprt_replay *r, ring_t *R, int q, int64_t delay, int what)
 {
-    int64_t t = r->now + delay;
-    size_t m = r->rq_mask, i = r->rq_len++;
-    r->rings[pe].pkt[q].event = what;
-    for (; i > 0 && r->rq_t[(r->rq_head + i - 1) & m] > t; i--) {
-        r->rq_t[(r->rq_head + i) & m] = r->rq_t[(r->rq_head + i - 1) & m];
-        r->rq_s[(r->rq_head + i) & m] = r->rq_s[(r->rq_head + i - 1) & m];
+    int64_t t = r->now + delay, *rt = r->rq_t;
+    int32_t *rs = r->rq_s;
+    size_t m = r->rq_mask, h = r->rq_head, i = r->rq_len++;
+    R->pkt[q].event = what;
+    for (; i > 0 && rt[(h + i - 1) & m] > t; i--) {
+        rt[(h + i) & m] = rt[(h + i - 1) & m];
+        rs[(h + i) & m] = rs[(h + i - 1) & m];
     }
-    r->rq_t[(r->rq_head + i) & m] = t;
-    r->rq_s[(r->rq_head + i) & m] = pe * 4 + q;
-}
-
-int mprt__ring_send(mprt_replay *r, node *src, int64_t x, int g)
-{
-    ring_t *R = &r->rings[src->pe];
-    int n = src->stage;
-    if (!f_room(&src->sf)) return 0;
-    f_put(r, &src->sf, x * 4 + g);
-    if (R->injected[n]) return 1;       /* it waits its turn */
-    R->ready |= 1u << n;
-    if (R->buf[n * RING_MAX] < 0) mprt__ring_kick(r, src->pe);
-    return 1;
+    rt[(h + i) & m] = t;
+    rs[(h + i) & m] = R->id * 4 + q;
 }
 
 /* The replica of nd (fed per replica) a header claims a receive slot of, now
@@ -137,22 +127,33 @@ static void complete(mprt_replay *r, int pe, int q)
     mprt__ring_kick(r, pe);
 }
 
-/* Try packet q's next step; 1 when it was granted. */
-static int step(mprt_replay *r, int pe, int q)
+/* Node n's send FIFO head enters the network (its class-0 buffer is free). */
+INLINE void inject(mprt_replay *r, ring_t *R, int n)
 {
-    ring_t *R = &r->rings[pe];
+    const queue *sf = &R->nd[n].sf.q;
+    int64_t e = sf->buf[sf->head];
+    ring_packet *k = &R->pkt[n];
+    k->x = e >> 2;
+    k->dst = (int)(e & 3);
+    k->src = k->node = n;
+    k->hops = 0;
+    k->path = 0;
+    k->phase = RING_HOP;
+    k->copy = -1;
+    k->event = RING_NONE;
+    k->flits = r->pflits[k->x];
+    R->buf[n * RING_MAX] = n;
+    k->held[0] = n * RING_MAX;
+    R->injected[n] = 1;
+    R->ready &= ~(1u << n);
+}
+
+/* Packet q's delivery, at its destination: its claim of the receive FIFO, then its
+ * body over the whole path; 1 when granted. */
+static NOINLINE int deliver(mprt_replay *r, ring_t *R, int q)
+{
     ring_packet *k = &R->pkt[q];
     int64_t ft = r->cfg.flit_time, body;
-    if (k->phase == RING_HOP) {
-        int n = k->node, b = R->nxt[n] * RING_MAX + R->cls[k->hops + 1];
-        if ((R->busy >> n & 1) || R->buf[b] >= 0) return 0;
-        R->busy |= 1u << n;
-        R->link_cycles[n] += ft;
-        R->buf[b] = q;
-        k->held[k->hops + 1] = b;
-        ring_at(r, pe, q, ft, RING_ARRIVE);
-        return 1;
-    }
     if (k->phase == RING_CLAIM) {
         node *d = &R->nd[k->dst];
         if (R->writer[k->dst] >= 0) return 0;
@@ -173,7 +174,7 @@ static int step(mprt_replay *r, int pe, int q)
     /* the body: the rest of the packet over the whole path */
     body = k->flits - 1;
     if (body <= 0) {
-        complete(r, pe, q);
+        complete(r, R->id, q);
         return 1;
     }
     if (R->busy & k->path) return 0;
@@ -182,7 +183,65 @@ static int step(mprt_replay *r, int pe, int q)
         unsigned m;
         for (m = k->path; m; m &= m - 1) R->link_cycles[ctz64(m)] += body * ft;
     }
-    ring_at(r, pe, q, body * ft, RING_BODY_DONE);
+    ring_at(r, R, q, body * ft, RING_BODY_DONE);
+    return 1;
+}
+
+/* Try packet q's next step (a hop here, else its delivery); 1 when it was granted. */
+INLINE int step(mprt_replay *r, ring_t *R, int q)
+{
+    ring_packet *k = &R->pkt[q];
+    if (k->phase == RING_HOP) {
+        int64_t ft = r->cfg.flit_time;
+        int n = k->node, b = R->nxt[n] * RING_MAX + R->cls[k->hops + 1];
+        if ((R->busy >> n & 1) || R->buf[b] >= 0) return 0;
+        R->busy |= 1u << n;
+        R->link_cycles[n] += ft;
+        R->buf[b] = q;
+        k->held[k->hops + 1] = b;
+        ring_at(r, R, q, ft, RING_ARRIVE);
+        return 1;
+    }
+    return deliver(r, R, q);
+}
+
+/* An arbitration (kick) of a ring where no packet waits, outside an arbitration, when
+ * packet q's step is all it can grant: when no other ready node can inject (its class-0
+ * buffer is taken) and q's step completes no packet (a hop; a claim with a body to
+ * stream), the kick's pass would step q alone and end (a grant only takes resources;
+ * only a completion releases any, and asks for another pass).  So q steps here, and
+ * waits if refused: the same grants in the same order, without the kick's set-up.
+ * fast_ok: those conditions for a step that completes nothing, q's node's own ready
+ * bit aside (self: it injects q). */
+INLINE int fast_ok(const ring_t *R, unsigned self)
+{
+    unsigned m;
+    if (R->nwaiting || R->kicking) return 0;
+    for (m = R->ready & ~self; m; m &= m - 1)
+        if (R->buf[ctz64(m) * RING_MAX] < 0) return 0;
+    return 1;
+}
+
+INLINE void step_or_wait(mprt_replay *r, ring_t *R, int q)
+{
+    if (!step(r, R, q)) R->waiting[R->nwaiting++] = q;
+}
+
+int mprt__ring_send(mprt_replay *r, node *src, int64_t x, int g)
+{
+    ring_t *R = &r->rings[src->pe];
+    int n = src->stage;
+    if (!f_room(&src->sf)) return 0;
+    f_put(r, &src->sf, x * 4 + g);
+    if (R->injected[n]) return 1;       /* it waits its turn */
+    R->ready |= 1u << n;
+    if (R->buf[n * RING_MAX] >= 0) return 1;
+    if (fast_ok(R, 1u << n)) {          /* (a packet's first step is a hop: it completes nothing) */
+        inject(r, R, n);
+        step_or_wait(r, R, n);
+    } else {
+        mprt__ring_kick(r, src->pe);
+    }
     return 1;
 }
 
@@ -199,25 +258,9 @@ void mprt__ring_kick(mprt_replay *r, int pe)
         unsigned m;
         R->again = 0;
         for (m = R->ready; m; m &= m - 1) {         /* node by node */
-            const queue *sf;
             n = ctz64(m);
-            sf = &R->nd[n].sf.q;
             if (R->buf[n * RING_MAX] < 0) {
-                int64_t e = sf->buf[sf->head];
-                ring_packet *k = &R->pkt[n];
-                k->x = e >> 2;
-                k->dst = (int)(e & 3);
-                k->src = k->node = n;
-                k->hops = 0;
-                k->path = 0;
-                k->phase = RING_HOP;
-                k->copy = -1;
-                k->event = RING_NONE;
-                k->flits = r->pflits[k->x];
-                R->buf[n * RING_MAX] = n;
-                k->held[0] = n * RING_MAX;
-                R->injected[n] = 1;
-                R->ready &= ~(1u << n);
+                inject(r, R, n);
                 R->waiting[R->nwaiting++] = n;
             }
         }
@@ -225,7 +268,7 @@ void mprt__ring_kick(mprt_replay *r, int pe)
         cnt = R->nwaiting;
         for (i = keep = 0; i < cnt; i++) {
             int q = R->waiting[i];
-            if (!step(r, pe, q)) R->waiting[keep++] = q;
+            if (!step(r, R, q)) R->waiting[keep++] = q;
         }
         R->nwaiting = keep;
     } while (R->again);
@@ -248,8 +291,12 @@ void mprt__ring_event(mprt_replay *r)
         k->phase = k->node == k->dst ? RING_CLAIM : RING_HOP;
         R->claiming += k->phase == RING_CLAIM;
         k->event = RING_NONE;
-        R->waiting[R->nwaiting++] = q;
-        mprt__ring_kick(r, pe);
+        if ((k->phase == RING_HOP || k->flits > 1) && fast_ok(R, 0)) {
+            step_or_wait(r, R, q);
+        } else {
+            R->waiting[R->nwaiting++] = q;
+            mprt__ring_kick(r, pe);
+        }
     } else {                                /* the body has streamed: the path is free */
         R->busy &= ~k->path;
         k->event = RING_NONE;

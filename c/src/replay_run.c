@@ -68,7 +68,7 @@ static int build(mprt_replay *r)
     r->procs = calloc((size_t)r->nproc, sizeof *r->procs);
     r->nodes = calloc((size_t)r->nnode, sizeof *r->nodes);
     r->pes = calloc((size_t)c->pes, sizeof *r->pes);
-    r->heap_t = malloc((size_t)r->nproc * sizeof *r->heap_t);
+    r->heap_t = malloc((size_t)(r->nproc > SMALL_PROCS ? r->nproc : SMALL_PROCS) * sizeof *r->heap_t);
     r->heap_p = malloc((size_t)r->nproc * sizeof *r->heap_p);
     r->heap_i = malloc((size_t)r->nproc * sizeof *r->heap_i);
     if (!r->procs || !r->nodes || !r->pes || !r->heap_t || !r->heap_p || !r->heap_i)
@@ -80,7 +80,7 @@ static int build(mprt_replay *r)
     if (c->ring) last += (int64_t)(r->nv + (size_t)r->ntrees) * (RING_MAX + r->max_flits) * c->flit_time;
     r->small = r->nproc <= SMALL_PROCS && last < (INT64_MAX >> SMALL_SHIFT) - 1;
     r->pmin = -1;
-    for (i = 0; r->small && i < r->nproc; i++) r->heap_t[i] = INT64_MAX;
+    for (i = 0; r->small && i < SMALL_PROCS; i++) r->heap_t[i] = INT64_MAX;   /* (small_first reads them all) */
     i = 0;
     for (p = 0; p < c->pes; p++) {
         pe_t *e = &r->pes[p];
