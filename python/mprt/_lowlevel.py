@@ -99,9 +99,15 @@ for _ctype, _dt in (("mprt_trace_ray", RAY_DTYPE), ("mprt_trace_visit", VISIT_DT
 
 # ---- argument conversion ---------------------------------------------------------------------
 
+def _plain(a, dtype) -> np.ndarray:
+    """``a`` as a C-contiguous, aligned array of ``dtype`` (a copy only when needed): a member
+    memory-mapped from a trace file lies at any offset, and C reads plain arrays in place."""
+    return np.require(a, dtype, ("C", "A"))
+
+
 def vec3(name: str, value) -> np.ndarray:
     """Three doubles, or InvalidArgument naming the argument."""
-    a = np.ascontiguousarray(value, dtype=np.float64).reshape(-1)
+    a = _plain(value, np.float64).reshape(-1)
     if a.shape != (3,):
         raise InvalidArgument(f"{name}: expected 3 numbers, got {a.size}")
     return a
@@ -109,7 +115,7 @@ def vec3(name: str, value) -> np.ndarray:
 
 def points(name: str, value) -> np.ndarray:
     """An (n, 3) array of doubles, or InvalidArgument naming the argument."""
-    a = np.ascontiguousarray(value, dtype=np.float64)
+    a = _plain(value, np.float64)
     if a.ndim != 2 or a.shape[1] != 3:
         raise InvalidArgument(f"{name} must have shape (n, 3), not {a.shape}")
     return a
@@ -241,7 +247,7 @@ class Binding:
         v = points("polygon vertices", vertices)
         nrm = self.ffi.NULL
         if normals is not None:
-            nn = np.ascontiguousarray(normals, dtype=np.float64)
+            nn = _plain(normals, np.float64)
             if nn.shape != v.shape:
                 raise InvalidArgument(f"polygon normals must have shape {v.shape}, not {nn.shape}")
             nrm = self._in("double", nn)
@@ -384,7 +390,7 @@ class Binding:
     def grid_intersect(self, h, origins, directions):
         """Closest hits: (t float64[n], prim int32[n], counters)."""
         o = points("origins", origins)
-        d = np.ascontiguousarray(directions, dtype=np.float64)
+        d = _plain(directions, np.float64)
         if d.shape != o.shape:
             raise InvalidArgument(f"origins and directions must both have shape (n, 3), not {o.shape} and {d.shape}")
         n = o.shape[0]
@@ -464,7 +470,7 @@ class Binding:
         if children.shape != (len(rays), 4) or children.dtype != np.int64 or not children.flags.c_contiguous:
             raise InvalidArgument(f"replay_load_priced: children must be int64[{len(rays)}, 4] as cost_children "
                                   "makes it")
-        pk = np.ascontiguousarray(prim_kind, dtype=np.int32)
+        pk = _plain(prim_kind, np.int32)
         self._check(self.lib.mprt_replay_load_priced(
             h, self._in("mprt_trace_ray", np.ascontiguousarray(rays), len(rays)), len(rays),
             self._in("mprt_trace_visit", np.ascontiguousarray(visits), len(visits)), len(visits),
@@ -476,7 +482,7 @@ class Binding:
                     send: np.ndarray) -> None:
         """Load the records (RAY_DTYPE, VISIT_DTYPE) with int64 costs per visit (copied)."""
         rays, visits = self._records("rays", rays, RAY_DTYPE), self._records("visits", visits, VISIT_DTYPE)
-        costs = [np.ascontiguousarray(a, dtype=np.int64) for a in (process, receive, send)]
+        costs = [_plain(a, np.int64) for a in (process, receive, send)]
         for name, a in zip(("process", "receive", "send"), costs):
             if a.shape != (len(visits),):
                 raise InvalidArgument(f"costs.{name} has shape {a.shape}, the trace has {len(visits)} visits")
@@ -495,7 +501,7 @@ class Binding:
 
             f = np.frombuffer(mmap.mmap(-1, max(8 * f.size, 1)), dtype=np.int64, count=f.size).reshape(f.shape)
             np.copyto(f, flits, casting="same_kind")
-        k = np.ascontiguousarray(kid_flits, dtype=np.int64)
+        k = _plain(kid_flits, np.int64)
         self._check(self.lib.mprt_replay_set_flits(h, self._in("int64_t", f), f.size, self._in("int64_t", k), k.size,
                                                    int(inject_flits)), self.lib.mprt_replay_errmsg, h)
 
@@ -630,7 +636,7 @@ class Binding:
             outs.append(self._out(ctype, a, n * width))
         if children.shape != (len(rays), 4) or children.dtype != np.int64 or not children.flags.c_contiguous:
             raise InvalidArgument(f"cost_visits: children must be int64[{len(rays)}, 4] as cost_children makes it")
-        pk = np.ascontiguousarray(prim_kind, dtype=np.int32)
+        pk = _plain(prim_kind, np.int32)
         msg = self._cost_errmsg()
         self._cost_check(self.lib.mprt_cost_visits(t, self._in("mprt_trace_ray", rays, len(rays)),
                                                    self._in("int64_t", children, 4 * len(rays)),
@@ -642,7 +648,7 @@ class Binding:
         """mprt_visit_keys: (keys int32 per visit, voxel_refs int64[nvoxels], material_refs
         int64[nmaterials]); ValueError naming a visit whose key does not fit."""
         visits = self._records("visits", visits, VISIT_DTYPE)
-        mat = np.ascontiguousarray(prim_material, dtype=np.int64)
+        mat = _plain(prim_material, np.int64)
         keys = np.empty(len(visits), np.int32)
         vref, mref = np.empty(int(nvoxels), np.int64), np.empty(int(nmaterials), np.int64)
         msg = self._cost_errmsg()
@@ -666,7 +672,7 @@ class Binding:
             if d is None:
                 return ffi.NULL
             c = ffi.new("mprt_replay_memory_data *")
-            arrs = {k: np.ascontiguousarray(d[k], dtype=t) for k, t in
+            arrs = {k: _plain(d[k], t) for k, t in
                     (("items", np.int32), ("resident", np.int32), ("line_start", np.int64), ("lines", np.int64))}
             n = len(arrs["items"])
             if len(arrs["resident"]) != n or len(arrs["line_start"]) != n + 1:
@@ -680,7 +686,7 @@ class Binding:
             keep.append(c)
             return c
 
-        k = np.ascontiguousarray(key, dtype=np.int32)
+        k = _plain(key, np.int32)
         self._check(self.lib.mprt_replay_set_memory(h, self._in("int32_t", k), len(k), data(ic), data(sc)),
                     self.lib.mprt_replay_errmsg, h)
 
@@ -697,7 +703,7 @@ class Binding:
     def samples_to_image(self, rules: int, samples: np.ndarray) -> np.ndarray:
         """Pixels (float32 (H, W, 3)) from samples (float64 (samples_h, samples_w, 3)) as the
         renderer reconstructs them under ``rules``."""
-        s = np.ascontiguousarray(samples, dtype=np.float64)
+        s = _plain(samples, np.float64)
         if s.ndim != 3 or s.shape[2] != 3:
             raise InvalidArgument(f"samples must have shape (h, w, 3), not {s.shape}")
         shrink = 1 if rules == Rules.SPD else 0
