@@ -28,7 +28,13 @@ class _Memo:
 
     def __call__(self, level):
         def f(pts):
-            return [self.got.setdefault((p.key(), level), self.ev.run(p.design, level)) for p in pts]
+            out = []
+            for p in pts:
+                k = (p.key(), level)
+                if k not in self.got:
+                    self.got[k] = self.ev.run(p.design, level)
+                out.append(self.got[k])
+            return out
         return f
 
 

@@ -8,28 +8,17 @@ import pytest
 
 import mprt
 from mprt.explore import load_space
-from mprt.explore.evaluate import TraceEvaluator
 from mprt.explore.explorer import _bounds
 from mprt.explore.hwcost import hardware_cost
 from mprt.explore.refine import SCREEN_MARGIN, Screen
 from mprt.explore.search import Problem, compass, exhaustive, search
 from mprt.fidelity import sample_trace
 
+from test_explore_level3 import _Memo
+
 DATA = Path(__file__).parent / "data"
 SMALL = DATA / "explore" / "small_space.toml"           # 222 designs: mappings, copies, units, PEs
 GOLDEN = DATA / "golden"
-
-
-class _Memo:
-    """Each design once per level on one trace."""
-
-    def __init__(self, trace):
-        self.ev, self.got = TraceEvaluator(trace), {}
-
-    def __call__(self, level):
-        def f(pts):
-            return [self.got.setdefault((p.key(), level), self.ev.run(p.design, level)) for p in pts]
-        return f
 
 
 @pytest.fixture(scope="module")
