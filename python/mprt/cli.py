@@ -408,7 +408,9 @@ def main(argv=None) -> int:
     args = build_parser().parse_args(argv)
     args.argv = argv
     try:
-        return args.func(args)
+        rc = args.func(args)
+        sys.stdout.flush()        # here, not at exit: a reader gone by now is caught below
+        return rc
     except UsageError as e:
         print(f"mprt {args.cmd}: error: {e}", file=sys.stderr)
         return 2
@@ -416,7 +418,11 @@ def main(argv=None) -> int:
         print(f"mprt {args.cmd}: interrupted", file=sys.stderr)
         return 130
     except BrokenPipeError:   # the reader went away (mprt scene balls | head): not an error of ours
-        sys.stdout = open(os.devnull, "w")
+        # what stdout still buffers goes nowhere: its flush at exit would fail on the closed pipe
+        try:
+            os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        except (OSError, ValueError, AttributeError):   # a stdout without a descriptor (called in-process)
+            sys.stdout = open(os.devnull, "w")
         return 0
     except (MprtError, MemoryError, OSError, ValueError) as e:
         print(f"mprt {args.cmd}: error: {e}", file=sys.stderr)
