@@ -13,6 +13,8 @@ import pytest
 
 import mprt
 
+from test_skip import grid_under as skip_grid_under
+
 GOLDEN = os.path.join(os.path.dirname(os.path.abspath(__file__)), "data", "golden")
 GOLDEN_FILES = sorted(f for f in os.listdir(GOLDEN) if f.endswith(".npz"))
 SCALAR, PORTABLE, DEFAULT = {"MPRT_IC_PACK": "0"}, {"MPRT_IC_SIMD": "0"}, {}
@@ -21,13 +23,8 @@ VARIABLES = ("MPRT_IC_PACK", "MPRT_IC_SIMD", "MPRT_IC_BLOCKS")
 
 
 def grid_under(monkeypatch, env: dict, scene, n):
-    """A grid made while the environment holds env (and none of the variables otherwise)."""
-    with monkeypatch.context() as m:
-        for k in VARIABLES:
-            m.delenv(k, raising=False)
-        for k, v in env.items():
-            m.setenv(k, v)
-        return scene.grid(n)
+    """A grid made while the environment holds env (and none of the IC variables otherwise)."""
+    return skip_grid_under(monkeypatch, env, scene, n, VARIABLES)
 
 
 def triangles_only(scene):

@@ -22,10 +22,10 @@ PLAIN, EVERYWHERE, SKIP, DEFAULT = {"MPRT_NO_SKIP": "1"}, {"MPRT_JUMP_MIN": "2"}
 VARIABLES = ("MPRT_NO_SKIP", "MPRT_JUMP_MIN", "MPRT_SKIP")
 
 
-def grid_under(monkeypatch, env: dict, scene, n):
+def grid_under(monkeypatch, env: dict, scene, n, variables=VARIABLES):
     """A grid made while the environment holds env (and none of the variables otherwise)."""
     with monkeypatch.context() as m:
-        for k in VARIABLES:
+        for k in variables:
             m.delenv(k, raising=False)
         for k, v in env.items():
             m.setenv(k, v)

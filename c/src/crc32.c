@@ -65,6 +65,22 @@ static uint32_t crc_portable(uint32_t c, unsigned char *dst, const unsigned char
 #ifdef MPRT__CRC_HAVE_CLMUL
 #define TARGET_CLMUL __attribute__((target("pclmul,sse4.1")))
 
+/* 64 bytes at p into four registers, and copied to dst when there is one; the dst after them. */
+TARGET_CLMUL static inline unsigned char *load64(const unsigned char *p, unsigned char *dst, __m128i *a, __m128i *b,
+                                                 __m128i *c, __m128i *d)
+{
+    *a = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x00));
+    *b = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x10));
+    *c = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x20));
+    *d = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x30));
+    if (!dst) return NULL;
+    _mm_storeu_si128((__m128i *)(void *)(dst + 0x00), *a);
+    _mm_storeu_si128((__m128i *)(void *)(dst + 0x10), *b);
+    _mm_storeu_si128((__m128i *)(void *)(dst + 0x20), *c);
+    _mm_storeu_si128((__m128i *)(void *)(dst + 0x30), *d);
+    return dst + 64;
+}
+
 /* The register c over a whole number of 16-byte blocks (n >= 64), copied to
  * dst unless NULL. Constants: x^(4*128+32) and x^(4*128-32) mod P (folding
  * four lanes), x^(128+32) and x^(128-32) (one lane), x^64 (128 to 64 bits),
@@ -78,17 +94,7 @@ TARGET_CLMUL static uint32_t crc_clmul(uint32_t c, unsigned char *dst, const uns
     const __m128i mask32 = _mm_setr_epi32(-1, 0, -1, 0);
     __m128i x1, x2, x3, x4, x5, x6, x7, x8, y5, y6, y7, y8;
 
-    x1 = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x00));
-    x2 = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x10));
-    x3 = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x20));
-    x4 = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x30));
-    if (dst) {
-        _mm_storeu_si128((__m128i *)(void *)(dst + 0x00), x1);
-        _mm_storeu_si128((__m128i *)(void *)(dst + 0x10), x2);
-        _mm_storeu_si128((__m128i *)(void *)(dst + 0x20), x3);
-        _mm_storeu_si128((__m128i *)(void *)(dst + 0x30), x4);
-        dst += 64;
-    }
+    dst = load64(p, dst, &x1, &x2, &x3, &x4);
     x1 = _mm_xor_si128(x1, _mm_cvtsi32_si128((int)c));
     p += 64;
     n -= 64;
@@ -101,17 +107,7 @@ TARGET_CLMUL static uint32_t crc_clmul(uint32_t c, unsigned char *dst, const uns
         x2 = _mm_clmulepi64_si128(x2, k1k2, 0x11);
         x3 = _mm_clmulepi64_si128(x3, k1k2, 0x11);
         x4 = _mm_clmulepi64_si128(x4, k1k2, 0x11);
-        y5 = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x00));
-        y6 = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x10));
-        y7 = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x20));
-        y8 = _mm_loadu_si128((const __m128i *)(const void *)(p + 0x30));
-        if (dst) {
-            _mm_storeu_si128((__m128i *)(void *)(dst + 0x00), y5);
-            _mm_storeu_si128((__m128i *)(void *)(dst + 0x10), y6);
-            _mm_storeu_si128((__m128i *)(void *)(dst + 0x20), y7);
-            _mm_storeu_si128((__m128i *)(void *)(dst + 0x30), y8);
-            dst += 64;
-        }
+        dst = load64(p, dst, &y5, &y6, &y7, &y8);
         x1 = _mm_xor_si128(_mm_xor_si128(x1, x5), y5);
         x2 = _mm_xor_si128(_mm_xor_si128(x2, x6), y6);
         x3 = _mm_xor_si128(_mm_xor_si128(x3, x7), y7);

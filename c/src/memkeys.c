@@ -5,7 +5,7 @@
 #include <stdio.h>
 #include <string.h>
 
-#include "mprt.h"
+#include "mprt_internal.h"
 
 int mprt_visit_keys(const mprt_trace_visit *visits, size_t nvisits, const int64_t *prim_material, size_t nprims,
                     int32_t *keys, int64_t *voxel_refs, size_t nvoxels, int64_t *material_refs, size_t nmaterials,
@@ -21,10 +21,8 @@ int mprt_visit_keys(const mprt_trace_visit *visits, size_t nvisits, const int64_
     for (j = 0; j < nvoxels; j++) voxel_refs[j] = 0;
     for (j = 0; j < nmaterials; j++) material_refs[j] = 0;
     for (j = 0; j < nvisits; j++) {
-        mprt_trace_visit va;
-        const mprt_trace_visit *a = &va;
+        const mprt_trace_visit va = mprt__visit_at(visits, j), *a = &va;
         int64_t k = -1;
-        memcpy(&va, (const unsigned char *)visits + j * sizeof va, sizeof va);
         if (a->stage == MPRT_STAGE_IC) {
             k = a->voxel_id;
             if (k >= 0) {

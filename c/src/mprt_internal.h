@@ -305,14 +305,14 @@ int mprt__cost_range(const mprt_cost_table *t, const mprt_trace_ray *rays, const
 
 /* Record i of a trace's rays or visits, read through memcpy: a memory-mapped member of a
  * trace file lies at any offset of the file, so its records need not be aligned. */
-static inline mprt_trace_ray mprt__ray_at(const mprt_trace_ray *rays, size_t i)
+static inline mprt_trace_ray mprt__ray_at(const void *rays, size_t i)
 {
     mprt_trace_ray y;
     memcpy(&y, (const unsigned char *)rays + i * sizeof y, sizeof y);
     return y;
 }
 
-static inline mprt_trace_visit mprt__visit_at(const mprt_trace_visit *visits, size_t j)
+static inline mprt_trace_visit mprt__visit_at(const void *visits, size_t j)
 {
     mprt_trace_visit a;
     memcpy(&a, (const unsigned char *)visits + j * sizeof a, sizeof a);

@@ -123,7 +123,7 @@ static int price(mprt_replay *r, const pricer *pr, const mprt_trace_ray *rays, c
     size_t n = nv - j < PRICE_CHUNK ? nv - j : PRICE_CHUNK;
     mprt_trace_visit before;
     int rc;
-    if (j) memcpy(&before, (const unsigned char *)v + (j - 1) * sizeof before, sizeof before);
+    if (j) before = mprt__visit_at(v, j - 1);
     rc = mprt__cost_range(pr->table, rays, pr->children, r->nr, pr->prim_kind, pr->nprims, v, j, n,
                           j ? before.ray : -1, j ? before.outcome : 0, pr->buf, pr->buf + PRICE_CHUNK,
                           pr->buf + 2 * PRICE_CHUNK, pr->flits ? pr->flits + j : NULL, msg, sizeof msg);

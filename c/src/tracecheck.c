@@ -15,7 +15,7 @@
 #include <stdlib.h>
 #include <string.h>
 
-#include "mprt.h"
+#include "mprt_internal.h"
 
 enum { BEGUN = 1, SC_SEEN = 2, CODES = 16 };
 #define CODE(s, o) ((s) * CODES + (o))
@@ -62,13 +62,6 @@ static const uint64_t SHADOW_ONLY = BIT(MPRT_STAGE_IC, MPRT_OUT_BLOCKED) | BIT(M
                                     BIT(MPRT_STAGE_OS, MPRT_OUT_TO_SC);
 static const uint64_t NEVER_SHADOW = BIT(MPRT_STAGE_IC, MPRT_OUT_HIT) | BIT(MPRT_STAGE_SC, MPRT_OUT_SHADED) |
                                      BIT(MPRT_STAGE_OS, MPRT_OUT_LEFT);
-
-static mprt_trace_ray ray_at(const mprt_trace_checker *c, int64_t i)
-{
-    mprt_trace_ray y;
-    memcpy(&y, c->rays + (size_t)i * sizeof y, sizeof y);
-    return y;
-}
 
 static int fault(mprt_trace_checker *c, int kind, const char *fmt, ...)
 {
@@ -132,7 +125,7 @@ int mprt_trace_checker_rays(mprt_trace_checker *c, size_t lo, size_t hi)
     L = &c->lim;
     n = (int64_t)c->nrays;
     for (i = lo; i < hi; i++) {
-        const mprt_trace_ray yr = ray_at(c, (int64_t)i), *y = &yr;
+        const mprt_trace_ray yr = mprt__ray_at(c->rays, i), *y = &yr;
         if (y->id != (int64_t)i) return fault(c, MPRT_TRACE_RANGE, "ray %zu: id %lld", i, (long long)y->id);
         if (outside(y->parent, -1, n - 1) || outside(y->pixel, 0, L->pixels - 1) ||
             outside(y->light, -1, L->lights - 1) || y->kind > MPRT_RAY_SHADOW || y->depth > L->max_depth ||
@@ -142,7 +135,7 @@ int mprt_trace_checker_rays(mprt_trace_checker *c, size_t lo, size_t hi)
         if ((y->kind == MPRT_RAY_PRIMARY) != (y->parent < 0))
             return fault(c, MPRT_TRACE_INVARIANT, "ray %zu: primary rays and only they have no parent", i);
         if (y->parent >= 0) {
-            const mprt_trace_ray pr = ray_at(c, y->parent), *p = &pr;
+            const mprt_trace_ray pr = mprt__ray_at(c->rays, (size_t)y->parent), *p = &pr;
             if (y->depth < p->depth) return fault(c, MPRT_TRACE_INVARIANT, "ray %zu is shallower than its parent", i);
             if (y->pixel != p->pixel)
                 return fault(c, MPRT_TRACE_INVARIANT, "ray %zu belongs to another pixel than its parent", i);
@@ -176,11 +169,8 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
     made_max = L->lights + 2;
     inv = L->invariants;
     for (j = 0; j < nvisits; j++, c->seen++) {
-        mprt_trace_visit va;
-        const mprt_trace_visit *a = &va;
-        int64_t ray;
-        memcpy(&va, (const unsigned char *)visits + j * sizeof va, sizeof va);
-        ray = a->ray;
+        const mprt_trace_visit va = mprt__visit_at(visits, j), *a = &va;
+        int64_t ray = a->ray;
         int st = a->stage, code, k, tested = 0;
         for (k = 0; k < MPRT_NKINDS; k++) {
             if (outside(a->tests[k], 0, L->tests)) break;
@@ -194,7 +184,7 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
         if (!inv) continue;
         code = CODE(st, a->outcome);
         if (ray != c->prev_ray) {
-            int64_t parent = ray_at(c, ray).parent;
+            int64_t parent = mprt__ray_at(c->rays, (size_t)ray).parent;
             if (c->prev_ray >= 0 && ends(c, c->prev_code)) return c->fault;
             if (c->state[ray] & BEGUN)
                 return fault(c, MPRT_TRACE_INVARIANT, "ray %lld: its visits are not contiguous", (long long)ray);
@@ -206,7 +196,7 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
         } else if (!(next_of(c->prev_code) >> code & 1)) {
             return fault(c, MPRT_TRACE_INVARIANT, "visit %zu: code %d after code %d", c->seen, code, c->prev_code);
         }
-        if (ray_at(c, ray).kind == MPRT_RAY_SHADOW ? NEVER_SHADOW >> code & 1 : SHADOW_ONLY >> code & 1)
+        if (mprt__ray_at(c->rays, (size_t)ray).kind == MPRT_RAY_SHADOW ? NEVER_SHADOW >> code & 1 : SHADOW_ONLY >> code & 1)
             return fault(c, MPRT_TRACE_INVARIANT, "visit %zu: a shadow ray's outcome on another ray, or the reverse",
                          c->seen);
         if ((tested && st != MPRT_STAGE_IC) || (a->steps != 0 && st != MPRT_STAGE_OS))
