@@ -119,8 +119,9 @@ def test_random_memory_configurations_equal_simpy(traces, seed):
 @pytest.mark.parametrize("ways", [1, 2, 3, 4, 8])
 def test_caches_of_each_way_count_equal_simpy(traces, ways):
     # the C look-up has its own code for 2 and 4 ways (the 3MPPE's), a loop for the others,
-    # and skips a look-up of the same lines as the cache's last one when those all hit: each
-    # way count with caches that miss and caches that hold the scene, hits and misses counted
+    # and skips a look-up of the same key as the cache's last one (its misses known from the
+    # first such repeat): each way count with caches that miss and caches that hold the scene,
+    # hits and misses counted
     t = traces["balls-g9"]
     base = builtin("3mppe").replace(ring=None, pes=2)
     seen = {"hit": 0, "miss": 0}
@@ -146,6 +147,30 @@ def test_event_logs_equal_simpy_with_memories(traces, seed):
 
 
 # ---- one load, many memories --------------------------------------------------------------
+
+def test_repeats_known_from_one_run_serve_the_next_of_the_same_cache_shape(traces):
+    # a repeat's misses depend on the key and the cache's shape alone, so the C replay keeps
+    # them from run to run while the shape stays: caches far smaller than a voxel's data (every
+    # repeat misses), the same shape again after another and under other global memories
+    t = traces["balls-g9"]
+    base = builtin("3mppe").replace(ring=None, pes=2)
+    vc = CM.visit_costs(t, base.processors())
+    c = Compiled(t, vc)
+
+    def mem(size, ways, lat, contention):
+        gm = GlobalMemoryConfig(lat, 8, contention)
+        return base.replace(ic_memory=LocalMemoryConfig(0, CacheConfig(size, 16, ways)),
+                            sc_memory=LocalMemoryConfig(0, CacheConfig(size, 16, ways)), icgm=gm, scgm=gm)
+    cfgs = [mem(64, 2, 20, True), mem(256, 4, 20, True), mem(64, 2, 3, False), mem(64, 2, 20, True),
+            mem(32, 1, 0, True), mem(64, 2, 20, True)]
+    got = []
+    for cfg in cfgs:
+        a = simulate(t, cfg, costs=vc)
+        b = c.result(cfg)
+        assert same(a, b), cfg
+        assert a.memory["ic_cache"]["hits"] < a.memory["ic_cache"]["accesses"]
+        got.append(b.cycles)
+    assert got[0] == got[3] == got[5] and len(set(got)) >= 4
 
 def test_one_load_runs_many_memory_configurations(traces):
     t = traces["rings-g9"]

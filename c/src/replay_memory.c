@@ -12,13 +12,26 @@
  * for the line's transfer, plus the latency.  The stall is when the last data
  * is back, less the start.
  *
- * A look-up of the same lines as the cache's last one, which all hit, is skipped
- * (counted as hits; no stall): that all of a key's lines hit means that no set holds
- * more of them than its ways (the one past them would have missed), so afterwards each
- * set has its lines of the key in front, the last touched first; touching the same
- * lines in the same order again hits every time and puts them back in that order, the
- * rest of the set unchanged behind them: the state is as it was.  (A key's lines are
- * known by their start in lines[]: a key without lines looks nothing up.)
+ * A look-up of a key right after a look-up of the same key in the same cache (a
+ * repeat) leaves the cache as it was, and its misses depend on the key and the
+ * cache's shape alone, so they are worked out once (the first repeat runs the look-up)
+ * and kept for every later repeat, in every PE and every run of that shape.  Proof,
+ * one set at a time, x1..xm the key's lines that map to it in the order read (a line
+ * may recur): after any look-up, if they hold at least `ways` distinct lines the set
+ * holds the last `ways` of them by last use, whatever it held before; else it holds
+ * all of them, by last use, in front of what it held before less them, in its order.
+ * Reading x1..xm again: in the first case the set ends the same by the same rule, and
+ * its misses follow from a state the key alone made; in the second every line hits
+ * (none is evicted, as fewer than `ways` distinct lines are touched), none of the
+ * rest moves, and the order by last use is the same.  (A key without lines touches
+ * nothing and leaves the last look-up as it was.)
+ *
+ * The misses of a visit are read one after the other, so only their number counts:
+ * the first waits for the port (free at cycle p, the visit starting at t) until
+ * s = max(t, p); each takes its transfer and then the latency, the next one starting
+ * when the data is back (then the port is free again, as the latency is >= 0).  With
+ * n misses the data is back at s + n (xfer + lat), the port is free at
+ * s + n xfer + (n - 1) lat, and the reads waited s - t.
  *
  * A cache is never allocated larger than its data can fill: with more sets
  * than lines (numbers 0..L-1) every line has a set of its own, as it has with
@@ -36,7 +49,7 @@ typedef struct {
 
 typedef struct {
     mprt_replay_memory fig;
-    int64_t again;               /* the lines' start + 1 of this cache's last look-up if all of them hit, else 0 */
+    int64_t last;                /* the key of this cache's last look-up + 1 (0: none yet) */
 } local_mem;
 
 typedef struct {
@@ -54,6 +67,9 @@ typedef struct {
     int64_t *tags;               /* per PE nsets x ways line numbers, most recently used first (-1: empty) */
     int64_t *where;              /* per entry of lines: its set's first way in a PE's tags (s x ways) */
     local_mem *loc;              /* per PE */
+    /* kept from run to run while the data and the cache's shape stay */
+    int64_t *repeat;             /* per key: a repeat's misses + 1 (0: not known yet) */
+    int64_t rep_sets, rep_ways;  /* the shape they are for (0: none) */
 } memory;
 
 struct mprt__mem {
@@ -113,8 +129,11 @@ static void free_data(memory *m)
 {
     free(m->info);
     free(m->lines);
+    free(m->repeat);
     m->info = NULL;
     m->lines = NULL;
+    m->repeat = NULL;
+    m->rep_sets = m->rep_ways = 0;
     m->has = 0;
     m->nkeys = 0;
 }
@@ -286,6 +305,13 @@ static int build_one(mprt_replay *r, int t)
     for (a = 0; a < cells; a++) m->tags[a] = -1;     /* (line numbers are >= 0) */
     for (a = 0; a < nl; a++)
         m->where[a] = (m->pow2 ? (m->lines[a] & (m->nsets - 1)) : m->lines[a] % m->nsets) * m->ways;
+    if (!m->repeat && !(m->repeat = malloc((m->nkeys + 1) * sizeof *m->repeat)))
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the %s caches' repeats", NAME[t]);
+    if (m->rep_sets != m->nsets || m->rep_ways != m->ways) {     /* another shape: its repeats are unknown */
+        memset(m->repeat, 0, (m->nkeys + 1) * sizeof *m->repeat);
+        m->rep_sets = m->nsets;
+        m->rep_ways = m->ways;
+    }
     return MPRT_OK;
 }
 
@@ -352,27 +378,17 @@ INLINE int lru_touch(int64_t *w, int64_t ways, int64_t x)
     return found;
 }
 
-/* Lines a .. b through the cache whose sets are at tags (a PE's), of ways ways: each miss
- * read from the port (its first free cycle *port; the last data back at *done; *queued
- * the cycles reads waited).  The misses.  Called with ways a constant where it is 2 or
- * 4, so that the compiler unrolls the look-up for them. */
-INLINE int64_t look_up(const memory *m, int64_t *tags, int64_t ways, int64_t a, int64_t b, int64_t *done,
-                       int64_t *port, int64_t *queued)
+/* Lines a .. b through the cache whose sets are at tags (a PE's), of ways ways: the
+ * misses.  Called with ways a constant where it is 2 or 4, so that the compiler
+ * unrolls the look-up for them. */
+INLINE int64_t look_up(const memory *m, int64_t *tags, int64_t ways, int64_t a, int64_t b)
 {
     const int64_t *lines = m->lines, *where = m->where;
-    int64_t xfer = m->xfer, lat = m->latency, d = *done, p = *port, qd = *queued, reads = 0;
+    int64_t reads = 0;
     for (; a < b; a++) {
-        int64_t x = lines[a], *w = tags + where[a], s;
-        if (w[0] == x || lru_touch(w, ways, x)) continue;     /* a hit */
-        s = d > p ? d : p;              /* the port's first free cycle */
-        p = s + xfer;
-        qd += s - d;
-        reads++;
-        d = s + xfer + lat;
+        int64_t x = lines[a], *w = tags + where[a];
+        if (w[0] != x && !lru_touch(w, ways, x)) reads++;
     }
-    *done = d;
-    *port = p;
-    *queued = qd;
     return reads;
 }
 
@@ -384,7 +400,7 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     memory *m;
     local_mem *lm;
     const keyinfo *ki;
-    int64_t k, a, b, now = r->now, done = now, port, xfer, lat, reads = 0, queued = 0;
+    int64_t k, a, b, now = r->now, s, *port, reads;
     if (key == -1) return 0;
     m = &M->m[key >= 0 ? 0 : 1];
     if (!m->on) return 0;
@@ -396,38 +412,33 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     a = ki->start;
     b = ki[1].start;
     if (a == b) return 0;
-    port = m->port_free[m->nports == 1 ? 0 : pe];
-    xfer = m->xfer;
-    lat = m->latency;
+    reads = b - a;                      /* without a cache, every line */
     if (m->cached) {
-        int64_t *tags, ways = m->ways, first = a;
-        lm->fig.cache_accesses += b - a;
-        lm->fig.cache_hits += b - a;
-        if (lm->again == a + 1) return 0;      /* the same lines again, all hits: nothing changes */
-        tags = m->tags + (size_t)pe * (size_t)m->nsets * (size_t)ways;
-        if (ways == 4)
-            reads = look_up(m, tags, 4, a, b, &done, &port, &queued);
-        else if (ways == 2)
-            reads = look_up(m, tags, 2, a, b, &done, &port, &queued);
-        else
-            reads = look_up(m, tags, ways, a, b, &done, &port, &queued);
-        lm->fig.cache_hits -= reads;
-        lm->again = reads ? 0 : first + 1;
-    } else {
-        for (; a < b; a++) {
-            int64_t s = done > port ? done : port;
-            port = s + xfer;
-            queued += s - done;
-            reads++;
-            done = s + xfer + lat;
+        int64_t *tags = m->tags + (size_t)pe * (size_t)m->nsets * (size_t)m->ways, ways = m->ways;
+        if (lm->last == k + 1 && m->repeat[k]) {
+            reads = m->repeat[k] - 1;   /* a repeat: nothing changes (see the top) */
+        } else {
+            if (ways == 4)
+                reads = look_up(m, tags, 4, a, b);
+            else if (ways == 2)
+                reads = look_up(m, tags, 2, a, b);
+            else
+                reads = look_up(m, tags, ways, a, b);
+            if (lm->last == k + 1) m->repeat[k] = reads + 1;
+            lm->last = k + 1;
         }
+        lm->fig.cache_accesses += b - a;
+        lm->fig.cache_hits += b - a - reads;
+        if (!reads) return 0;
     }
-    m->port_free[m->nports == 1 ? 0 : pe] = port;
+    port = &m->port_free[m->nports == 1 ? 0 : pe];
+    s = now > *port ? now : *port;
+    *port = s + reads * m->xfer + (reads - 1) * m->latency;
     lm->fig.gm_accesses += reads;
-    lm->fig.gm_busy += reads * xfer;
-    lm->fig.gm_queued += queued;
-    lm->fig.stall += done - now;
-    return done - now;
+    lm->fig.gm_busy += reads * m->xfer;
+    lm->fig.gm_queued += s - now;
+    lm->fig.stall += s - now + reads * (m->xfer + m->latency);
+    return s - now + reads * (m->xfer + m->latency);
 }
 
 /* ---- figures ------------------------------------------------------------------------ */
