@@ -142,3 +142,38 @@ def test_explore_leaves_no_cycle_holding_its_traces():
         assert not [o for o in gc.get_objects() if isinstance(o, SceneEvaluator)]
     finally:
         gc.enable()
+
+
+def _refined(behind: float):
+    """refine() on a made-up landscape: two subdivisions, the second's designs ``behind`` times
+    the first's cycles; the subdivisions its full-resolution polish walked (both subdivisions
+    among the twelve designs checked at full resolution)."""
+    from mprt.explore.evaluate import Result
+    from mprt.explore.refine import refine
+    from mprt.explore.space import parse_space
+
+    sp = parse_space('mapping = "OS+IC+SC"\npes = { min = 1, max = 4 }\nfifo = 16\n'
+                     '[subdivision]\nn = { choices = [8, 16] }\nshape = "cube"\n'
+                     '[replication]\nOS = { min = 1, max = 3 }\n[units.OS]\nint = 1\nfp = 1\n'
+                     '[cache]\nIC = 0\nSC = 0\n[resident]\nIC = 0\nSC = 0\n')
+
+    def cycles(p):
+        base = 1000.0 * (behind if p.subdivision[0] == 16 else 1.0)
+        return base / (p.design.pes * p.design.replication["OS"]) ** 0.5
+
+    def run(pts, level=3):
+        return [Result(cycles=cycles(p), level=level, cost=hardware_cost(p.design)) for p in pts]
+
+    low = Problem(sp, run, "time", None)
+    exhaustive(low)
+    full = SimpleNamespace(level=3, width=8, height=8)
+    pool = SimpleNamespace(workers=1, run=lambda ev, pts, lv: run(pts, lv))
+    best, rows, n, ran = refine(low, sp, full, "time", None, 2, 10, 12, pool, lambda p: hardware_cost(p.design))
+    return {r["subdivision"][0] for r in rows if r["phase"] == "full"} | {best.point.subdivision[0]}
+
+
+def test_refine_polishes_a_second_subdivision_only_within_the_screen_margin():
+    """The full-resolution polish starts from the second-best subdivision only if its best is
+    within the screen's margin of the best: far behind, its walk cannot win and is not made."""
+    assert _refined(1.0 / (1 - SCREEN_MARGIN) * 1.5) == {8}
+    assert _refined(1.0 / (1 - SCREEN_MARGIN) * 0.9) == {8, 16}
