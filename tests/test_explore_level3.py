@@ -111,6 +111,88 @@ def test_trades_under_a_budget_reach_what_single_steps_cannot():
     assert compass(q, start, 50, fixed=(pos["mapping"],)) == start
 
 
+def test_trades_are_every_minimal_repair_of_up_to_two_steps_down():
+    """On the built-in space under a budget (costs only, no trace), from designs within it: each
+    step up that does not fit comes with every repair of up to two steps down (-1 on one other
+    index, -2 on one, -1 on two) that brings it within the budget and has no smaller repair
+    inside it, and with no other; a step up that fits comes alone."""
+    import numpy as np
+
+    from mprt.explore import default_space
+    from mprt.explore.search import _trades
+
+    sp = default_space()
+    cost_of = lambda pt: hardware_cost(pt.design)  # noqa: E731
+    sizes = [v.size for v in sp.variables]
+    num = [i for i in range(len(sizes)) if sizes[i] > 1 and not isinstance(sp.variables[i].values[0], str)]
+    rng = np.random.default_rng(3)
+    checked = pairs = 0
+    while checked < 25:
+        cur = sp.canonical([int(rng.integers(s)) for s in sizes])
+        budget = cost_of(sp.point(cur)) + float(rng.choice([0.0, 20.0, 60.0]))
+        p = Problem(sp, None, "time", budget, cost_of=cost_of)
+        fits = lambda nb: not p.over_budget(sp.canonical(nb))  # noqa: E731
+        want = set()
+        for i in num:
+            if cur[i] + 1 >= sizes[i]:
+                continue
+            up = list(cur)
+            up[i] += 1
+            if fits(up):
+                want.add(sp.canonical(up))
+                continue
+            moved = lambda steps: [c - steps.get(j, 0) for j, c in enumerate(up)]  # noqa: E731
+            repairs = [{j: 1} for j in num if j != i] + [{j: 2} for j in num if j != i] + \
+                [{j: 1, k: 1} for a, j in enumerate(num) for k in num[a + 1:] if i not in (j, k)]
+            for r in repairs:
+                nb = moved(r)
+                if min(nb[j] for j in r) < 0 or not fits(nb):
+                    continue
+                smaller = [{j: 1} for j in r] if sum(r.values()) == 2 else []
+                if not any(fits(moved(s)) for s in smaller):
+                    want.add(sp.canonical(nb))
+                    pairs += len(r) == 2
+        got = []
+        _trades(p, cur, num, sizes, got.append)
+        assert {sp.canonical(k) for k in got} == want
+        assert all(not p.over_budget(sp.canonical(k)) for k in got)
+        checked += 1
+    assert pairs > 0            # some designs needed a repair on two indices
+
+
+def test_a_cheap_repair_does_not_hide_the_trade_that_keeps_the_pes():
+    """Mount at 512x512 under 800 kGE: from two copies of (2 int + 3 fp) with 4 KiB caches on 2 PEs
+    (792 kGE), a third copy fits only by dropping a PE (594 kGE, slower) or by one fp unit and
+    the SC cache together (756 kGE: 2.31e8 cycles against 3.20e8 at level 3); the polish,
+    here on a stand-in for the replay (copies and up to 2 PEs speed it up, caches and fp units a
+    little), takes the latter."""
+    from mprt.explore import default_space
+    from mprt.explore.space import Design, Point
+
+    sp = default_space()
+    names = sp.names
+
+    class R:
+        def __init__(self, cycles, cost):
+            self.cycles, self.cost = cycles, cost
+
+    def f(pts):
+        return [R(1e6 / (p.design.replication["OS"] * min(p.design.pes, 2)) * (1 + 0.05 / p.design.units["OS"]["fp"])
+                  * (1 + 0.01 * (p.design.cache["SC"] == 0) + 0.5 * (p.design.cache["IC"] == 0)),
+                  hardware_cost(p.design)) for p in pts]
+
+    d = Design(mapping="OS+IC+SC", replication={"OS": 2, "IC": 1, "SC": 1}, feed="shared",
+               units={"OS": {"int": 2, "fp": 3}, "IC": {"int": 1, "fp": 1}, "SC": {"general": 1}}, fifo=16,
+               cache={"IC": 4, "SC": 4}, resident={"IC": 0, "SC": 0}, pes=2)
+    start = sp.canonical(sp.index_of(Point((64,), d)))
+    assert hardware_cost(d) == 792.0
+    p = Problem(sp, f, "time", 800.0, cost_of=lambda pt: hardware_cost(pt.design))
+    p.evaluate_many([start])
+    end = sp.point(compass(p, start, 60, fixed=(names.index("mapping"), names.index("subdivision.n")))).design
+    assert (end.replication["OS"], end.pes, end.cache["IC"]) == (3, 2, 4)
+    assert hardware_cost(end) <= 800.0
+
+
 def test_one_and_two_workers_give_the_same_answer():
     """The ladder's designs, the global phase's starts (one per mapping), polish neighbourhoods
     and the references on two worker processes: every evaluation the same as in this process."""

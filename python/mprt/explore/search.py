@@ -149,9 +149,11 @@ def _neighbours(problem: Problem, cur, pairs: bool, fixed=()) -> list[tuple]:
 
 def _trades(problem: Problem, cur, num, sizes, add) -> None:
     """Trades under the budget (costs known before evaluating, ``Problem.cost_of``): +1 on one
-    numeric index, paid for by the fewest steps down elsewhere that bring the design within
-    the budget: -1 on one other index, else -2 on one, else -1 on two (two caches for a copy).
-    Only the smallest repairs are kept (a step down not needed to fit is no trade)."""
+    numeric index, paid for by each minimal repair of up to two steps down elsewhere that brings
+    the design within the budget: -1 on one other index, -2 on one where -1 there does not fit,
+    -1 on two where neither alone fits (two caches for a copy, a unit and a cache for a copy).
+    A repair with a step down not needed to fit is no trade; a cheap repair elsewhere (a PE
+    for a copy) does not hide the one that keeps the PEs (every minimal one is tried)."""
     def fits(nb):
         return not problem.over_budget(problem.space.canonical(nb))
 
@@ -163,26 +165,26 @@ def _trades(problem: Problem, cur, num, sizes, add) -> None:
         if fits(up):
             add(up)              # no trade needed (a single step, already in the neighbourhood)
             continue
-        found = False
+        alone = {}               # index -> whether -1 there alone fits
         for j in num:
-            for d in (1, 2):
-                if j != i and cur[j] >= d:
-                    nb = list(up)
-                    nb[j] -= d
-                    if fits(nb):
-                        add(nb)
-                        found = True
-                        break
-        if found:
-            continue
-        for a, j in enumerate(num):
-            for k in num[a + 1:]:
-                if i not in (j, k) and cur[j] >= 1 and cur[k] >= 1:
-                    nb = list(up)
+            if j != i and cur[j] >= 1:
+                nb = list(up)
+                nb[j] -= 1
+                alone[j] = fits(nb)
+                if alone[j]:
+                    add(nb)
+                elif cur[j] >= 2:
                     nb[j] -= 1
-                    nb[k] -= 1
                     if fits(nb):
                         add(nb)
+        short = [j for j in alone if not alone[j]]
+        for a, j in enumerate(short):
+            for k in short[a + 1:]:
+                nb = list(up)
+                nb[j] -= 1
+                nb[k] -= 1
+                if fits(nb):
+                    add(nb)
 
 
 def compass(problem: Problem, idx, max_evals: int, fixed=()) -> tuple:
