@@ -275,3 +275,39 @@ def test_level_1_bounds_keep_the_answer_in_fewer_level_3_runs(runs, scene):
         ran["plain"] += plain.runs
         ran["bounded"] += bounded.runs
     assert ran["bounded"] < ran["plain"]
+
+
+@pytest.mark.parametrize("scene", ["tetra", "balls", "mount"])
+def test_walks_on_the_search_state_take_the_steps_of_walks_one_after_another(runs, scene):
+    """The polish's walks from each mapping's start, each on a problem of its own that knows only
+    the search before the walks (``search.walk``: what the explorer's workers run), evaluate the
+    designs and reach the answer of the walks made one after another on the shared problem: the
+    mappings' walks share no design, and bounds decide which designs are replayed, not the steps.
+    A design merged as known by its bound is never better than the answer."""
+    from mprt.explore.explorer import _bounds
+    from mprt.explore.search import walk
+    sp = load_space(SMALL)
+    memo = runs[scene]
+    cost_of = lambda p: hardware_cost(p.design)  # noqa: E731
+    bound = lambda pts: _bounds(memo(1)(pts))  # noqa: E731
+    walked = 0
+    for budget in (None, 300.0):
+        seq = Problem(sp, memo(3), "time", budget, cost_of=cost_of, bound_points=bound)
+        a = search(seq, "direct-l", "lattice", max_evals=24, seed=1)
+        par = Problem(sp, memo(3), "time", budget, cost_of=cost_of, bound_points=bound)
+        tasks = []
+
+        def run_walks(ts):
+            tasks.extend(ts)
+            return [walk(memo(3), *t, bound_points=bound, cost_of=cost_of) for t in ts]
+        b = search(par, "direct-l", "lattice", max_evals=24, seed=1, run_walks=run_walks)
+        walked += len(tasks)
+        assert (b.best.cycles, b.best.cost, b.best.index) == (a.best.cycles, a.best.cost, a.best.index)
+        assert par.order == seq.order
+        for k in par.order:
+            x, y = par.memo[k], seq.memo[k]
+            assert x.serial == y.serial
+            assert x.bound or y.bound or x.cycles == y.cycles
+            if x.bound:
+                assert par.rank(x)[:2] > par.rank(b.best)[:2]
+    assert walked >= 4

@@ -11,7 +11,7 @@ from .hwcost import UnitCosts, cost_breakdown, hardware_cost
 from .parallel import Pool
 from .prepass import low_resolution
 from .refine import SCREEN_MARGIN, Screen, refine as _refine
-from .search import Problem, cost_range, global_start, pareto, search
+from .search import Problem, cost_range, global_start, pareto, search, walk
 from .space import REFERENCE_DESIGNS, Point, Space, default_space
 from ..atomic import replacing
 
@@ -113,6 +113,14 @@ def _global_task(sev, level, bound, task):
     return global_start(lambda pts: [sev.run(p, level) for p in pts], *task, bound_points=bounds)
 
 
+def _walk_task(sev, level, bound, task):
+    """One mapping's polish walk on a SceneEvaluator (in a worker or here); ``bound``: with
+    level-1 bounds."""
+    bounds = (lambda pts: _bounds([sev.run(p, BOUND_LEVEL) for p in pts])) if bound else None
+    return walk(lambda pts: [sev.run(p, level) for p in pts], *task, bound_points=bounds,
+                cost_of=lambda p: hardware_cost(p.design, sev.unit_costs))
+
+
 def _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish, max_evals, seed,
              budgets, progress, threads, fraction, refine, refine_evals, sample, verify, starts, say, pool,
              rules="paper", threshold=None, grid=None, phases=None, bound=True, screen=SCREEN_MARGIN) -> dict:
@@ -158,7 +166,10 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
         front = res.front
         best = min(front, key=lambda e: (e.cycles * e.cost, e.serial))        # the knee: least time x cost
     else:
-        res = search(problem, algorithm, polish, max_evals, seed, starts=starts, run_starts=run_starts)
+        run_walks = lambda tasks: pool.map_forked(_walk_task, ev,  # noqa: E731
+                                           [(lv, problem.bound_points is not None, t) for t in tasks])
+        res = search(problem, algorithm, polish, max_evals, seed, starts=starts, run_starts=run_starts,
+                     run_walks=run_walks)
         best = res.best
     say(f"search  {len(problem.memo)} designs at level {lv}, {low[0]}x{low[1]}"
         f"{_ruled_out(problem)}: best {best.cycles:,.0f} cycles, cost {best.cost:.0f} kGE, "

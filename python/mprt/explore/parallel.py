@@ -51,6 +51,10 @@ def _call(fn, settings: dict, args):
     return fn(_evaluator(settings), *args)
 
 
+def _call_forked(fn, args):
+    return fn(_SHARED["ev"], *args)
+
+
 def uses_simpy(points, level: int, leaves: int = 1) -> bool:
     """Whether any of the points is evaluated on SimPy at the level (engine "auto")."""
     from ..fidelity import engine_for
@@ -122,11 +126,29 @@ class Pool:
         ex = self._executor()
         return [f.result() for f in [ex.submit(_call, fn, ev.settings(), a) for a in args_list]]
 
+    def map_forked(self, fn, ev, args_list) -> list:
+        """``map``, but on workers forked now from this process that evaluate on ``ev`` itself
+        as it stands (its traces made, their costs and memory data computed: copies, not an
+        evaluator of their own to build again from its settings); for long tasks on an
+        evaluator that has done most of its work (the polish's walks on the search's traces).
+        The workers are shut down after, so the next batch forks its own."""
+        args_list = list(args_list)
+        if self.workers <= 1 or len(args_list) <= 1:
+            return [fn(ev, *a) for a in args_list]
+        self.close()
+        _SHARED["ev"] = ev
+        try:
+            ex = self._executor()
+            return [f.result() for f in [ex.submit(_call_forked, fn, a) for a in args_list]]
+        finally:
+            self.close()
+
     def close(self) -> None:
         if self._pool is not None:
             self._pool.shutdown(wait=True, cancel_futures=True)
             self._pool = None
             _SHARED.pop("scene", None)
+            _SHARED.pop("ev", None)
 
     def __enter__(self):
         return self

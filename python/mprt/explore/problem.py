@@ -69,10 +69,16 @@ class Problem:
             self.cost_of(self.space.point(key)) > self.budget
 
     def add(self, point, result, bound: bool = False) -> Evaluation | None:
-        """Record a point evaluated elsewhere (a global start's; ``bound``: known by its bound
-        only); None if it was known."""
+        """Record a point evaluated elsewhere (a global start's, a walk's; ``bound``: known by its
+        bound only); None if it was known (a design known here by its bound and run elsewhere
+        takes the run's result, in its place, as ``resolve`` would)."""
         k = self.space.canonical(self.space.index_of(point))
         if k in self.memo:
+            e = self.memo[k]
+            if e.bound and not bound:
+                e = Evaluation(k, e.point, float(result.cycles), float(result.cost), e.serial, result)
+                self.memo[k] = e
+                self._ran(e)
             return None
         e = Evaluation(k, self.space.point(k), float(result.cycles), float(result.cost), len(self.memo) + 1, result,
                        bound)

@@ -283,6 +283,25 @@ def global_start(evaluate_points, space: Space, objective: str, budget, algorith
     return [(p.memo[k].point, p.memo[k].result, p.memo[k].bound) for k in p.order[n0:]], p.calls
 
 
+def walk(evaluate_points, space: Space, objective: str, budget, known, idx, max_evals: int, fixed=(),
+         bound_points=None, cost_of=None) -> list:
+    """One mapping's polish walk (``compass`` from ``idx``) on a problem of its own that knows
+    ``known`` ((point, result, bound) triples: the search so far).  Returns the designs it
+    evaluated, in order, and those of ``known`` it ran where they were known by their bounds,
+    as (point, result, bound); depends only on its arguments (so it may run in another
+    process).  The walks of different mappings share no design, and a walk's steps do not
+    depend on which designs its bounds ruled out (``Problem.ranked``), so walking on the
+    search's state before the walks gives the steps walking after the others would."""
+    p = Problem(space, evaluate_points, objective, budget, cost_of=cost_of, bound_points=bound_points)
+    for point, r, bound in known:
+        p.add(point, r, bound)
+    n0 = len(p.order)
+    was_bound = {k for k in p.order if p.memo[k].bound}
+    compass(p, idx, max_evals, fixed)
+    ran = [k for k in p.order[:n0] if k in was_bound and not p.memo[k].bound]
+    return [(p.memo[k].point, p.memo[k].result, p.memo[k].bound) for k in ran + p.order[n0:]]
+
+
 def _local_starts(problem: Problem):
     def run(tasks):
         return [global_start(problem.evaluate_points, *t, bound_points=problem.bound_points) for t in tasks]
@@ -290,7 +309,8 @@ def _local_starts(problem: Problem):
 
 
 def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice", max_evals: int = 1000,
-           seed: int = 1, polish_evals: int | None = None, starts: str = "whole", run_starts=None) -> SearchResult:
+           seed: int = 1, polish_evals: int | None = None, starts: str = "whole", run_starts=None,
+           run_walks=None) -> SearchResult:
     """Global search then polish; ``max_evals`` distinct designs for the global phase, shared
     by its starts: one over the whole space (``starts="whole"``, the default: the method
     measured in the README), or one per stage mapping (``"mapping"``, ``split_by_mapping``:
@@ -299,7 +319,9 @@ def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice
     the starts, each task ``global_start``'s arguments after ``evaluate_points``, and returns
     their results in order (default: one after another here; the explorer's runs them on its
     workers); they are merged in the order of the starts, so the result does not depend on
-    how they ran."""
+    how they ran.  ``run_walks(tasks)`` likewise runs the polish's walks from each mapping's
+    start (each task ``walk``'s arguments after ``evaluate_points``; default: one after
+    another on this problem), merged in the order of the starts."""
     if algorithm not in GLOBAL_ALGORITHMS:
         raise ValueError(f"algorithm must be one of {', '.join(GLOBAL_ALGORITHMS)}, not {algorithm!r}")
     if polish not in POLISHES:
@@ -330,8 +352,17 @@ def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice
         # each mapping's start its share within its mapping (a step to another mapping would leave it
         # before its own trades are tried), then the best found gets what is left, anywhere
         fixed = (problem.space.names.index("mapping"),) if len(starts) > 1 else ()
-        for idx in starts:
-            compass(problem, idx, polish_evals // (len(starts) + 1), fixed)
+        share = polish_evals // (len(starts) + 1)
+        if run_walks is not None and len(starts) > 1:
+            known = [(problem.memo[k].point, problem.memo[k].result, problem.memo[k].bound) for k in problem.order]
+            for rows in run_walks([(problem.space, problem.objective, problem.budget, known, idx, share, fixed)
+                                   for idx in starts]):
+                for point, r, bound in rows:
+                    if problem.add(point, r, bound) is not None and problem.progress:
+                        problem.progress(problem)
+        else:
+            for idx in starts:
+                compass(problem, idx, share, fixed)
         compass(problem, problem.best().index, polish_evals - (len(problem.memo) - n1))
     elif polish != "none":
         name = {"sbplx": "LN_SBPLX", "neldermead": "LN_NELDERMEAD", "bobyqa": "LN_BOBYQA", "cobyla": "LN_COBYLA"}
