@@ -166,8 +166,11 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
         front = res.front
         best = min(front, key=lambda e: (e.cycles * e.cost, e.serial))        # the knee: least time x cost
     else:
-        run_walks = lambda tasks: pool.map_forked(_walk_task, ev,  # noqa: E731
-                                           [(lv, problem.bound_points is not None, t) for t in tasks])
+        def run_walks(tasks):
+            # the walks report nothing until they end: say what runs meanwhile
+            say(f"polish  walks from each of {len(tasks)} stage mappings' best, up to {tasks[0][5]} designs "
+                f"each, on {min(pool.workers, len(tasks))} worker(s); then from the best")
+            return pool.map_forked(_walk_task, ev, [(lv, problem.bound_points is not None, t) for t in tasks])
         res = search(problem, algorithm, polish, max_evals, seed, starts=starts, run_starts=run_starts,
                      run_walks=run_walks)
         best = res.best
