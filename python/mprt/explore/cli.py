@@ -270,17 +270,17 @@ def _nonnegative_int(text: str) -> int:
 
 def _progress_printer(every: int = 25, total: int | None = None, stream=None):
     """The search's progress: evaluations (of up to ``total`` in the global phase), the best so
-    far, the time spent since the search's first evaluation and the time left at that rate; one
-    line rewritten on a terminal, else a line every ``every`` evaluations."""
+    far, the time spent since the printer was made (the exploration's start) and the time left
+    at that rate; one line rewritten on a terminal, else a line every ``every`` evaluations.
+    (The global phase and the mappings' walks report their evaluations when they end, in a
+    burst: timing from the first report made the rate of the first burst meaningless.)"""
     stream = stream or sys.stderr
     tty = stream.isatty()
-    start = [None]
+    start = [time.perf_counter()]
     open_line = [False]
 
     def show(problem):
         n = len(problem.memo)
-        if start[0] is None:
-            start[0] = time.perf_counter()
         if n % every and not tty:
             return
         b = problem.best()
