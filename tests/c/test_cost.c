@@ -5,38 +5,19 @@
  * pass with the numpy reference on the golden traces.) */
 #include "check.h"
 #include "mprt.h"
+#include "tree_hand.h"
 
 #include <stdlib.h>
 #include <string.h>
 
-/* A primary ray 0 (OS to_ic, IC hit on a sphere, SC shaded making a shadow
- * ray 1 and a reflection ray 2); ray 1: OS to_sc, SC lit; ray 2: OS left. */
 static mprt_trace_ray rays[3];
-static mprt_trace_visit visits[7];
+static mprt_trace_visit visits[7];         /* tree_hand.h's six, and a seventh left zero */
 static const int32_t prim_kind[2] = {0, 1};
 
 static void build(void)
 {
-    static const int vs[7][4] = {   /* ray, stage, outcome, made */
-        {0, MPRT_STAGE_OS, MPRT_OUT_TO_IC, 0}, {0, MPRT_STAGE_IC, MPRT_OUT_HIT, 0},
-        {0, MPRT_STAGE_SC, MPRT_OUT_SHADED, 2}, {1, MPRT_STAGE_OS, MPRT_OUT_TO_SC, 0},
-        {1, MPRT_STAGE_SC, MPRT_OUT_LIT, 0}, {2, MPRT_STAGE_OS, MPRT_OUT_LEFT, 0}, {2, 0, 0, 0}};
-    int i;
-    memset(rays, 0, sizeof rays);
     memset(visits, 0, sizeof visits);
-    for (i = 0; i < 3; i++) rays[i].id = i;
-    rays[0].parent = -1;
-    rays[1].parent = 0;
-    rays[1].kind = MPRT_RAY_SHADOW;
-    rays[2].parent = 0;
-    rays[2].kind = MPRT_RAY_REFLECT;
-    for (i = 0; i < 6; i++) {
-        visits[i].ray = vs[i][0];
-        visits[i].stage = (uint8_t)vs[i][1];
-        visits[i].outcome = (uint8_t)vs[i][2];
-        visits[i].made = (uint8_t)vs[i][3];
-        visits[i].prim = -1;
-    }
+    tree_hand(rays, visits);
     visits[0].steps = 3;
     visits[1].tests[0] = 2;
     visits[1].tests[1] = 1;

@@ -106,18 +106,21 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
         pool.close()
 
 
+def _sev_bounds(sev, bound: bool):
+    """The level-1 bounds (``_bounds``) of points on a SceneEvaluator, in this process (None: no bounds)."""
+    return (lambda pts: _bounds([sev.run(p, BOUND_LEVEL) for p in pts])) if bound else None
+
+
 def _global_task(sev, level, bound, task):
     """One start of the global phase on a SceneEvaluator (in a worker or here); ``bound``: with
     level-1 bounds (``_bounds``)."""
-    bounds = (lambda pts: _bounds([sev.run(p, BOUND_LEVEL) for p in pts])) if bound else None
-    return global_start(lambda pts: [sev.run(p, level) for p in pts], *task, bound_points=bounds)
+    return global_start(lambda pts: [sev.run(p, level) for p in pts], *task, bound_points=_sev_bounds(sev, bound))
 
 
 def _walk_task(sev, level, bound, task):
     """One mapping's polish walk on a SceneEvaluator (in a worker or here); ``bound``: with
     level-1 bounds."""
-    bounds = (lambda pts: _bounds([sev.run(p, BOUND_LEVEL) for p in pts])) if bound else None
-    return walk(lambda pts: [sev.run(p, level) for p in pts], *task, bound_points=bounds,
+    return walk(lambda pts: [sev.run(p, level) for p in pts], *task, bound_points=_sev_bounds(sev, bound),
                 cost_of=lambda p: hardware_cost(p.design, sev.unit_costs))
 
 

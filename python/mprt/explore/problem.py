@@ -74,11 +74,8 @@ class Problem:
         takes the run's result, in its place, as ``resolve`` would)."""
         k = self.space.canonical(self.space.index_of(point))
         if k in self.memo:
-            e = self.memo[k]
-            if e.bound and not bound:
-                e = Evaluation(k, e.point, float(result.cycles), float(result.cost), e.serial, result)
-                self.memo[k] = e
-                self._ran(e)
+            if self.memo[k].bound and not bound:
+                self._settle(self.memo[k], result)
             return None
         e = Evaluation(k, self.space.point(k), float(result.cycles), float(result.cost), len(self.memo) + 1, result,
                        bound)
@@ -124,7 +121,10 @@ class Problem:
         """The design run (in place of its bound; same serial)."""
         if not e.bound:
             return e
-        r = self.evaluate_points([e.point])[0]
+        return self._settle(e, self.evaluate_points([e.point])[0])
+
+    def _settle(self, e: Evaluation, r) -> Evaluation:
+        """A design known by its bound takes its run's result ``r``, in its place (same serial)."""
         e = Evaluation(e.index, e.point, float(r.cycles), float(r.cost), e.serial, r)
         self.memo[e.index] = e
         self._ran(e)
