@@ -277,6 +277,26 @@ def test_memo_counts_distinct_designs(level0s):
     assert r.calls > r.evaluations       # NLopt revisited cells, answered from the memo
 
 
+def test_nlopt_stops_once_idle_with_the_same_designs(level0s, monkeypatch):
+    """NLopt stops after IDLE_CALLS calls in a row that found no new design: where the space
+    runs out before the designs asked for, the same designs in the same order as letting it
+    run to its call budget, in fewer calls; a smaller IDLE_CALLS stops sooner, with fewer."""
+    import mprt.explore.search as S
+
+    sp = load_space(SMALL)
+    ev = level0s["tetra"]
+    f = lambda pts: [ev.run(p.design) for p in pts]  # noqa: E731
+    runs = {}
+    for idle in (S.IDLE_CALLS, 10 ** 9, 400):
+        monkeypatch.setattr(S, "IDLE_CALLS", idle)
+        runs[idle] = p = Problem(sp, f, "time", 400.0)
+        search(p, "direct-l", "none", max_evals=200, seed=1)
+    p, q, r = runs.values()
+    assert q.calls == 200 * 200 and len(q.memo) < 200        # unstopped: the whole call budget
+    assert p.order == q.order and p.calls < q.calls
+    assert r.order == q.order[:len(r.order)] and len(r.order) < len(q.order) and r.calls < p.calls
+
+
 def test_pareto_front_is_nondominated(level0s):
     from mprt.explore.search import pareto
     sp = load_space(SMALL)
