@@ -108,7 +108,9 @@ asan:
 
 # The compiled replay's differential tests (against SimPy, levels 1 to 3, the ring and the
 # memories alone and together) with the C library
-# under ASan and UBSan: the extension built into build/asan-py beside a copy of the package.
+# under ASan and UBSan: the extension built into build/asan-py beside a copy of the package
+# (--capture=sys: a sanitizer's report, written to the descriptor, is seen when it stops the run);
+# and test_lifetimes.py, the C objects' destruction in the orders Python may collect them.
 asan-py: $(VENV)/.installed
 	rm -rf build/asan-py && mkdir -p build/asan-py && cp -r python/mprt build/asan-py/ && rm -f build/asan-py/mprt/*.so
 	ln -s ../../c build/asan-py/c      # (cffi compiles in its tmpdir, with paths relative to the root)
@@ -118,8 +120,9 @@ asan-py: $(VENV)/.installed
 	    > build/asan-py/build.log 2>&1
 	cd tests && ASAN_OPTIONS=detect_leaks=0 UBSAN_OPTIONS=halt_on_error=1:print_stacktrace=1 \
 	    LD_PRELOAD="$$($(CC) -print-file-name=libasan.so) $$($(CC) -print-file-name=libubsan.so)" \
-	    PYTHONPATH=../build/asan-py ../$(PY) -m pytest -q -p no:cacheprovider test_fidelity_full.py \
-	    test_fidelity_memory.py test_fidelity_ring.py test_fidelity.py test_compiled_priced.py test_recordcheck.py
+	    PYTHONPATH=../build/asan-py ../$(PY) -m pytest -q --capture=sys -p no:cacheprovider test_fidelity_full.py \
+	    test_fidelity_memory.py test_fidelity_ring.py test_fidelity.py test_compiled_priced.py test_recordcheck.py \
+	    test_lifetimes.py
 
 # The fuzz target over NFF parse, write, grids, renders and intersection
 # (tests/fuzz/fuzz_nff.c), replayed on its seed corpus and on every input

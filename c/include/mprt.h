@@ -86,7 +86,9 @@ const char *mprt_status_str(int status);
 
 /* Create an empty scene (default view, black background, no lights). OUT: scene. */
 int mprt_scene_create(mprt_scene **out);
-/* Destroy a scene; NULL is allowed. */
+/* Destroy a scene; NULL is allowed.  With grids still built on it, it is freed when the last of
+ * them is destroyed (so a caller that frees by collection may free them in any order); it must
+ * not be used meanwhile. */
 void mprt_scene_destroy(mprt_scene *scene);
 /* Message of the last failed call on this scene ("" if none). */
 const char *mprt_scene_errmsg(const mprt_scene *scene);

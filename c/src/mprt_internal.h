@@ -130,6 +130,7 @@ struct mprt_scene {
     /* Neither saved nor restored */
     char errmsg[MPRT__ERRMSG];
     int grids;                 /* grids built on the scene and not yet destroyed */
+    int destroyed;             /* mprt_scene_destroy came while grids were left: the last frees it */
     pthread_mutex_t grids_lock; /* grids may be made and destroyed in several threads */
 };
 

@@ -81,9 +81,8 @@ int mprt_scene_create(mprt_scene **out)
     return MPRT_OK;
 }
 
-void mprt_scene_destroy(mprt_scene *s)
+static void free_scene(mprt_scene *s)
 {
-    if (!s) return;
     free(s->prims);
     free(s->spheres);
     free(s->polygons);
@@ -94,6 +93,17 @@ void mprt_scene_destroy(mprt_scene *s)
     free(s->lights);
     pthread_mutex_destroy(&s->grids_lock);
     free(s);
+}
+
+void mprt_scene_destroy(mprt_scene *s)
+{
+    int grids;
+    if (!s) return;
+    pthread_mutex_lock(&s->grids_lock);
+    grids = s->grids;
+    s->destroyed = grids > 0;
+    pthread_mutex_unlock(&s->grids_lock);
+    if (grids == 0) free_scene(s);       /* else the last grid's destruction frees it */
 }
 
 const char *mprt_scene_errmsg(const mprt_scene *s) { return s ? s->errmsg : "no scene"; }
@@ -401,9 +411,12 @@ void mprt__scene_count_grid(const mprt_scene *scene, int delta)
 {
     /* The grid count is bookkeeping, not content: a const scene counts too */
     mprt_scene *s = (mprt_scene *)(uintptr_t)scene;
+    int gone;
     pthread_mutex_lock(&s->grids_lock);
     s->grids += delta;
+    gone = s->destroyed && s->grids == 0;
     pthread_mutex_unlock(&s->grids_lock);
+    if (gone) free_scene(s);             /* destroyed while this grid was left */
 }
 
 int mprt__scene_check_unshared(mprt_scene *s, const char *call)

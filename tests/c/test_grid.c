@@ -218,6 +218,19 @@ static void test_intersect_matches_one_voxel_grid(void)
     mprt_scene_destroy(s);
 }
 
+/* A scene destroyed while grids are built on it lives on until the last of them goes (under
+ * ASan, a use after free otherwise); the grids work meanwhile. */
+static void test_a_scene_destroyed_first_waits_for_its_grids(void)
+{
+    mprt_scene *s = cube_scene();
+    mprt_grid *g = make_grid(s, 8), *h = make_grid(s, 4);
+    mprt_scene_destroy(s);
+    CHECK(walk_checked(g, v3(-1, R(3.5), R(2.5)), v3(1, 0, 0), (real)INFINITY, NULL, 0) == 8);
+    mprt_grid_destroy(g);
+    CHECK(walk_checked(h, v3(-1, R(1.5), R(1.5)), v3(1, 0, 0), (real)INFINITY, NULL, 0) == 4);
+    mprt_grid_destroy(h);
+}
+
 int main(void)
 {
     RUN(test_axis_parallel_rays_walk_one_row);
@@ -227,5 +240,6 @@ int main(void)
     RUN(test_lists_are_conservative_and_stats_add_up);
     RUN(test_bad_subdivisions_and_memory_limits_are_errors);
     RUN(test_intersect_matches_one_voxel_grid);
+    RUN(test_a_scene_destroyed_first_waits_for_its_grids);
     return CHECK_DONE();
 }
