@@ -360,3 +360,36 @@ def test_global_memory_read_lines_is_n_reads(contention):
                 done = a.read(done, nbytes, pe)
             assert b.read_lines(t, nbytes, pe, n) == done
             assert (a.port_free, a.accesses, a.busy, a.queued) == (b.port_free, b.accesses, b.busy, b.queued)
+
+
+# ---- long look-ups: the caches' summaries (c/src/replay_summary.c) -------------------------
+
+@pytest.fixture(scope="module")
+def coarse():
+    """balls of 820 spheres on a 2x2x2 grid: voxel lists of thousands of lines, through caches of a
+    few to thousands."""
+    return mprt.Scene.spd("balls", size=3).grid(2).trace(10, 10)[1]
+
+
+@pytest.mark.parametrize("ways", [1, 2, 4, 8, 16, 32])
+def test_long_look_ups_by_summary_equal_simpy_and_line_by_line(coarse, ways, monkeypatch):
+    """A key read through a cache by its summary (its look-up in an empty cache, the first
+    lines of each set, the set after it) gives what SimPy's line-by-line LRU gives, and what
+    the compiled replay gives looking every line up (MPRT_CACHE_SUMMARY=0): caches of 1 to 32
+    ways (over 16: never summarised), from a few sets to more sets than the data has lines,
+    with and without resident memory, one PE or two sharing a port."""
+    hits = misses = 0
+    for sets, resident, pes, contention in ((2, 0, 2, True), (8, 64, 1, True), (1, 0, 2, False), (64, 256, 2, True),
+                                            (4096, 0, 1, True)):
+        cfg = builtin("3mppe").replace(ring=None, pes=pes,
+                                       ic_memory=LocalMemoryConfig(resident, CacheConfig(sets * ways * 16, 16, ways)),
+                                       sc_memory=LocalMemoryConfig(0, CacheConfig(16 * ways, 16, ways)),
+                                       icgm=GlobalMemoryConfig(7, 3, contention), scgm=GlobalMemoryConfig(5, 8, contention))
+        a = check(coarse, cfg)
+        monkeypatch.setenv("MPRT_CACHE_SUMMARY", "0")
+        b = replay(coarse, cfg)
+        monkeypatch.delenv("MPRT_CACHE_SUMMARY")
+        assert a.cycles == b.cycles and same(a, b), (ways, sets, resident, pes)
+        hits += a.memory["ic_cache"]["hits"]
+        misses += a.memory["ic_cache"]["accesses"] - a.memory["ic_cache"]["hits"]
+    assert hits > 0 and misses > 0          # the caches were exercised both ways

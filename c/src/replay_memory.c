@@ -37,46 +37,12 @@
  * than lines (numbers 0..L-1) every line has a set of its own, as it has with
  * L sets (line mod L = line); a set never holds more lines than map to it, so
  * ways beyond that never evict.  So the arrays hold at most about 2L lines per
- * PE whatever the configured size, and the result is the configured cache's. */
-#include "replay.h"
+ * PE whatever the configured size, and the result is the configured cache's.
+ *
+ * A key of many lines (a coarse grid's voxel list through a small cache) is looked up
+ * set by set from a summary made once per key and shape (replay_summary.c). */
+#include "replay_memory.h"
 
-/* A key's data, in one place (a visit reads all of it): its lines are
- * lines[start .. next key's start). */
-typedef struct {
-    int64_t start;
-    int32_t items, res;
-} keyinfo;
-
-typedef struct {
-    mprt_replay_memory fig;
-    int64_t last;                /* the key of this cache's last look-up + 1 (0: none yet) */
-} local_mem;
-
-typedef struct {
-    /* the data (mprt_replay_set_memory) */
-    int has;
-    size_t nkeys;
-    int64_t line, span;          /* span: the largest line number + 1 */
-    keyinfo *info;               /* per key + 1 */
-    int64_t *lines;
-    int64_t reads;               /* the visits' lines in all (at most MAX_READS): bounds a run's reads */
-    /* a run */
-    int on, cached, pow2, nports;
-    int64_t nsets, ways, xfer, latency;
-    int64_t *port_free;
-    int64_t *tags;               /* per PE nsets x ways line numbers, most recently used first (-1: empty) */
-    int64_t *where;              /* per entry of lines: its set's first way in a PE's tags (s x ways) */
-    local_mem *loc;              /* per PE */
-    /* kept from run to run while the data and the cache's shape stay */
-    int64_t *repeat;             /* per key: a repeat's misses + 1 (0: not known yet) */
-    int64_t rep_sets, rep_ways;  /* the shape they are for (0: none) */
-} memory;
-
-struct mprt__mem {
-    int32_t *key;                /* per visit */
-    size_t nv;
-    memory m[2];
-};
 
 #define MAX_READS ((int64_t)1 << 62)
 #define MAX_LINE ((int64_t)1 << 40)
@@ -130,6 +96,7 @@ static void free_data(memory *m)
     free(m->info);
     free(m->lines);
     free(m->repeat);
+    mprt__summary_free(m);
     m->info = NULL;
     m->lines = NULL;
     m->repeat = NULL;
@@ -281,6 +248,7 @@ static int build_one(mprt_replay *r, int t)
     memory *m = &r->mem->m[t];
     size_t pes = (size_t)c->pes, cells, a, nl;
     int64_t per;
+    const char *env;
     m->on = 1;
     m->cached = c->cache_size[t] > 0;
     m->xfer = (c->cache_line[t] + c->gm_bandwidth[t] - 1) / c->gm_bandwidth[t];
@@ -291,6 +259,8 @@ static int build_one(mprt_replay *r, int t)
     if (!m->port_free || !m->loc) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the %s memory", NAME[t]);
     if (!m->cached) return MPRT_OK;
     cache_shape(m, c->cache_size[t], c->cache_line[t], c->cache_ways[t]);
+    env = getenv("MPRT_CACHE_SUMMARY");           /* "0": every line looked up (tests compare the two) */
+    m->summaries = !(env && strcmp(env, "0") == 0);
     per = m->nsets * m->ways;       /* at most about 2 x span (< 2^63) */
     if (per < 0 || (uint64_t)per > (uint64_t)MPRT_REPLAY_MAX_CACHE_ENTRIES / pes)
         return fail(r, MPRT_ERR_INVALID_ARG, "cache_size[%d]: the %s caches would hold %zu PEs x %lld entries per PE "
@@ -309,6 +279,7 @@ static int build_one(mprt_replay *r, int t)
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the %s caches' repeats", NAME[t]);
     if (m->rep_sets != m->nsets || m->rep_ways != m->ways) {     /* another shape: its repeats are unknown */
         memset(m->repeat, 0, (m->nkeys + 1) * sizeof *m->repeat);
+        mprt__summary_reset(m);
         m->rep_sets = m->nsets;
         m->rep_ways = m->ways;
     }
@@ -344,38 +315,6 @@ int mprt__replay_memory_build(mprt_replay *r)
         r->mem_key = r->mem->key;
     }
     return MPRT_OK;
-}
-
-/* Line x through a set of a cache (w: its ways, most recent first; -1 empty), not
- * its most recent line: 1 on a hit.  It becomes the set's most recent (front), the
- * lines before it moving back one; a miss drops the least recent (or an empty way). */
-INLINE int lru_touch(int64_t *w, int64_t ways, int64_t x)
-{
-    int64_t i, prev = w[0], cur;
-    int found = 0;
-    if (ways == 4) {                  /* the loop below, unrolled */
-        int64_t c1 = w[1], c2 = w[2], c3 = w[3];
-        int f1 = c1 == x, f2 = f1 | (c2 == x);
-        w[0] = x;
-        w[1] = prev;
-        w[2] = f1 ? c2 : c1;
-        w[3] = f2 ? c3 : c2;
-        return f2 | (c3 == x);
-    }
-    if (ways == 2) {
-        found = w[1] == x;
-        w[0] = x;
-        w[1] = prev;
-        return found;
-    }
-    w[0] = x;
-    for (i = 1; i < ways; i++) {      /* no branch on where x is: ways is the trip count */
-        cur = w[i];
-        w[i] = found ? cur : prev;
-        found |= cur == x;
-        prev = cur;
-    }
-    return found;
 }
 
 /* Lines a .. b through the cache whose sets are at tags (a PE's), of ways ways: the
@@ -418,7 +357,10 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
         if (lm->last == k + 1 && m->repeat[k]) {
             reads = m->repeat[k] - 1;   /* a repeat: nothing changes (see the top) */
         } else {
-            if (ways == 4)
+            reads = m->summaries && b - a >= SUM_MIN_LINES ? mprt__summary_look_up(m, tags, k) : -1;
+            if (reads >= 0)
+                ;                       /* a long look-up, by its summary (replay_summary.c) */
+            else if (ways == 4)
                 reads = look_up(m, tags, 4, a, b);
             else if (ways == 2)
                 reads = look_up(m, tags, 2, a, b);
