@@ -125,7 +125,7 @@ def test_memory_keys_and_references_in_c_equal_numpy(name):
     own = DataLayout(trace)
     assert np.array_equal(md.layout.voxel_refs, own.voxel_refs)
     assert np.array_equal(md.layout.material_refs, own.material_refs)
-    keys = md.keys
+    keys = md.replay_keys
     for tag, sel in (("ic", keys[keys >= 0]), ("sc", -2 - keys[keys <= -2].astype(np.int64))):
         per = np.diff(md.get(tag, 1024, 32)[0]["line_start"])
         assert md.reads(tag, per) == int(per[sel].sum())

@@ -126,7 +126,7 @@ class _FarData:
     """Memory data whose key 0 reads lines 0 and 2^27 (so a large cache needs 2^27 + 1 sets)."""
 
     def __init__(self, trace):
-        self.keys = np.where(trace.visits["stage"] == mprt.trace.IC, 0, -1).astype(np.int32)
+        self.keys = self.replay_keys = np.where(trace.visits["stage"] == mprt.trace.IC, 0, -1).astype(np.int32)
 
     def get(self, tag, resident, line):
         d = {"line": line, "items": np.array([2], np.int32), "resident": np.array([0], np.int32),

@@ -237,7 +237,7 @@ def test_memory_data_is_checked_by_the_c_replay(traces):
     c = Compiled(t, vc)
     md = MemoryData(t)
     ic, _ = md.get("ic", 0, 32)
-    keys = md.keys
+    keys = md.replay_keys
     with pytest.raises(InvalidArgument, match="memory keys: .* given, the trace has"):
         lib.replay_set_memory(c.h, keys[:-1], ic, None)
     bad = dict(ic, lines=-ic["lines"] - 1)
@@ -393,3 +393,30 @@ def test_long_look_ups_by_summary_equal_simpy_and_line_by_line(coarse, ways, mon
         hits += a.memory["ic_cache"]["hits"]
         misses += a.memory["ic_cache"]["accesses"] - a.memory["ic_cache"]["hits"]
     assert hits > 0 and misses > 0          # the caches were exercised both ways
+
+
+def test_a_small_trace_on_a_fine_grid_has_data_for_its_voxels_alone():
+    """Where the trace visits fewer than half the grid's voxels, the IC data holds those alone
+    (keys renumbered among them, the lines the same) and replays as SimPy does; the reads the
+    memory estimate counts are those of all the voxels' data."""
+    t = mprt.Scene.spd("balls", size=1).grid(24).trace(8, 8)[1]
+    md = MemoryData(t)
+    nvox = len(t.voxel_start) - 1
+    used = np.flatnonzero(md.layout.voxel_refs > 0)
+    rk, keys = md.replay_keys, md.keys
+    assert 0 < len(used) < nvox // 2 and np.array_equal(md._used, used)
+    assert np.array_equal(used[rk[keys >= 0]], keys[keys >= 0]) and np.array_equal(rk[keys < 0], keys[keys < 0])
+    for resident, line in ((0, 32), (256, 16)):
+        layout = md.layout
+        rm = layout.ic_resident(resident)
+        whole = ic_data(layout, rm.items, line)
+        mine = md.get("ic", resident, line)[0]
+        for k, v in enumerate(used[:50]):
+            a, b = whole["line_start"][v], whole["line_start"][v + 1]
+            c, d = mine["line_start"][k], mine["line_start"][k + 1]
+            assert whole["lines"][a:b].tolist() == mine["lines"][c:d].tolist()
+            assert (whole["items"][v], whole["resident"][v]) == (mine["items"][k], mine["resident"][k])
+        assert md.reads("ic", np.diff(mine["line_start"])) == int(np.dot(np.diff(whole["line_start"]),
+                                                                           layout.voxel_refs))
+    cfg = small_memories(builtin("3mppe"))
+    assert check(t, cfg).memory["ic_cache"]["accesses"] > 0

@@ -95,7 +95,12 @@ static void free_data(memory *m)
 {
     free(m->info);
     free(m->lines);
+    m->cap_info = m->cap_lines = 0;
     free(m->repeat);
+    free(m->tags);
+    free(m->where);
+    m->tags = m->where = NULL;
+    m->cap_tags = m->cap_where = 0;
     mprt__summary_free(m);
     m->info = NULL;
     m->lines = NULL;
@@ -146,10 +151,17 @@ static int copy_data(mprt_replay *r, memory *m, int t, const mprt_replay_memory_
                         (long long)d->lines[k]);
         if (d->lines[k] >= span) span = d->lines[k] + 1;
     }
-    m->info = malloc((n + 1) * sizeof *m->info);
-    m->lines = malloc((nl + 1) * sizeof *m->lines);
-    if (!m->info || !m->lines)
+    /* the arrays of the data before are reused (a search sends other resident sizes in turn);
+     * what was worked out from that data goes */
+    if (mprt__replay_reserve((void **)&m->info, &m->cap_info, n + 1, sizeof *m->info) ||
+        mprt__replay_reserve((void **)&m->lines, &m->cap_lines, nl + 1, sizeof *m->lines))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the %s memory data", NAME[t]);
+    m->rep_sets = m->rep_ways = 0;      /* the next run's repeats, summaries and sets made anew */
+    if (n != m->nkeys) {                /* and their per-key arrays sized anew */
+        free(m->repeat);
+        m->repeat = NULL;
+        mprt__summary_free(m);
+    }
     for (k = 0; k <= n; k++) {
         m->info[k].start = d->line_start[k];
         m->info[k].items = k < n ? d->items[k] : 0;
@@ -173,19 +185,21 @@ int mprt_replay_set_memory(mprt_replay *r, const int32_t *key, size_t nvisits, c
     int t, rc = MPRT_OK;
     if (!r) return MPRT_ERR_INVALID_ARG;
     r->errmsg[0] = '\0';
-    mprt__replay_memory_free(r);
     mprt__replay_free_run(r);
+    if (!r->loaded || nvisits != r->nv || (nvisits && !key)) mprt__replay_memory_free(r);
     if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
     if (nvisits != r->nv)
         return fail(r, MPRT_ERR_INVALID_ARG, "memory keys: %zu given, the trace has %zu visits", nvisits, r->nv);
     if (nvisits && !key) return fail(r, MPRT_ERR_INVALID_ARG, "memory keys: missing");
-    M = r->mem = calloc(1, sizeof *M);
-    if (!M) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the memory data");
+    if (!r->mem && !(r->mem = calloc(1, sizeof *r->mem)))
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the memory data");
+    M = r->mem;             /* (the arrays of the data before are reused: copy_data) */
+    M->m[0].has = M->m[1].has = 0;
     d[0] = ic;
     d[1] = sc;
     for (t = 0; t < 2 && rc == MPRT_OK; t++)
         if (d[t]) rc = copy_data(r, &M->m[t], t, d[t]);
-    if (rc == MPRT_OK && !(M->key = malloc((nvisits + 1) * sizeof *M->key)))
+    if (rc == MPRT_OK && mprt__replay_reserve((void **)&M->key, &M->cap_key, nvisits + 1, sizeof *M->key))
         rc = fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for %zu memory keys", nvisits);
     for (j = 0; j < nvisits && rc == MPRT_OK; j++) {
         int32_t k = key[j];
@@ -218,10 +232,8 @@ void mprt__replay_memory_free_run(mprt_replay *r)
     for (t = 0; t < 2; t++) {
         memory *m = &r->mem->m[t];
         free(m->port_free);
-        free(m->tags);
-        free(m->where);
         free(m->loc);
-        m->port_free = m->tags = m->where = NULL;
+        m->port_free = NULL;           /* (tags and where stay for the next run: build_one) */
         m->loc = NULL;
         m->on = 0;
     }
@@ -249,6 +261,7 @@ static int build_one(mprt_replay *r, int t)
     size_t pes = (size_t)c->pes, cells, a, nl;
     int64_t per;
     const char *env;
+    int reshaped;
     m->on = 1;
     m->cached = c->cache_size[t] > 0;
     m->xfer = (c->cache_line[t] + c->gm_bandwidth[t] - 1) / c->gm_bandwidth[t];
@@ -267,17 +280,19 @@ static int build_one(mprt_replay *r, int t)
                     "(sets x ways the data can fill), more than 2^28 in all", t, NAME[t], pes, (long long)per);
     cells = (size_t)per * pes;
     nl = (size_t)m->info[m->nkeys].start;
-    m->tags = malloc(cells * sizeof *m->tags);
-    m->where = malloc((nl + 1) * sizeof *m->where);
-    if (!m->tags || !m->where)
+    /* the tags and the lines' sets are kept from run to run (fresh pages cost more than the
+     * runs of small traces), the sets while the cache's shape stays */
+    reshaped = !m->where || m->rep_sets != m->nsets || m->rep_ways != m->ways;
+    if (mprt__replay_reserve((void **)&m->tags, &m->cap_tags, cells, sizeof *m->tags) ||
+        (reshaped && mprt__replay_reserve((void **)&m->where, &m->cap_where, nl + 1, sizeof *m->where)))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "cache_size[%d]: out of memory for the %s caches of %zu PEs", t,
                     NAME[t], pes);
     for (a = 0; a < cells; a++) m->tags[a] = -1;     /* (line numbers are >= 0) */
-    for (a = 0; a < nl; a++)
+    for (a = 0; reshaped && a < nl; a++)
         m->where[a] = (m->pow2 ? (m->lines[a] & (m->nsets - 1)) : m->lines[a] % m->nsets) * m->ways;
     if (!m->repeat && !(m->repeat = malloc((m->nkeys + 1) * sizeof *m->repeat)))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the %s caches' repeats", NAME[t]);
-    if (m->rep_sets != m->nsets || m->rep_ways != m->ways) {     /* another shape: its repeats are unknown */
+    if (reshaped) {     /* another shape: its repeats are unknown */
         memset(m->repeat, 0, (m->nkeys + 1) * sizeof *m->repeat);
         mprt__summary_reset(m);
         m->rep_sets = m->nsets;

@@ -23,6 +23,7 @@ typedef struct {
     int64_t line, span;          /* span: the largest line number + 1 */
     keyinfo *info;               /* per key + 1 */
     int64_t *lines;
+    size_t cap_info, cap_lines;  /* (kept for the next data: mprt_replay_set_memory) */
     int64_t reads;               /* the visits' lines in all (at most MAX_READS): bounds a run's reads */
     /* a run */
     int on, cached, pow2, nports;
@@ -30,6 +31,7 @@ typedef struct {
     int64_t *port_free;
     int64_t *tags;               /* per PE nsets x ways line numbers, most recently used first (-1: empty) */
     int64_t *where;              /* per entry of lines: its set's first way in a PE's tags (s x ways) */
+    size_t cap_tags, cap_where;  /* (tags and where are kept from run to run: see build_one) */
     local_mem *loc;              /* per PE */
     /* kept from run to run while the data and the cache's shape stay */
     int64_t *repeat;             /* per key: a repeat's misses + 1 (0: not known yet) */
@@ -43,6 +45,7 @@ typedef struct {
 
 struct mprt__mem {
     int32_t *key;                /* per visit */
+    size_t cap_key;
     size_t nv;
     memory m[2];
 };

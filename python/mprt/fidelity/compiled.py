@@ -192,7 +192,7 @@ class Compiled:
         self._residents = {w[0]: g[1] for w, g in zip(want, got) if w is not None}
         if want != self._sent:
             self._sent = None
-            _LIB.replay_set_memory(self.h, self.memory.keys, *(None if g is None else g[0] for g in got))
+            _LIB.replay_set_memory(self.h, self.memory.replay_keys, *(None if g is None else g[0] for g in got))
             self._sent = want
 
     def _run(self, config, log=None) -> bool:

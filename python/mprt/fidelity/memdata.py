@@ -58,39 +58,45 @@ def _lines(addr, size, owner, nkeys, line):
     return np.concatenate([[0], np.cumsum(per)]).astype(np.int64), lines
 
 
-def ic_data(layout: DataLayout, items: dict, line: int) -> dict:
+def ic_data(layout: DataLayout, items: dict, line: int, used=None) -> dict:
     """Per voxel: items read (its list, if not empty, and each primitive's shape), those
-    resident, and the lines of the rest: the list's cells, then each shape in list order."""
+    resident, and the lines of the rest: the list's cells, then each shape in list order.
+    ``used`` (sorted voxel ids): only those voxels, as keys 0, 1, ... in that order (the
+    lines are the same: addresses are the whole layout's)."""
     vs = layout.voxel_start
     ids = layout.voxel_ids
-    nvox = len(vs) - 1
-    ncell = int(vs[-1])
-    lens = np.diff(vs)
+    vox = np.arange(len(vs) - 1, dtype=np.int64) if used is None else np.asarray(used, dtype=np.int64)
+    nk = len(vox)
+    start = np.asarray(vs[vox], dtype=np.int64)
+    lens = np.asarray(vs[vox + 1], dtype=np.int64) - start
+    ncell = int(lens.sum())
     nonempty = lens > 0
-    res_list = np.asarray(items["list"], dtype=bool)
+    res_list = np.asarray(items["list"], dtype=bool)[vox]
     res_shape = np.asarray(items["shape"], dtype=bool)
-    vox = np.repeat(np.arange(nvox, dtype=np.int64), lens)
-    cell_res = res_shape[ids] if ncell else np.zeros(0, bool)
-    resident = (nonempty & res_list).astype(np.int64) + np.bincount(vox, weights=cell_res, minlength=nvox).astype(
+    first = np.cumsum(lens) - lens                       # each key's first cell among the keys' cells
+    key = np.repeat(np.arange(nk, dtype=np.int64), lens)
+    cids = ids[np.arange(ncell, dtype=np.int64) - first[key] + start[key]] if ncell else np.zeros(0, np.int64)
+    cell_res = res_shape[cids] if ncell else np.zeros(0, bool)
+    resident = (nonempty & res_list).astype(np.int64) + np.bincount(key, weights=cell_res, minlength=nk).astype(
         np.int64)
-    # ranges in reading order: voxel v's list at start[v] + v, its cells after it
-    pos_list = vs[:-1] + np.arange(nvox)
-    pos_cell = np.arange(ncell, dtype=np.int64) + vox + 1
-    n = ncell + nvox
+    # ranges in reading order: key k's list at first[k] + k, its cells after it
+    pos_list = first + np.arange(nk)
+    pos_cell = np.arange(ncell, dtype=np.int64) + key + 1
+    n = ncell + nk
     addr = np.empty(n, np.int64)
     size = np.empty(n, np.int64)
     keep = np.empty(n, bool)
     owner = np.empty(n, np.int64)
-    addr[pos_list] = layout.list_base + CELL_BYTES * vs[:-1]
+    addr[pos_list] = layout.list_base + CELL_BYTES * start
     size[pos_list] = CELL_BYTES * lens
     keep[pos_list] = nonempty & ~res_list
-    owner[pos_list] = np.arange(nvox)
-    sb = layout.shape_bytes[ids] if ncell else np.zeros(0, np.int64)
-    addr[pos_cell] = layout.shape_off[ids] if ncell else 0
+    owner[pos_list] = np.arange(nk)
+    sb = layout.shape_bytes[cids] if ncell else np.zeros(0, np.int64)
+    addr[pos_cell] = layout.shape_off[cids] if ncell else 0
     size[pos_cell] = sb
     keep[pos_cell] = ~cell_res & (sb > 0)
-    owner[pos_cell] = vox
-    line_start, lines = _lines(addr[keep], size[keep], owner[keep], nvox, line)
+    owner[pos_cell] = key
+    line_start, lines = _lines(addr[keep], size[keep], owner[keep], nk, line)
     return {"line": line, "items": (nonempty + lens).astype(np.int32), "resident": resident.astype(np.int32),
             "line_start": line_start, "lines": lines}
 
@@ -126,6 +132,8 @@ class MemoryData:
         self._keys = None
         self._refs = None       # (voxel_refs, material_refs) when counted in C with the keys
         self._data = {}
+        self._used = None       # the voxels visited, when only those have IC data (else all: False)
+        self._replay_keys = None
 
     @property
     def layout(self) -> DataLayout:
@@ -152,26 +160,60 @@ class MemoryData:
         else:
             self._keys = visit_keys(t)
 
+    @property
+    def replay_keys(self) -> np.ndarray:
+        """The visits' keys as the C replay reads them with ``get``'s data: an IC key numbers the
+        voxel among those the trace visits, where fewer than half the grid's are (a small trace
+        on a fine grid: the data of the rest, never read, is neither made nor copied)."""
+        self._restrict()
+        return self._replay_keys
+
+    def _restrict(self) -> None:
+        if self._used is not None:
+            return
+        refs = self.layout.voxel_refs
+        used = np.flatnonzero(refs > 0)
+        if 2 * len(used) >= len(refs):
+            self._used, self._replay_keys = False, self.keys
+            return
+        dense = np.zeros(len(refs), dtype=np.int32)
+        dense[used] = np.arange(len(used), dtype=np.int32)
+        keys = self.keys
+        ic = keys >= 0
+        rk = keys.copy()
+        rk[ic] = dense[keys[ic]]
+        self._used, self._replay_keys = used, rk
+
     def reads(self, tag: str, per: np.ndarray) -> int:
         """Lines read by all the trace's visits from memory ``tag`` whose keys read ``per`` lines
-        each: the sum over its visits' keys."""
+        each (``get``'s keys): the sum over its visits' keys."""
         layout = self.layout
         refs = layout.voxel_refs if tag == "ic" else layout.material_refs
+        if tag == "ic":
+            self._restrict()
+            if self._used is not False:
+                refs = refs[self._used]
         if len(refs) == len(per):
             return int(np.dot(per.astype(np.int64), refs))
-        keys = self.keys
+        keys = self.replay_keys
         sel = keys[keys >= 0] if tag == "ic" else -2 - keys[keys <= -2].astype(np.int64)
         return int(per[sel].sum(dtype=np.int64))
 
     def get(self, tag: str, resident: int, line: int):
-        """(data dict for mprt_replay_set_memory, ResidentMemory) of memory ``tag`` ("ic", "sc")."""
+        """(data dict for mprt_replay_set_memory, ResidentMemory) of memory ``tag`` ("ic", "sc"),
+        its keys ``replay_keys``'."""
         key = (tag, resident, line)
         if key in self._data:
             got = self._data.pop(key)
         else:
             L = self.layout
-            rm = L.ic_resident(resident) if tag == "ic" else L.sc_resident(resident)
-            got = ((ic_data if tag == "ic" else sc_data)(L, rm.items, line), rm)
+            if tag == "ic":
+                self._restrict()
+                rm = L.ic_resident(resident)
+                got = (ic_data(L, rm.items, line, None if self._used is False else self._used), rm)
+            else:
+                rm = L.sc_resident(resident)
+                got = (sc_data(L, rm.items, line), rm)
             while len(self._data) >= KEEP:
                 self._data.pop(next(iter(self._data)))
         self._data[key] = got
