@@ -420,3 +420,21 @@ def test_a_small_trace_on_a_fine_grid_has_data_for_its_voxels_alone():
                                                                            layout.voxel_refs))
     cfg = small_memories(builtin("3mppe"))
     assert check(t, cfg).memory["ic_cache"]["accesses"] > 0
+
+
+def test_one_replay_switching_data_gives_what_fresh_ones_give(coarse):
+    """The C replay keeps its data arrays, tags, sets and summaries from one data and run to the
+    next: one Compiled going through resident sizes, line sizes and cache shapes back and forth
+    gives each configuration's result as a Compiled made for it alone."""
+    base = builtin("3mppe").replace(ring=None, pes=2)
+    cfgs = [base.replace(ic_memory=LocalMemoryConfig(res, CacheConfig(size, line, ways)),
+                         sc_memory=LocalMemoryConfig(res // 4, None), icgm=GlobalMemoryConfig(7, 3, True),
+                         scgm=GlobalMemoryConfig(5, 8, True))
+            for res, size, line, ways in ((0, 512, 16, 4), (4096, 512, 16, 4), (0, 2048, 32, 2), (65536, 256, 16, 1),
+                                          (4096, 512, 16, 4), (0, 512, 16, 4))]
+    vc = CM.visit_costs(coarse, base.processors())
+    one = Compiled(coarse, vc)
+    got = [one.result(c) for c in cfgs]
+    for c, g in zip(cfgs, got):
+        assert same(g, Compiled(coarse, vc).result(c)), c
+    assert got[0].cycles == got[5].cycles and got[1].cycles == got[4].cycles and got[0].cycles != got[1].cycles
