@@ -829,6 +829,19 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
 int mprt_trace_checker_finish(mprt_trace_checker *c);
 /* The first fault's reason ("" when none). */
 const char *mprt_trace_checker_errmsg(const mprt_trace_checker *c);
+/* Level 3's memory keys made in the same pass (before the first visit is
+ * checked): each visit whose ranges hold gets mprt_visit_keys's key in
+ * keys[nvisits] and its reference in voxel_refs[nvoxels] or
+ * material_refs[nmaterials] (zeroed here), the primitives' materials read
+ * from prim_material[nprims].  A key mprt_visit_keys would refuse (or a
+ * voxel id beyond 32 bits) stops the keys, not the check.
+ * mprt_trace_checker_keys_done: 1 when every visit's key was made and the
+ * records passed so far (call after finish), else 0 (then make them with
+ * mprt_visit_keys). */
+int mprt_trace_checker_keys(mprt_trace_checker *c, const int64_t *prim_material, size_t nprims, int32_t *keys,
+                            size_t nvisits, int64_t *voxel_refs, size_t nvoxels, int64_t *material_refs,
+                            size_t nmaterials);
+int mprt_trace_checker_keys_done(const mprt_trace_checker *c);
 
 #ifdef __cplusplus
 }

@@ -8,7 +8,9 @@
  * ray's first visit is checked against its parent's SC visit (seen before
  * it), its later ones against the pipeline's transitions.  Records are read
  * through memcpy: a memory-mapped trace's members lie at any offset of the
- * file, so they need not be aligned. */
+ * file, so they need not be aligned.  When asked (mprt_trace_checker_keys),
+ * the same pass makes level 3's memory keys (memkeys.c's, the same values)
+ * of each visit once its ranges hold. */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -32,6 +34,13 @@ struct mprt_trace_checker {
     int64_t prev_ray;       /* the last visit's ray (-1: none yet) */
     int prev_code;
     int64_t to_ic, ic;      /* OS->IC handoffs, IC visits */
+    int64_t ray_kind;       /* the last visit's ray's kind */
+    /* level 3's memory keys (mprt_trace_checker_keys), made while keys_ok */
+    const int64_t *mat;     /* prim_material[nmat_prims] */
+    size_t nmat_prims, nkeys, nvox, nmat;
+    int32_t *keys;
+    int64_t *vref, *mref;
+    int keys_ok;
     int fault;
     char msg[160];
 };
@@ -101,6 +110,57 @@ void mprt_trace_checker_destroy(mprt_trace_checker *c)
     free(c->state);
     free(c->owed);
     free(c);
+}
+
+int mprt_trace_checker_keys(mprt_trace_checker *c, const int64_t *prim_material, size_t nprims, int32_t *keys,
+                            size_t nvisits, int64_t *voxel_refs, size_t nvoxels, int64_t *material_refs,
+                            size_t nmaterials)
+{
+    size_t i;
+    if (!c || c->seen || (nprims && !prim_material) || (nvisits && !keys) || (nvoxels && !voxel_refs) ||
+        (nmaterials && !material_refs))
+        return MPRT_ERR_INVALID_ARG;
+    c->mat = prim_material;
+    c->nmat_prims = nprims;
+    c->keys = keys;
+    c->nkeys = nvisits;
+    c->vref = voxel_refs;
+    c->nvox = nvoxels;
+    c->mref = material_refs;
+    c->nmat = nmaterials;
+    for (i = 0; i < nvoxels; i++) voxel_refs[i] = 0;
+    for (i = 0; i < nmaterials; i++) material_refs[i] = 0;
+    c->keys_ok = 1;
+    return MPRT_OK;
+}
+
+int mprt_trace_checker_keys_done(const mprt_trace_checker *c)
+{
+    return c && !c->fault && c->keys_ok && c->seen == c->nkeys;
+}
+
+/* Visit j's memory key as mprt_visit_keys makes it; 0 where that would refuse it or
+ * keep a voxel id beyond 32 bits (the caller then makes them with mprt_visit_keys). */
+static int key_of(mprt_trace_checker *c, const mprt_trace_visit *a, size_t j)
+{
+    int64_t k = -1;
+    if (j >= c->nkeys) return 0;
+    if (a->stage == MPRT_STAGE_IC) {
+        k = a->voxel_id;
+        if (k >= 0) {
+            if ((uint64_t)k >= c->nvox || k > INT32_MAX) return 0;
+            c->vref[k]++;
+        }
+    } else if (a->stage == MPRT_STAGE_SC && a->prim >= 0) {
+        int64_t m;
+        if ((size_t)a->prim >= c->nmat_prims) return 0;
+        m = c->mat[a->prim];
+        if (m < 0 || (uint64_t)m >= c->nmat || m > (int64_t)INT32_MAX - 2) return 0;
+        c->mref[m]++;
+        k = -2 - m;
+    }
+    c->keys[j] = (int32_t)k;
+    return 1;
 }
 
 const char *mprt_trace_checker_errmsg(const mprt_trace_checker *c)
@@ -181,10 +241,13 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
             outside(a->vertices, 0, L->vertices) || st > MPRT_STAGE_SC || a->outcome > MPRT_OUT_LATE_HIT ||
             a->made > made_max || a->suppressed > made_max)
             return fault(c, MPRT_TRACE_RANGE, "visit %zu: a field out of range", c->seen);
+        if (c->keys_ok) c->keys_ok = key_of(c, a, c->seen);
         if (!inv) continue;
         code = CODE(st, a->outcome);
         if (ray != c->prev_ray) {
-            int64_t parent = mprt__ray_at(c->rays, (size_t)ray).parent;
+            const mprt_trace_ray y = mprt__ray_at(c->rays, (size_t)ray);
+            int64_t parent = y.parent;
+            c->ray_kind = y.kind;
             if (c->prev_ray >= 0 && ends(c, c->prev_code)) return c->fault;
             if (c->state[ray] & BEGUN)
                 return fault(c, MPRT_TRACE_INVARIANT, "ray %lld: its visits are not contiguous", (long long)ray);
@@ -196,7 +259,7 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
         } else if (!(next_of(c->prev_code) >> code & 1)) {
             return fault(c, MPRT_TRACE_INVARIANT, "visit %zu: code %d after code %d", c->seen, code, c->prev_code);
         }
-        if (mprt__ray_at(c->rays, (size_t)ray).kind == MPRT_RAY_SHADOW ? NEVER_SHADOW >> code & 1 : SHADOW_ONLY >> code & 1)
+        if (c->ray_kind == MPRT_RAY_SHADOW ? NEVER_SHADOW >> code & 1 : SHADOW_ONLY >> code & 1)
             return fault(c, MPRT_TRACE_INVARIANT, "visit %zu: a shadow ray's outcome on another ray, or the reverse",
                          c->seen);
         if ((tested && st != MPRT_STAGE_IC) || (a->steps != 0 && st != MPRT_STAGE_OS))

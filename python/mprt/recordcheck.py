@@ -8,6 +8,9 @@ C only says whether the records pass (and a short reason); the Python checkers, 
 trace that does not, name the first fault in their words, so every message stays theirs.
 ``sound`` is False for records C cannot read in place (another layout or byte order): the
 caller then checks them in Python.
+
+``check(..., keys=...)`` makes level 3's memory keys in the same pass (``memory_keys``: the
+arrays ``mprt_visit_keys`` gives, for ``fidelity.memdata``), one pass over the visits fewer.
 """
 from __future__ import annotations
 
@@ -39,9 +42,22 @@ def limits(meta: dict, arrays: dict, invariants: bool) -> dict:
             "vertices": int(np.sum(arrays["prim_words"], dtype=np.int64)), "invariants": int(bool(invariants))}
 
 
-def check(lim: dict, rays: np.ndarray, visits: np.ndarray, chunk: int = CHUNK) -> tuple[int, str]:
+def memory_keys(prim_material: np.ndarray, nvoxels: int) -> dict:
+    """What ``check(..., keys=)`` fills for a trace of these materials and voxels: ``prim_material``
+    (int64), ``nvoxels`` and ``nmaterials`` (the most material + 1, as ``fidelity.memdata`` counts
+    them); after a check that made every visit's key, also ``keys`` (int32 per visit),
+    ``voxel_refs`` and ``material_refs`` (int64), as ``binding.visit_keys`` gives them."""
+    mat = np.ascontiguousarray(prim_material, dtype=np.int64)
+    return {"prim_material": mat, "nvoxels": int(nvoxels), "nmaterials": int(mat.max()) + 1 if len(mat) else 1}
+
+
+def check(lim: dict, rays: np.ndarray, visits: np.ndarray, chunk: int = CHUNK, keys: dict | None = None) \
+        -> tuple[int, str]:
     """(fault kind, reason) of the records under ``lim`` (``limits``): SOUND, RANGE (a field
-    outside its range) or INVARIANT (a broken invariant, when ``lim`` asks for them)."""
+    outside its range) or INVARIANT (a broken invariant, when ``lim`` asks for them).
+    ``keys`` (``memory_keys``'s dict): the visits' memory keys made in the same pass, added to it
+    as ``keys``, ``voxel_refs``, ``material_refs`` when every visit got one and the records pass
+    (else left out: ``binding.visit_keys`` makes them, naming the visit it refuses)."""
     lib = binding("double")
     ffi, c_lib = lib.ffi, lib.lib
     ray_buf = lib._in("mprt_trace_ray", rays) if len(rays) else ffi.NULL    # (kept alive: C holds it)
@@ -49,6 +65,16 @@ def check(lim: dict, rays: np.ndarray, visits: np.ndarray, chunk: int = CHUNK) -
     if h == ffi.NULL:
         raise MemoryError(f"out of memory checking a trace of {len(rays)} rays")
     h = ffi.gc(h, c_lib.mprt_trace_checker_destroy)
+    made = key_bufs = None
+    if keys is not None:
+        mat = keys["prim_material"]
+        made = (np.empty(len(visits), np.int32), np.empty(keys["nvoxels"], np.int64),
+                np.empty(keys["nmaterials"], np.int64))
+        key_bufs = (lib._in("int64_t", mat), lib._out("int32_t", made[0]), lib._out("int64_t", made[1]),
+                    lib._out("int64_t", made[2]))      # (kept alive: C holds them)
+        if c_lib.mprt_trace_checker_keys(h, key_bufs[0], len(mat), key_bufs[1], len(made[0]), key_bufs[2],
+                                         len(made[1]), key_bufs[3], len(made[2])):
+            made = None
     try:
         step = max(1, int(chunk))
         rc = SOUND
@@ -65,7 +91,10 @@ def check(lim: dict, rays: np.ndarray, visits: np.ndarray, chunk: int = CHUNK) -
             i += step
         if not rc:
             rc = c_lib.mprt_trace_checker_finish(h)
+        if made is not None and c_lib.mprt_trace_checker_keys_done(h):
+            keys.update(keys=made[0], voxel_refs=made[1], material_refs=made[2])
         return int(rc), ffi.string(c_lib.mprt_trace_checker_errmsg(h)).decode(errors="replace")
     finally:
         ffi.release(h)
         del ray_buf
+        key_bufs = None

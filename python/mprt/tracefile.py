@@ -376,7 +376,7 @@ def _settle(pending: list, path: str) -> None:
     pending.clear()
 
 
-def read(path, mmap: bool | None = None, verify: bool = True, invariants: bool = False):
+def read(path, mmap: bool | None = None, verify: bool = True, invariants: bool = False, keys: dict | None = None):
     """Read a trace file: (meta, arrays), the arrays those of ``ARRAYS``.  Checks the format
     version, the metadata (``tracevalid.check_meta``: before any array is read), that every
     member is present and whole, (``verify``) the checksums, and the arrays
@@ -387,7 +387,9 @@ def read(path, mmap: bool | None = None, verify: bool = True, invariants: bool =
     member and the field (an invariant: the rule and the ray, as ``tracecheck.check`` names
     it); memory is bounded by the file's size.  The checksum of a large memory-mapped record
     member is computed on a thread while the rest is read and checked (CRC-32 lets go of the
-    interpreter), the errors raised in the order a sequential reading would meet them."""
+    interpreter), the errors raised in the order a sequential reading would meet them.  ``keys``
+    (a dict): level 3's memory keys made while the records are checked, added to it
+    (``tracevalid.check_arrays``'s ``keys``) when the checks pass."""
     path = os.fspath(path)
     try:
         z = zipfile.ZipFile(path)
@@ -436,7 +438,7 @@ def read(path, mmap: bool | None = None, verify: bool = True, invariants: bool =
             if version == 1:
                 arrays["visits"] = _rename_v1(arrays["visits"])
             meta["version"] = FORMAT_VERSION
-            found = tracevalid.check_arrays(meta, arrays, invariants=invariants)
+            found = tracevalid.check_arrays(meta, arrays, invariants=invariants, keys=keys)
         except TraceError as e:
             raise TraceError(f"{path}: {e}") from None
         _settle(pending, path)
