@@ -30,6 +30,7 @@ from types import SimpleNamespace
 
 import numpy as np
 
+from ._lowlevel import binding
 from .errors import TraceError
 from . import tracecheck, tracevalid
 from .pages import chunks, release  # noqa: F401  (tracefile.chunks, tracefile.release: kept for callers)
@@ -166,10 +167,13 @@ CRC_PART = 1 << 26      # bytes: arrays of two parts or more are checksummed by 
 
 
 def _crc_range(b: np.ndarray, lo: int, hi: int, chunk: int) -> int:
+    """zlib.crc32 of b[lo:hi], by the library's CRC-32 (``crc32_copy``: zlib's value, folded
+    with carry-less multiplications where it can, 2 to 3 times zlib's speed), a chunk at a time."""
+    crc32 = binding("double").crc32_copy
     value = 0
     for i in range(lo, hi, chunk):
         j = min(i + chunk, hi)
-        value = zlib.crc32(memoryview(b[i:j]), value)
+        value = crc32(memoryview(b[i:j]), value)
         release(b[i:j])
     return value
 
@@ -178,7 +182,7 @@ def crc(a: np.ndarray, chunk: int = 1 << 24, threads: int | None = None) -> int:
     """CRC-32 of an array's bytes, read in chunks (a memory-mapped array is
     not read whole, nor kept resident): detects damaged or edited data.  A
     large array is cut into parts checksummed by ``threads`` threads (default:
-    the cores, at most 4; zlib lets go of the GIL) and the parts' CRCs combined:
+    the cores, at most 4; the library's CRC lets go of the GIL) and the parts' CRCs combined:
     the same value whatever the count."""
     if not a.size:
         return 0
