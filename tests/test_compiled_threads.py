@@ -23,7 +23,10 @@ BLOCK = 16 * 4096           # replay_load.c's PIPE_BLOCK: traces of two blocks o
 
 @pytest.fixture(scope="module")
 def trace():
-    _, t = mprt.Scene.spd("balls", size=1).grid(16).trace(64, 64)
+    scene = mprt.Scene.spd("balls", size=1)
+    grid = scene.grid(16)       # (the scene kept while its grid lives)
+    _, t = grid.trace(64, 64)
+    del grid, scene
     assert len(t.visits) >= 3 * BLOCK        # piped, over several blocks
     return t
 
