@@ -123,3 +123,34 @@ def test_simulate_answers_alike_with_keys_made_apart(tmp_path, monkeypatch, leve
     monkeypatch.setattr(machine_cli, "_wants_memory_keys", lambda a: False)
     assert run("apart") == made
     assert made["level"] == int(level) and made["cycles"] > 0
+
+
+def test_the_cost_table_is_made_on_a_thread_while_the_trace_is_read(tmp_path, monkeypatch):
+    """The kernels' schedules for the run's processors are made while the records are checked
+    (a thread of their own, joined before the trace is used); the answer is the same without."""
+    import threading
+
+    from mprt.cost import CostModel, model
+    from mprt.fidelity import cli as fcli
+    from mprt.fidelity.cli import main
+
+    where = []
+    table = CostModel.cost_table
+    monkeypatch.setattr(CostModel, "cost_table",
+                        lambda self, procs: where.append(threading.current_thread().name) or table(self, procs))
+
+    def run(name):
+        model._cycles.cache_clear()
+        out = tmp_path / f"{name}.json"
+        assert main(["simulate", str(GOLDEN / "gears-g9.npz"), "--engine", "compiled", "--model", "3mppe",
+                     "--level", "3", "--json", str(out)]) == 0
+        d = json.loads(out.read_text())
+        for k in ("wall_seconds", "replay_seconds"):
+            d.pop(k)
+        return d
+
+    warm = run("warm")
+    assert where[0] == "mprt-warm-costs" and threading.active_count() == 1
+    where.clear()
+    monkeypatch.setattr(fcli, "_warm_cost_model", lambda a: None)
+    assert run("cold") == warm and "mprt-warm-costs" not in where
