@@ -820,7 +820,7 @@ typedef struct {
 typedef struct mprt_trace_checker mprt_trace_checker;
 
 /* Fault kinds (mprt_trace_checker_fault). */
-enum { MPRT_TRACE_SOUND = 0, MPRT_TRACE_RANGE = 1, MPRT_TRACE_INVARIANT = 2 };
+enum { MPRT_TRACE_SOUND = 0, MPRT_TRACE_RANGE = 1, MPRT_TRACE_INVARIANT = 2, MPRT_TRACE_REDO = 3 };
 
 /* A checker of rays[0..nrays-1] (kept, not copied: they must stay until the
  * last call) under lim; NULL when out of memory. */
@@ -849,6 +849,21 @@ int mprt_trace_checker_keys(mprt_trace_checker *c, const int64_t *prim_material,
                             size_t nvisits, int64_t *voxel_refs, size_t nvoxels, int64_t *material_refs,
                             size_t nmaterials);
 int mprt_trace_checker_keys_done(const mprt_trace_checker *c);
+/* A check split in two parts run at once (on two threads): after the rays,
+ * before any visit, mprt_trace_checker_split(c, &visits[from - 1], from)
+ * makes a checker of visits from .. n-1 (before: the visit before them;
+ * NULL when from is 0) with state of its own (9 bytes a ray; its memory
+ * keys into the same keys, its references apart); c then checks visits
+ * 0 .. from-1, the part visits from on (each a chunk at a time, in order),
+ * then mprt_trace_checker_join(c, part) settles what lies across the
+ * split and merges the part into c (destroy the part after), for c's
+ * finish.  join answers the first part's fault if it has one, else
+ * MPRT_TRACE_REDO when the second part or what lies across the split has
+ * one (then check again in one part: only one pass says which fault comes
+ * first), else SOUND.  split: NULL when out of memory or called out of
+ * order. */
+mprt_trace_checker *mprt_trace_checker_split(mprt_trace_checker *c, const mprt_trace_visit *before, size_t from);
+int mprt_trace_checker_join(mprt_trace_checker *c, mprt_trace_checker *part);
 
 #ifdef __cplusplus
 }

@@ -19,7 +19,10 @@
 
 #include "mprt_internal.h"
 
-enum { BEGUN = 1, SC_SEEN = 2, CODES = 16 };
+/* per ray: BEGUN, SC_SEEN; in a split's second part also CONT (its visits began in the first
+ * part, before the split) and NEED (one of its children began here before its SC visit came
+ * here: the first part must hold that SC visit) */
+enum { BEGUN = 1, SC_SEEN = 2, CONT = 4, NEED = 8, CODES = 16 };
 #define CODE(s, o) ((s) * CODES + (o))
 #define BIT(s, o) ((uint64_t)1 << CODE(s, o))
 
@@ -41,6 +44,8 @@ struct mprt_trace_checker {
     int32_t *keys;
     int64_t *vref, *mref;
     int keys_ok;
+    int part;               /* 1: the second part of a split check (mprt_trace_checker_split) */
+    size_t from;            /* ... its first visit */
     int fault;
     char msg[160];
 };
@@ -109,6 +114,10 @@ void mprt_trace_checker_destroy(mprt_trace_checker *c)
     if (!c) return;
     free(c->state);
     free(c->owed);
+    if (c->part) {          /* a split's second part owns its references */
+        free(c->vref);
+        free(c->mref);
+    }
     free(c);
 }
 
@@ -254,8 +263,12 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
             c->state[ray] |= BEGUN;
             if (st != MPRT_STAGE_OS)
                 return fault(c, MPRT_TRACE_INVARIANT, "ray %lld does not start at OS", (long long)ray);
-            if (parent >= 0 && !(c->state[parent] & SC_SEEN))
-                return fault(c, MPRT_TRACE_INVARIANT, "ray %lld starts before its parent's SC visit", (long long)ray);
+            if (parent >= 0 && !(c->state[parent] & SC_SEEN)) {
+                if (!c->part)
+                    return fault(c, MPRT_TRACE_INVARIANT, "ray %lld starts before its parent's SC visit",
+                                 (long long)ray);
+                c->state[parent] |= NEED;       /* the first part's SC visit, or a fault (join) */
+            }
         } else if (!(next_of(c->prev_code) >> code & 1)) {
             return fault(c, MPRT_TRACE_INVARIANT, "visit %zu: code %d after code %d", c->seen, code, c->prev_code);
         }
@@ -276,10 +289,91 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
     return MPRT_TRACE_SOUND;
 }
 
+mprt_trace_checker *mprt_trace_checker_split(mprt_trace_checker *c, const mprt_trace_visit *before, size_t from)
+{
+    mprt_trace_checker *p;
+    if (!c || c->part || c->fault || c->seen || c->next_ray != c->nrays || (from && !before)) return NULL;
+    p = calloc(1, sizeof *p);
+    if (!p) return NULL;
+    p->lim = c->lim;
+    p->rays = c->rays;
+    p->nrays = p->next_ray = c->nrays;
+    p->seen = p->from = from;
+    p->prev_ray = -1;
+    p->part = 1;
+    if (c->lim.invariants && c->nrays) {
+        p->state = calloc(c->nrays, 1);
+        p->owed = calloc(c->nrays, sizeof *p->owed);
+        if (!p->state || !p->owed) {
+            mprt_trace_checker_destroy(p);
+            return NULL;
+        }
+    }
+    if (c->keys_ok) {
+        p->mat = c->mat;
+        p->nmat_prims = c->nmat_prims;
+        p->keys = c->keys;
+        p->nkeys = c->nkeys;
+        p->nvox = c->nvox;
+        p->nmat = c->nmat;
+        p->vref = calloc(c->nvox ? c->nvox : 1, sizeof *p->vref);
+        p->mref = calloc(c->nmat ? c->nmat : 1, sizeof *p->mref);
+        p->keys_ok = p->vref && p->mref;
+    }
+    if (from && c->lim.invariants) {    /* the run of visits it continues: the visit before it */
+        const mprt_trace_visit b = mprt__visit_at(before, 0);
+        if (outside(b.ray, 0, (int64_t)c->nrays - 1) || b.stage > MPRT_STAGE_SC || b.outcome > MPRT_OUT_LATE_HIT) {
+            fault(p, MPRT_TRACE_RANGE, "visit %zu: a field out of range", from - 1);    /* (the first part's) */
+        } else {
+            p->prev_ray = b.ray;
+            p->prev_code = CODE(b.stage, b.outcome);
+            p->ray_kind = mprt__ray_at(c->rays, (size_t)b.ray).kind;
+            p->state[b.ray] = BEGUN | CONT;
+        }
+    }
+    return p;
+}
+
+int mprt_trace_checker_join(mprt_trace_checker *c, mprt_trace_checker *p)
+{
+    size_t i;
+    if (!c || !p || c->part || !p->part || c->nrays != p->nrays) return MPRT_TRACE_RANGE;
+    if (c->fault) return c->fault;      /* the first part's: before any of the second's */
+    if (c->seen != p->from) return fault(c, MPRT_TRACE_RANGE, "a split's first part ends at visit %zu, not %zu",
+                                         c->seen, p->from);
+    if (p->fault) return MPRT_TRACE_REDO;
+    if (c->lim.invariants) {
+        for (i = 0; i < c->nrays; i++) {
+            int s = p->state[i];
+            if (((s & (BEGUN | CONT)) == BEGUN && (c->state[i] & BEGUN)) || ((s & NEED) && !(c->state[i] & SC_SEEN)))
+                return MPRT_TRACE_REDO;
+        }
+        for (i = 0; i < c->nrays; i++) {
+            c->state[i] |= (uint8_t)(p->state[i] & (BEGUN | SC_SEEN));
+            c->owed[i] += p->owed[i];
+        }
+        c->to_ic += p->to_ic;
+        c->ic += p->ic;
+        if (p->prev_ray >= 0) {
+            c->prev_ray = p->prev_ray;
+            c->prev_code = p->prev_code;
+            c->ray_kind = p->ray_kind;
+        }
+    }
+    if (c->keys_ok && p->keys_ok && p->seen == p->nkeys) {
+        for (i = 0; i < c->nvox; i++) c->vref[i] += p->vref[i];
+        for (i = 0; i < c->nmat; i++) c->mref[i] += p->mref[i];
+    } else {
+        c->keys_ok = 0;
+    }
+    c->seen = p->seen;
+    return MPRT_TRACE_SOUND;
+}
+
 int mprt_trace_checker_finish(mprt_trace_checker *c)
 {
     size_t i;
-    if (!c) return MPRT_TRACE_RANGE;
+    if (!c || c->part) return MPRT_TRACE_RANGE;
     if (c->fault) return c->fault;
     if (c->next_ray != c->nrays) return fault(c, MPRT_TRACE_RANGE, "finished before every ray was checked");
     if (!c->lim.invariants) return MPRT_TRACE_SOUND;
