@@ -205,3 +205,26 @@ def test_what_each_half_cannot_see_is_found_by_the_join():
             break
     else:
         pytest.fail("no parent and child in the second half")
+
+
+def test_release_since_lets_go_of_the_second_half_only(tmp_path, monkeypatch):
+    """pages.release(part, since=half): the range let go starts at the page of ``since`` (the
+    first half's reader keeps its pages); without it, at the map's start."""
+    import mmap as _mmap
+
+    from mprt import pages
+
+    page = _mmap.PAGESIZE
+    n = 64 * page
+    path = tmp_path / "m.bin"
+    path.write_bytes(bytes(n))
+    m = np.memmap(path, dtype=np.uint8, mode="r")
+    calls = []
+    monkeypatch.setattr(pages, "_madvise", lambda start, length, advice: calls.append((start, length)))
+    half = m[n // 2 + 100:]
+    pages.release(half[:page], since=half)
+    pages.release(half[:page])
+    base = m.ctypes.data
+    first = half.ctypes.data - half.ctypes.data % page
+    end = min(half.ctypes.data + page + pages._AROUND, base + n)
+    assert calls == [(first, end - first), (base, end - base)]
