@@ -154,3 +154,26 @@ def test_the_cost_table_is_made_on_a_thread_while_the_trace_is_read(tmp_path, mo
     where.clear()
     monkeypatch.setattr(fcli, "_warm_cost_model", lambda a: None)
     assert run("cold") == warm and "mprt-warm-costs" not in where
+
+
+def test_simulate_parses_as_before_without_the_explorer():
+    """``mprt simulate`` builds the parser without the explorer's commands (nor their imports):
+    its options, help and errors are those of the whole parser's."""
+    import subprocess
+    import sys
+
+    from mprt import cli
+
+    def sim(p):
+        return p._subparsers._group_actions[0].choices["simulate"]
+
+    whole, lean = cli.build_parser(), cli.build_parser(explore=False)
+    assert "explore" in whole._subparsers._group_actions[0].choices
+    assert "explore" not in lean._subparsers._group_actions[0].choices
+    assert sim(whole).format_help() == sim(lean).format_help()
+    argv = ["simulate", str(GOLDEN / "balls-g4.npz"), "--engine", "compiled", "--level", "1"]
+    assert vars(whole.parse_args(argv)).keys() == vars(lean.parse_args(argv)).keys()
+    code = ("import sys; from mprt.cli import main; rc = main(%r); "
+            "print(rc, any(m.startswith('mprt.explore') for m in sys.modules))" % argv)
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True).stdout
+    assert out.splitlines()[-1] == "0 False"
