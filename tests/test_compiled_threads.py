@@ -31,13 +31,13 @@ def trace():
     return t
 
 
-def load(trace, threads, visits=None, prim_kind=None):
+def load(trace, threads, visits=None, prim_kind=None, dtype=np.int32):
     """(flits, the load's error message or None) of a priced load with this many threads."""
     cfg = at_level(builtin("3mppe"), 2)
     p = priced_for(trace, cfg)
     rec = p.records
     v = np.asarray(trace.visits) if visits is None else visits
-    flits = np.zeros(len(v), np.int32)
+    flits = np.zeros(len(v), dtype)
     h = LIB.replay_create({})
     try:
         LIB.replay_load_priced(h, np.asarray(trace.rays), v, p.table, rec.children,
@@ -60,9 +60,19 @@ def test_two_threads_replay_as_one(trace, monkeypatch, model, level):
 
 
 def test_two_threads_give_the_same_flits(trace):
-    one, e1 = load(trace, 1)
-    two, e2 = load(trace, 2)
-    assert e1 is None and e2 is None and np.array_equal(one, two) and one.any()
+    """The same flits, as int64 (what the ring's replay takes: the loading widens them) or int32,
+    as the cost pass's own."""
+    from mprt.fidelity.compiled import costs_for
+
+    want = costs_for(trace, at_level(builtin("3mppe"), 2)).flits
+    for dtype in (np.int64, np.int32):
+        one, e1 = load(trace, 1, dtype=dtype)
+        two, e2 = load(trace, 2, dtype=dtype)
+        assert e1 is None and e2 is None and np.array_equal(one, two) and np.array_equal(one, want)
+    cfg = at_level(builtin("3mppe"), 2)
+    p = priced_for(trace, cfg)
+    Compiled(trace, p)
+    assert p.flits.dtype == np.int64 and np.array_equal(p.flits, want)
 
 
 def _hit_visits(v):

@@ -633,12 +633,13 @@ int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, c
 int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
                             size_t nvisits, const mprt_cost_table *table, const int64_t *children,
                             const int32_t *prim_kind, size_t nprims, int32_t *flits);
-/* mprt_replay_load_priced with threads >= 2 (and a large trace): the visits
- * priced on a thread of its own while this one loads them, a block ahead:
- * the same replay and the same errors as with one thread. */
+/* mprt_replay_load_priced with the flits (or NULL) as int64, what
+ * mprt_replay_set_flits takes; with threads >= 2 (and a large trace) the
+ * visits priced on a thread of its own while this one loads them, a block
+ * ahead: the same replay, flits and errors as with one thread. */
 int mprt_replay_load_priced_threads(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays,
                                     const mprt_trace_visit *visits, size_t nvisits, const mprt_cost_table *table,
-                                    const int64_t *children, const int32_t *prim_kind, size_t nprims, int32_t *flits,
+                                    const int64_t *children, const int32_t *prim_kind, size_t nprims, int64_t *flits,
                                     int threads);
 
 /* The packets' sizes for the ring (level 2), for the loaded trace: flits[j]

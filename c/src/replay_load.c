@@ -114,6 +114,8 @@ typedef struct {
     size_t nprims;
     int64_t *buf;       /* PRICE_CHUNK process, then receive, then send */
     int32_t *flits;     /* the visits' flits out (or NULL) */
+    int64_t *wide;      /* ... or out widened to int64, as mprt_replay_set_flits takes them (or NULL) */
+    int32_t *tmp;       /* PRICE_CHUNK flits before they are widened (with wide) */
     int threads;        /* 2 or more: priced on a thread of their own, ahead of the loading (pipe) */
 } pricer;
 #define PRICE_CHUNK ((size_t)4096)
@@ -130,6 +132,7 @@ typedef struct {
     const mprt_trace_visit *v;
     size_t nv, nr;
     int64_t *buf;               /* PIPE_SLOTS x (PIPE_BLOCK process, receive, send) */
+    int32_t *fbuf;              /* PIPE_SLOTS x PIPE_BLOCK flits, widened by the loading (pricer's wide) */
     int rc[PIPE_SLOTS];
     size_t bad[PIPE_SLOTS];     /* the first visit of the call that failed (SIZE_MAX: none) */
     char msg[PIPE_SLOTS][256];
@@ -163,8 +166,9 @@ static void *pipe_price(void *arg)
             if (j) before = mprt__visit_at(pp->v, j - 1);
             rc = mprt__cost_range(pr->table, pp->rays, pr->children, pp->nr, pr->prim_kind, pr->nprims, pp->v, j, m,
                                   j ? before.ray : -1, j ? before.outcome : 0, out + c, out + PIPE_BLOCK + c,
-                                  out + 2 * PIPE_BLOCK + c, pr->flits ? pr->flits + j : NULL, pp->msg[s],
-                                  sizeof pp->msg[s]);
+                                  out + 2 * PIPE_BLOCK + c,
+                                  pr->flits ? pr->flits + j : pp->fbuf ? pp->fbuf + s * PIPE_BLOCK + c : NULL,
+                                  pp->msg[s], sizeof pp->msg[s]);
             if (rc != MPRT_OK) {
                 pp->rc[s] = rc;
                 pp->bad[s] = j;
@@ -192,34 +196,49 @@ static int pipe_start(pipe_t *pp, const pricer *pr, const mprt_trace_ray *rays, 
     pp->nv = nv;
     pp->nr = nr;
     pp->buf = malloc(PIPE_SLOTS * 3 * PIPE_BLOCK * sizeof *pp->buf);
-    if (!pp->buf) return -1;
+    pp->fbuf = pr->wide ? malloc(PIPE_SLOTS * PIPE_BLOCK * sizeof *pp->fbuf) : NULL;
+    if (!pp->buf || (pr->wide && !pp->fbuf)) {
+        free(pp->buf);
+        free(pp->fbuf);
+        return -1;
+    }
     if (pthread_mutex_init(&pp->mu, NULL)) {
         free(pp->buf);
+        free(pp->fbuf);
         return -1;
     }
     if (pthread_cond_init(&pp->cv, NULL)) {
         pthread_mutex_destroy(&pp->mu);
         free(pp->buf);
+        free(pp->fbuf);
         return -1;
     }
     if (pthread_create(&pp->thread, NULL, pipe_price, pp)) {
         pthread_cond_destroy(&pp->cv);
         pthread_mutex_destroy(&pp->mu);
         free(pp->buf);
+        free(pp->fbuf);
         return -1;
     }
     return 0;
 }
 
-/* Block b's prices, once priced (the blocks before it are done with). */
+/* Block b's prices, once priced (the blocks before it are done with), its flits widened
+ * (those priced) into the pricer's wide: here, on the loading's thread, the lighter one. */
 static const int64_t *pipe_take(pipe_t *pp, size_t b)
 {
+    size_t s = b % PIPE_SLOTS, lo = b * PIPE_BLOCK, n, i;
     pthread_mutex_lock(&pp->mu);
     pp->consumed = b;
     pthread_cond_broadcast(&pp->cv);
     while (pp->produced <= b) pthread_cond_wait(&pp->cv, &pp->mu);
     pthread_mutex_unlock(&pp->mu);
-    return pp->buf + (b % PIPE_SLOTS) * 3 * PIPE_BLOCK;
+    if (pp->fbuf) {
+        n = pp->nv - lo < PIPE_BLOCK ? pp->nv - lo : PIPE_BLOCK;
+        if (pp->bad[s] != SIZE_MAX) n = pp->bad[s] - lo;
+        for (i = 0; i < n; i++) pp->pr->wide[lo + i] = pp->fbuf[s * PIPE_BLOCK + i];
+    }
+    return pp->buf + s * 3 * PIPE_BLOCK;
 }
 
 static void pipe_end(pipe_t *pp)
@@ -232,6 +251,7 @@ static void pipe_end(pipe_t *pp)
     pthread_cond_destroy(&pp->cv);
     pthread_mutex_destroy(&pp->mu);
     free(pp->buf);
+    free(pp->fbuf);
 }
 
 /* Price visits [j, j + PRICE_CHUNK) into the pricer's buffer. */
@@ -243,10 +263,15 @@ static int price(mprt_replay *r, const pricer *pr, const mprt_trace_ray *rays, c
     mprt_trace_visit before;
     int rc;
     if (j) before = mprt__visit_at(v, j - 1);
+    size_t i;
     rc = mprt__cost_range(pr->table, rays, pr->children, r->nr, pr->prim_kind, pr->nprims, v, j, n,
                           j ? before.ray : -1, j ? before.outcome : 0, pr->buf, pr->buf + PRICE_CHUNK,
-                          pr->buf + 2 * PRICE_CHUNK, pr->flits ? pr->flits + j : NULL, msg, sizeof msg);
-    return rc == MPRT_OK ? MPRT_OK : fail(r, rc, "cannot cost this trace: %s", msg);
+                          pr->buf + 2 * PRICE_CHUNK, pr->flits ? pr->flits + j : pr->wide ? pr->tmp : NULL, msg,
+                          sizeof msg);
+    if (rc != MPRT_OK) return fail(r, rc, "cannot cost this trace: %s", msg);
+    if (pr->wide)
+        for (i = 0; i < n; i++) pr->wide[j + i] = pr->tmp[i];
+    return MPRT_OK;
 }
 
 static int pack_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt_trace_visit *v, size_t nv,
@@ -426,18 +451,9 @@ int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, c
     return load(r, rays, nrays, visits, nvisits, process, receive, send, NULL);
 }
 
-int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
-                            size_t nvisits, const mprt_cost_table *table, const int64_t *children,
-                            const int32_t *prim_kind, size_t nprims, int32_t *flits)
-{
-    return mprt_replay_load_priced_threads(r, rays, nrays, visits, nvisits, table, children, prim_kind, nprims, flits,
-                                           1);
-}
-
-int mprt_replay_load_priced_threads(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays,
-                                    const mprt_trace_visit *visits, size_t nvisits, const mprt_cost_table *table,
-                                    const int64_t *children, const int32_t *prim_kind, size_t nprims, int32_t *flits,
-                                    int threads)
+static int load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                       size_t nvisits, const mprt_cost_table *table, const int64_t *children,
+                       const int32_t *prim_kind, size_t nprims, int32_t *flits, int64_t *wide, int threads)
 {
     pricer pr;
     int rc;
@@ -453,10 +469,32 @@ int mprt_replay_load_priced_threads(mprt_replay *r, const mprt_trace_ray *rays, 
     pr.prim_kind = prim_kind;
     pr.nprims = nprims;
     pr.flits = flits;
+    pr.wide = wide;
     pr.threads = threads;
     pr.buf = malloc(3 * PRICE_CHUNK * sizeof *pr.buf);
-    if (!pr.buf) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the costs of %zu visits", PRICE_CHUNK);
+    pr.tmp = wide ? malloc(PRICE_CHUNK * sizeof *pr.tmp) : NULL;
+    if (!pr.buf || (wide && !pr.tmp)) {
+        free(pr.buf);
+        free(pr.tmp);
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the costs of %zu visits", PRICE_CHUNK);
+    }
     rc = load(r, rays, nrays, visits, nvisits, NULL, NULL, NULL, &pr);
     free(pr.buf);
+    free(pr.tmp);
     return rc;
+}
+
+int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                            size_t nvisits, const mprt_cost_table *table, const int64_t *children,
+                            const int32_t *prim_kind, size_t nprims, int32_t *flits)
+{
+    return load_priced(r, rays, nrays, visits, nvisits, table, children, prim_kind, nprims, flits, NULL, 1);
+}
+
+int mprt_replay_load_priced_threads(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays,
+                                    const mprt_trace_visit *visits, size_t nvisits, const mprt_cost_table *table,
+                                    const int64_t *children, const int32_t *prim_kind, size_t nprims, int64_t *flits,
+                                    int threads)
+{
+    return load_priced(r, rays, nrays, visits, nvisits, table, children, prim_kind, nprims, NULL, flits, threads);
 }
