@@ -124,7 +124,7 @@ def load_trace(path, mmap: bool | None = None, verify: bool = True, invariants: 
     when the file is over 256 MB), so a trace of any size opens in bounded
     memory.  ``memory_keys``: level 3's per-visit memory keys made in the same pass as the
     checks (kept as ``trace.memory_keys``: (keys, voxel_refs, material_refs), for
-    ``fidelity.memdata``; None where they were not made there)."""
+    ``fidelity.memdata``; absent where they were not made there)."""
     keys = {} if memory_keys else None
     meta, arrays = tracefile.read(path, mmap, verify, invariants, keys)   # (the invariants in the same pass)
     trace = Trace.from_arrays(meta, arrays, path)
