@@ -635,6 +635,14 @@ int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, c
 int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
                             size_t nvisits, const mprt_cost_table *table, const int64_t *children,
                             const int32_t *prim_kind, size_t nprims, int32_t *flits);
+/* mprt_replay_load_priced with the flits (or NULL) as int64, what
+ * mprt_replay_set_flits takes; with threads >= 2 (and a large trace) the
+ * visits priced on a thread of its own while this one loads them, a block
+ * ahead: the same replay, flits and errors as with one thread. */
+int mprt_replay_load_priced_threads(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays,
+                                    const mprt_trace_visit *visits, size_t nvisits, const mprt_cost_table *table,
+                                    const int64_t *children, const int32_t *prim_kind, size_t nprims, int64_t *flits,
+                                    int threads);
 
 /* The packets' sizes for the ring (level 2), for the loaded trace: flits[j]
  * (nvisits entries) of the packet visit j sends on to its ray's next visit;
@@ -815,7 +823,7 @@ typedef struct {
 typedef struct mprt_trace_checker mprt_trace_checker;
 
 /* Fault kinds (mprt_trace_checker_fault). */
-enum { MPRT_TRACE_SOUND = 0, MPRT_TRACE_RANGE = 1, MPRT_TRACE_INVARIANT = 2 };
+enum { MPRT_TRACE_SOUND = 0, MPRT_TRACE_RANGE = 1, MPRT_TRACE_INVARIANT = 2, MPRT_TRACE_REDO = 3 };
 
 /* A checker of rays[0..nrays-1] (kept, not copied: they must stay until the
  * last call) under lim; NULL when out of memory. */
@@ -831,6 +839,34 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
 int mprt_trace_checker_finish(mprt_trace_checker *c);
 /* The first fault's reason ("" when none). */
 const char *mprt_trace_checker_errmsg(const mprt_trace_checker *c);
+/* Level 3's memory keys made in the same pass (before the first visit is
+ * checked): each visit whose ranges hold gets mprt_visit_keys's key in
+ * keys[nvisits] and its reference in voxel_refs[nvoxels] or
+ * material_refs[nmaterials] (zeroed here), the primitives' materials read
+ * from prim_material[nprims].  A key mprt_visit_keys would refuse (or a
+ * voxel id beyond 32 bits) stops the keys, not the check.
+ * mprt_trace_checker_keys_done: 1 when every visit's key was made and the
+ * records passed so far (call after finish), else 0 (then make them with
+ * mprt_visit_keys). */
+int mprt_trace_checker_keys(mprt_trace_checker *c, const int64_t *prim_material, size_t nprims, int32_t *keys,
+                            size_t nvisits, int64_t *voxel_refs, size_t nvoxels, int64_t *material_refs,
+                            size_t nmaterials);
+int mprt_trace_checker_keys_done(const mprt_trace_checker *c);
+/* A check split in two parts run at once (on two threads): after the rays,
+ * before any visit, mprt_trace_checker_split(c, &visits[from - 1], from)
+ * makes a checker of visits from .. n-1 (before: the visit before them;
+ * NULL when from is 0) with state of its own (9 bytes a ray; its memory
+ * keys into the same keys, its references apart); c then checks visits
+ * 0 .. from-1, the part visits from on (each a chunk at a time, in order),
+ * then mprt_trace_checker_join(c, part) settles what lies across the
+ * split and merges the part into c (destroy the part after), for c's
+ * finish.  join answers the first part's fault if it has one, else
+ * MPRT_TRACE_REDO when the second part or what lies across the split has
+ * one (then check again in one part: only one pass says which fault comes
+ * first), else SOUND.  split: NULL when out of memory or called out of
+ * order. */
+mprt_trace_checker *mprt_trace_checker_split(mprt_trace_checker *c, const mprt_trace_visit *before, size_t from);
+int mprt_trace_checker_join(mprt_trace_checker *c, mprt_trace_checker *part);
 
 #ifdef __cplusplus
 }

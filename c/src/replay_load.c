@@ -2,6 +2,8 @@
  * number of runs (see replay.c). */
 #include "replay.h"
 
+#include <pthread.h>
+
 /* ---- the trace ---------------------------------------------------------------- */
 
 #define TRACE_FAIL(r, ...) fail((r), MPRT_ERR_INVALID_ARG, "cannot replay this trace: " __VA_ARGS__)
@@ -112,8 +114,145 @@ typedef struct {
     size_t nprims;
     int64_t *buf;       /* PRICE_CHUNK process, then receive, then send */
     int32_t *flits;     /* the visits' flits out (or NULL) */
+    int64_t *wide;      /* ... or out widened to int64, as mprt_replay_set_flits takes them (or NULL) */
+    int32_t *tmp;       /* PRICE_CHUNK flits before they are widened (with wide) */
+    int threads;        /* 2 or more: priced on a thread of their own, ahead of the loading (pipe) */
 } pricer;
 #define PRICE_CHUNK ((size_t)4096)
+
+/* Priced on a second thread: the pricing runs ahead of the loading by up to PIPE_SLOTS blocks
+ * of PIPE_BLOCK visits, each priced PRICE_CHUNK visits a call as one thread prices them; a
+ * block whose pricing failed says from which visit (the failing call's first), and the loading
+ * fails there, where one thread would: the same replay, the same errors, whatever the threads. */
+#define PIPE_BLOCK ((size_t)16 * PRICE_CHUNK)
+#define PIPE_SLOTS 4
+typedef struct {
+    const pricer *pr;
+    const mprt_trace_ray *rays;
+    const mprt_trace_visit *v;
+    size_t nv, nr;
+    int64_t *buf;               /* PIPE_SLOTS x (PIPE_BLOCK process, receive, send) */
+    int32_t *fbuf;              /* PIPE_SLOTS x PIPE_BLOCK flits, widened by the loading (pricer's wide) */
+    int rc[PIPE_SLOTS];
+    size_t bad[PIPE_SLOTS];     /* the first visit of the call that failed (SIZE_MAX: none) */
+    char msg[PIPE_SLOTS][256];
+    size_t produced, consumed;  /* blocks priced; blocks the loading is done with */
+    int stop;
+    pthread_mutex_t mu;
+    pthread_cond_t cv;
+    pthread_t thread;
+} pipe_t;
+
+static void *pipe_price(void *arg)
+{
+    pipe_t *pp = arg;
+    const pricer *pr = pp->pr;
+    size_t b, nb = (pp->nv + PIPE_BLOCK - 1) / PIPE_BLOCK;
+    for (b = 0; b < nb; b++) {
+        size_t s = b % PIPE_SLOTS, lo = b * PIPE_BLOCK, n = pp->nv - lo < PIPE_BLOCK ? pp->nv - lo : PIPE_BLOCK, c;
+        int64_t *out = pp->buf + s * 3 * PIPE_BLOCK;
+        int failed = 0;
+        pthread_mutex_lock(&pp->mu);
+        while (!pp->stop && b >= pp->consumed + PIPE_SLOTS) pthread_cond_wait(&pp->cv, &pp->mu);
+        failed = pp->stop;
+        pthread_mutex_unlock(&pp->mu);
+        if (failed) break;
+        pp->rc[s] = MPRT_OK;
+        pp->bad[s] = SIZE_MAX;
+        for (c = 0; c < n; c += PRICE_CHUNK) {
+            size_t m = n - c < PRICE_CHUNK ? n - c : PRICE_CHUNK, j = lo + c;
+            mprt_trace_visit before;
+            int rc;
+            if (j) before = mprt__visit_at(pp->v, j - 1);
+            rc = mprt__cost_range(pr->table, pp->rays, pr->children, pp->nr, pr->prim_kind, pr->nprims, pp->v, j, m,
+                                  j ? before.ray : -1, j ? before.outcome : 0, out + c, out + PIPE_BLOCK + c,
+                                  out + 2 * PIPE_BLOCK + c,
+                                  pr->flits ? pr->flits + j : pp->fbuf ? pp->fbuf + s * PIPE_BLOCK + c : NULL,
+                                  pp->msg[s], sizeof pp->msg[s]);
+            if (rc != MPRT_OK) {
+                pp->rc[s] = rc;
+                pp->bad[s] = j;
+                failed = 1;
+                break;
+            }
+        }
+        pthread_mutex_lock(&pp->mu);
+        pp->produced = b + 1;
+        pthread_cond_broadcast(&pp->cv);
+        pthread_mutex_unlock(&pp->mu);
+        if (failed) break;
+    }
+    return NULL;
+}
+
+/* Start pricing on a thread (0: started; -1: none started, price on this one). */
+static int pipe_start(pipe_t *pp, const pricer *pr, const mprt_trace_ray *rays, const mprt_trace_visit *v, size_t nv,
+                      size_t nr)
+{
+    memset(pp, 0, sizeof *pp);
+    pp->pr = pr;
+    pp->rays = rays;
+    pp->v = v;
+    pp->nv = nv;
+    pp->nr = nr;
+    pp->buf = malloc(PIPE_SLOTS * 3 * PIPE_BLOCK * sizeof *pp->buf);
+    pp->fbuf = pr->wide ? malloc(PIPE_SLOTS * PIPE_BLOCK * sizeof *pp->fbuf) : NULL;
+    if (!pp->buf || (pr->wide && !pp->fbuf)) {
+        free(pp->buf);
+        free(pp->fbuf);
+        return -1;
+    }
+    if (pthread_mutex_init(&pp->mu, NULL)) {
+        free(pp->buf);
+        free(pp->fbuf);
+        return -1;
+    }
+    if (pthread_cond_init(&pp->cv, NULL)) {
+        pthread_mutex_destroy(&pp->mu);
+        free(pp->buf);
+        free(pp->fbuf);
+        return -1;
+    }
+    if (pthread_create(&pp->thread, NULL, pipe_price, pp)) {
+        pthread_cond_destroy(&pp->cv);
+        pthread_mutex_destroy(&pp->mu);
+        free(pp->buf);
+        free(pp->fbuf);
+        return -1;
+    }
+    return 0;
+}
+
+/* Block b's prices, once priced (the blocks before it are done with), its flits widened
+ * (those priced) into the pricer's wide: here, on the loading's thread, the lighter one. */
+static const int64_t *pipe_take(pipe_t *pp, size_t b)
+{
+    size_t s = b % PIPE_SLOTS, lo = b * PIPE_BLOCK, n, i;
+    pthread_mutex_lock(&pp->mu);
+    pp->consumed = b;
+    pthread_cond_broadcast(&pp->cv);
+    while (pp->produced <= b) pthread_cond_wait(&pp->cv, &pp->mu);
+    pthread_mutex_unlock(&pp->mu);
+    if (pp->fbuf) {
+        n = pp->nv - lo < PIPE_BLOCK ? pp->nv - lo : PIPE_BLOCK;
+        if (pp->bad[s] != SIZE_MAX) n = pp->bad[s] - lo;
+        for (i = 0; i < n; i++) pp->pr->wide[lo + i] = pp->fbuf[s * PIPE_BLOCK + i];
+    }
+    return pp->buf + s * 3 * PIPE_BLOCK;
+}
+
+static void pipe_end(pipe_t *pp)
+{
+    pthread_mutex_lock(&pp->mu);
+    pp->stop = 1;
+    pthread_cond_broadcast(&pp->cv);
+    pthread_mutex_unlock(&pp->mu);
+    pthread_join(pp->thread, NULL);
+    pthread_cond_destroy(&pp->cv);
+    pthread_mutex_destroy(&pp->mu);
+    free(pp->buf);
+    free(pp->fbuf);
+}
 
 /* Price visits [j, j + PRICE_CHUNK) into the pricer's buffer. */
 static int price(mprt_replay *r, const pricer *pr, const mprt_trace_ray *rays, const mprt_trace_visit *v, size_t nv,
@@ -124,18 +263,24 @@ static int price(mprt_replay *r, const pricer *pr, const mprt_trace_ray *rays, c
     mprt_trace_visit before;
     int rc;
     if (j) before = mprt__visit_at(v, j - 1);
+    size_t i;
     rc = mprt__cost_range(pr->table, rays, pr->children, r->nr, pr->prim_kind, pr->nprims, v, j, n,
                           j ? before.ray : -1, j ? before.outcome : 0, pr->buf, pr->buf + PRICE_CHUNK,
-                          pr->buf + 2 * PRICE_CHUNK, pr->flits ? pr->flits + j : NULL, msg, sizeof msg);
-    return rc == MPRT_OK ? MPRT_OK : fail(r, rc, "cannot cost this trace: %s", msg);
+                          pr->buf + 2 * PRICE_CHUNK, pr->flits ? pr->flits + j : pr->wide ? pr->tmp : NULL, msg,
+                          sizeof msg);
+    if (rc != MPRT_OK) return fail(r, rc, "cannot cost this trace: %s", msg);
+    if (pr->wide)
+        for (i = 0; i < n; i++) pr->wide[j + i] = pr->tmp[i];
+    return MPRT_OK;
 }
 
-static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt_trace_visit *v, size_t nv,
-                          const int64_t *process, const int64_t *receive, const int64_t *send, const pricer *pr)
+static int pack_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt_trace_visit *v, size_t nv,
+                       const int64_t *process, const int64_t *receive, const int64_t *send, const pricer *pr,
+                       pipe_t *pp)
 {
     size_t j, nt = (size_t)r->ntrees;
     int64_t prev_t = -1, total = 0, *tc = NULL;
-    const int64_t *cs = r->child_start;
+    const int64_t *cs = r->child_start, *cur = NULL;
     if (nv && !pr && (!process || !receive || !send)) return fail(r, MPRT_ERR_INVALID_ARG, "costs: missing array");
     r->wide = cs[r->nr] >= PACK_KID_LIMIT || RESERVE(r, vp, cap_vp, nv + 1);
     if ((r->wide && RESERVE(r, vi, cap_vi, nv + 1)) || RESERVE(r, tree_first, cap_tree, nt + 1) ||
@@ -147,7 +292,14 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
         const mprt_trace_visit av = mprt__visit_at(v, j), *a = &av;
         int64_t ray = a->ray, t, p, x, y, c, next;
         int st = a->stage;
-        if (pr) {
+        if (pp) {
+            size_t k = j % PIPE_BLOCK, s = j / PIPE_BLOCK % PIPE_SLOTS;
+            if (k == 0) cur = pipe_take(pp, j / PIPE_BLOCK);
+            if (j == pp->bad[s]) return fail(r, pp->rc[s], "cannot cost this trace: %s", pp->msg[s]);
+            p = cur[k];
+            x = cur[PIPE_BLOCK + k];
+            y = cur[2 * PIPE_BLOCK + k];
+        } else if (pr) {
             size_t k = j % PRICE_CHUNK;
             if (k == 0 && price(r, pr, rays, v, nv, j) != MPRT_OK) return MPRT_ERR_INVALID_ARG;
             p = pr->buf[k];
@@ -215,6 +367,19 @@ static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt
     /* the rays made, as their first visits */
     for (j = 0; j < (size_t)cs[r->nr]; j++) r->child[j] = r->ray_first[r->child[j]];
     return MPRT_OK;
+}
+
+/* The visits packed, priced on a second thread when asked and worth it. */
+static int prepare_visits(mprt_replay *r, const mprt_trace_ray *rays, const mprt_trace_visit *v, size_t nv,
+                          const int64_t *process, const int64_t *receive, const int64_t *send, const pricer *pr)
+{
+    pipe_t pp;
+    int rc;
+    if (!pr || pr->threads < 2 || nv < 2 * PIPE_BLOCK || pipe_start(&pp, pr, rays, v, nv, r->nr))
+        return pack_visits(r, rays, v, nv, process, receive, send, pr, NULL);
+    rc = pack_visits(r, rays, v, nv, process, receive, send, pr, &pp);
+    pipe_end(&pp);
+    return rc;
 }
 
 void mprt__replay_free_trace(mprt_replay *r)
@@ -286,9 +451,9 @@ int mprt_replay_load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, c
     return load(r, rays, nrays, visits, nvisits, process, receive, send, NULL);
 }
 
-int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
-                            size_t nvisits, const mprt_cost_table *table, const int64_t *children,
-                            const int32_t *prim_kind, size_t nprims, int32_t *flits)
+static int load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                       size_t nvisits, const mprt_cost_table *table, const int64_t *children,
+                       const int32_t *prim_kind, size_t nprims, int32_t *flits, int64_t *wide, int threads)
 {
     pricer pr;
     int rc;
@@ -304,9 +469,32 @@ int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t n
     pr.prim_kind = prim_kind;
     pr.nprims = nprims;
     pr.flits = flits;
+    pr.wide = wide;
+    pr.threads = threads;
     pr.buf = malloc(3 * PRICE_CHUNK * sizeof *pr.buf);
-    if (!pr.buf) return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the costs of %zu visits", PRICE_CHUNK);
+    pr.tmp = wide ? malloc(PRICE_CHUNK * sizeof *pr.tmp) : NULL;
+    if (!pr.buf || (wide && !pr.tmp)) {
+        free(pr.buf);
+        free(pr.tmp);
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the costs of %zu visits", PRICE_CHUNK);
+    }
     rc = load(r, rays, nrays, visits, nvisits, NULL, NULL, NULL, &pr);
     free(pr.buf);
+    free(pr.tmp);
     return rc;
+}
+
+int mprt_replay_load_priced(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const mprt_trace_visit *visits,
+                            size_t nvisits, const mprt_cost_table *table, const int64_t *children,
+                            const int32_t *prim_kind, size_t nprims, int32_t *flits)
+{
+    return load_priced(r, rays, nrays, visits, nvisits, table, children, prim_kind, nprims, flits, NULL, 1);
+}
+
+int mprt_replay_load_priced_threads(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays,
+                                    const mprt_trace_visit *visits, size_t nvisits, const mprt_cost_table *table,
+                                    const int64_t *children, const int32_t *prim_kind, size_t nprims, int64_t *flits,
+                                    int threads)
+{
+    return load_priced(r, rays, nrays, visits, nvisits, table, children, prim_kind, nprims, NULL, flits, threads);
 }

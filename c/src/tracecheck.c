@@ -8,7 +8,9 @@
  * ray's first visit is checked against its parent's SC visit (seen before
  * it), its later ones against the pipeline's transitions.  Records are read
  * through memcpy: a memory-mapped trace's members lie at any offset of the
- * file, so they need not be aligned. */
+ * file, so they need not be aligned.  When asked (mprt_trace_checker_keys),
+ * the same pass makes level 3's memory keys (memkeys.c's, the same values)
+ * of each visit once its ranges hold. */
 #include <math.h>
 #include <stdarg.h>
 #include <stdio.h>
@@ -17,7 +19,10 @@
 
 #include "mprt_internal.h"
 
-enum { BEGUN = 1, SC_SEEN = 2, CODES = 16 };
+/* per ray: BEGUN, SC_SEEN; in a split's second part also CONT (its visits began in the first
+ * part, before the split) and NEED (one of its children began here before its SC visit came
+ * here: the first part must hold that SC visit) */
+enum { BEGUN = 1, SC_SEEN = 2, CONT = 4, NEED = 8, CODES = 16 };
 #define CODE(s, o) ((s) * CODES + (o))
 #define BIT(s, o) ((uint64_t)1 << CODE(s, o))
 
@@ -32,6 +37,15 @@ struct mprt_trace_checker {
     int64_t prev_ray;       /* the last visit's ray (-1: none yet) */
     int prev_code;
     int64_t to_ic, ic;      /* OS->IC handoffs, IC visits */
+    int64_t ray_kind;       /* the last visit's ray's kind */
+    /* level 3's memory keys (mprt_trace_checker_keys), made while keys_ok */
+    const int64_t *mat;     /* prim_material[nmat_prims] */
+    size_t nmat_prims, nkeys, nvox, nmat;
+    int32_t *keys;
+    int64_t *vref, *mref;
+    int keys_ok;
+    int part;               /* 1: the second part of a split check (mprt_trace_checker_split) */
+    size_t from;            /* ... its first visit */
     int fault;
     char msg[160];
 };
@@ -100,7 +114,62 @@ void mprt_trace_checker_destroy(mprt_trace_checker *c)
     if (!c) return;
     free(c->state);
     free(c->owed);
+    if (c->part) {          /* a split's second part owns its references */
+        free(c->vref);
+        free(c->mref);
+    }
     free(c);
+}
+
+int mprt_trace_checker_keys(mprt_trace_checker *c, const int64_t *prim_material, size_t nprims, int32_t *keys,
+                            size_t nvisits, int64_t *voxel_refs, size_t nvoxels, int64_t *material_refs,
+                            size_t nmaterials)
+{
+    size_t i;
+    if (!c || c->seen || (nprims && !prim_material) || (nvisits && !keys) || (nvoxels && !voxel_refs) ||
+        (nmaterials && !material_refs))
+        return MPRT_ERR_INVALID_ARG;
+    c->mat = prim_material;
+    c->nmat_prims = nprims;
+    c->keys = keys;
+    c->nkeys = nvisits;
+    c->vref = voxel_refs;
+    c->nvox = nvoxels;
+    c->mref = material_refs;
+    c->nmat = nmaterials;
+    for (i = 0; i < nvoxels; i++) voxel_refs[i] = 0;
+    for (i = 0; i < nmaterials; i++) material_refs[i] = 0;
+    c->keys_ok = 1;
+    return MPRT_OK;
+}
+
+int mprt_trace_checker_keys_done(const mprt_trace_checker *c)
+{
+    return c && !c->fault && c->keys_ok && c->seen == c->nkeys;
+}
+
+/* Visit j's memory key as mprt_visit_keys makes it; 0 where that would refuse it or
+ * keep a voxel id beyond 32 bits (the caller then makes them with mprt_visit_keys). */
+static int key_of(mprt_trace_checker *c, const mprt_trace_visit *a, size_t j)
+{
+    int64_t k = -1;
+    if (j >= c->nkeys) return 0;
+    if (a->stage == MPRT_STAGE_IC) {
+        k = a->voxel_id;
+        if (k >= 0) {
+            if ((uint64_t)k >= c->nvox || k > INT32_MAX) return 0;
+            c->vref[k]++;
+        }
+    } else if (a->stage == MPRT_STAGE_SC && a->prim >= 0) {
+        int64_t m;
+        if ((size_t)a->prim >= c->nmat_prims) return 0;
+        m = c->mat[a->prim];
+        if (m < 0 || (uint64_t)m >= c->nmat || m > (int64_t)INT32_MAX - 2) return 0;
+        c->mref[m]++;
+        k = -2 - m;
+    }
+    c->keys[j] = (int32_t)k;
+    return 1;
 }
 
 const char *mprt_trace_checker_errmsg(const mprt_trace_checker *c)
@@ -181,22 +250,29 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
             outside(a->vertices, 0, L->vertices) || st > MPRT_STAGE_SC || a->outcome > MPRT_OUT_LATE_HIT ||
             a->made > made_max || a->suppressed > made_max)
             return fault(c, MPRT_TRACE_RANGE, "visit %zu: a field out of range", c->seen);
+        if (c->keys_ok) c->keys_ok = key_of(c, a, c->seen);
         if (!inv) continue;
         code = CODE(st, a->outcome);
         if (ray != c->prev_ray) {
-            int64_t parent = mprt__ray_at(c->rays, (size_t)ray).parent;
+            const mprt_trace_ray y = mprt__ray_at(c->rays, (size_t)ray);
+            int64_t parent = y.parent;
+            c->ray_kind = y.kind;
             if (c->prev_ray >= 0 && ends(c, c->prev_code)) return c->fault;
             if (c->state[ray] & BEGUN)
                 return fault(c, MPRT_TRACE_INVARIANT, "ray %lld: its visits are not contiguous", (long long)ray);
             c->state[ray] |= BEGUN;
             if (st != MPRT_STAGE_OS)
                 return fault(c, MPRT_TRACE_INVARIANT, "ray %lld does not start at OS", (long long)ray);
-            if (parent >= 0 && !(c->state[parent] & SC_SEEN))
-                return fault(c, MPRT_TRACE_INVARIANT, "ray %lld starts before its parent's SC visit", (long long)ray);
+            if (parent >= 0 && !(c->state[parent] & SC_SEEN)) {
+                if (!c->part)
+                    return fault(c, MPRT_TRACE_INVARIANT, "ray %lld starts before its parent's SC visit",
+                                 (long long)ray);
+                c->state[parent] |= NEED;       /* the first part's SC visit, or a fault (join) */
+            }
         } else if (!(next_of(c->prev_code) >> code & 1)) {
             return fault(c, MPRT_TRACE_INVARIANT, "visit %zu: code %d after code %d", c->seen, code, c->prev_code);
         }
-        if (mprt__ray_at(c->rays, (size_t)ray).kind == MPRT_RAY_SHADOW ? NEVER_SHADOW >> code & 1 : SHADOW_ONLY >> code & 1)
+        if (c->ray_kind == MPRT_RAY_SHADOW ? NEVER_SHADOW >> code & 1 : SHADOW_ONLY >> code & 1)
             return fault(c, MPRT_TRACE_INVARIANT, "visit %zu: a shadow ray's outcome on another ray, or the reverse",
                          c->seen);
         if ((tested && st != MPRT_STAGE_IC) || (a->steps != 0 && st != MPRT_STAGE_OS))
@@ -213,10 +289,91 @@ int mprt_trace_checker_visits(mprt_trace_checker *c, const mprt_trace_visit *vis
     return MPRT_TRACE_SOUND;
 }
 
+mprt_trace_checker *mprt_trace_checker_split(mprt_trace_checker *c, const mprt_trace_visit *before, size_t from)
+{
+    mprt_trace_checker *p;
+    if (!c || c->part || c->fault || c->seen || c->next_ray != c->nrays || (from && !before)) return NULL;
+    p = calloc(1, sizeof *p);
+    if (!p) return NULL;
+    p->lim = c->lim;
+    p->rays = c->rays;
+    p->nrays = p->next_ray = c->nrays;
+    p->seen = p->from = from;
+    p->prev_ray = -1;
+    p->part = 1;
+    if (c->lim.invariants && c->nrays) {
+        p->state = calloc(c->nrays, 1);
+        p->owed = calloc(c->nrays, sizeof *p->owed);
+        if (!p->state || !p->owed) {
+            mprt_trace_checker_destroy(p);
+            return NULL;
+        }
+    }
+    if (c->keys_ok) {
+        p->mat = c->mat;
+        p->nmat_prims = c->nmat_prims;
+        p->keys = c->keys;
+        p->nkeys = c->nkeys;
+        p->nvox = c->nvox;
+        p->nmat = c->nmat;
+        p->vref = calloc(c->nvox ? c->nvox : 1, sizeof *p->vref);
+        p->mref = calloc(c->nmat ? c->nmat : 1, sizeof *p->mref);
+        p->keys_ok = p->vref && p->mref;
+    }
+    if (from && c->lim.invariants) {    /* the run of visits it continues: the visit before it */
+        const mprt_trace_visit b = mprt__visit_at(before, 0);
+        if (outside(b.ray, 0, (int64_t)c->nrays - 1) || b.stage > MPRT_STAGE_SC || b.outcome > MPRT_OUT_LATE_HIT) {
+            fault(p, MPRT_TRACE_RANGE, "visit %zu: a field out of range", from - 1);    /* (the first part's) */
+        } else {
+            p->prev_ray = b.ray;
+            p->prev_code = CODE(b.stage, b.outcome);
+            p->ray_kind = mprt__ray_at(c->rays, (size_t)b.ray).kind;
+            p->state[b.ray] = BEGUN | CONT;
+        }
+    }
+    return p;
+}
+
+int mprt_trace_checker_join(mprt_trace_checker *c, mprt_trace_checker *p)
+{
+    size_t i;
+    if (!c || !p || c->part || !p->part || c->nrays != p->nrays) return MPRT_TRACE_RANGE;
+    if (c->fault) return c->fault;      /* the first part's: before any of the second's */
+    if (c->seen != p->from) return fault(c, MPRT_TRACE_RANGE, "a split's first part ends at visit %zu, not %zu",
+                                         c->seen, p->from);
+    if (p->fault) return MPRT_TRACE_REDO;
+    if (c->lim.invariants) {
+        for (i = 0; i < c->nrays; i++) {
+            int s = p->state[i];
+            if (((s & (BEGUN | CONT)) == BEGUN && (c->state[i] & BEGUN)) || ((s & NEED) && !(c->state[i] & SC_SEEN)))
+                return MPRT_TRACE_REDO;
+        }
+        for (i = 0; i < c->nrays; i++) {
+            c->state[i] |= (uint8_t)(p->state[i] & (BEGUN | SC_SEEN));
+            c->owed[i] += p->owed[i];
+        }
+        c->to_ic += p->to_ic;
+        c->ic += p->ic;
+        if (p->prev_ray >= 0) {
+            c->prev_ray = p->prev_ray;
+            c->prev_code = p->prev_code;
+            c->ray_kind = p->ray_kind;
+        }
+    }
+    if (c->keys_ok && p->keys_ok && p->seen == p->nkeys) {
+        for (i = 0; i < c->nvox; i++) c->vref[i] += p->vref[i];
+        for (i = 0; i < c->nmat; i++) c->mref[i] += p->mref[i];
+    } else {
+        c->keys_ok = 0;
+    }
+    c->seen = p->seen;
+    return MPRT_TRACE_SOUND;
+}
+
 int mprt_trace_checker_finish(mprt_trace_checker *c)
 {
     size_t i;
-    if (!c) return MPRT_TRACE_RANGE;
+    if (!c || c->part) return MPRT_TRACE_RANGE;
     if (c->fault) return c->fault;
     if (c->next_ray != c->nrays) return fault(c, MPRT_TRACE_RANGE, "finished before every ray was checked");
     if (!c->lim.invariants) return MPRT_TRACE_SOUND;

@@ -462,21 +462,34 @@ class Binding:
         self._check(self.lib.mprt_replay_set_config(h, self._replay_config(config)), self.lib.mprt_replay_errmsg, h)
 
     def replay_load_priced(self, h, rays: np.ndarray, visits: np.ndarray, table: dict, children: np.ndarray,
-                           prim_kind: np.ndarray, flits: np.ndarray | None = None) -> None:
+                           prim_kind: np.ndarray, flits: np.ndarray | None = None, threads: int = 1) -> None:
         """Load the records, each visit priced as it loads with ``table`` (mprt_cost_table's fields
         by name, lights included) and ``children`` (as cost_children gives it), as ``replay_load``
-        of the arrays ``cost_visits`` would make; ``flits`` (int32 per visit) receives their flits."""
+        of the arrays ``cost_visits`` would make; ``flits`` (int64 per visit, as replay_set_flits
+        takes them, or int32) receives their flits.  ``threads`` 2 or more: priced on a thread of
+        their own ahead of the loading (the same replay, flits and errors)."""
         rays, visits = self._records("rays", rays, RAY_DTYPE), self._records("visits", visits, VISIT_DTYPE)
         if children.shape != (len(rays), 4) or children.dtype != np.int64 or not children.flags.c_contiguous:
             raise InvalidArgument(f"replay_load_priced: children must be int64[{len(rays)}, 4] as cost_children "
                                   "makes it")
         pk = _plain(prim_kind, np.int32)
-        self._check(self.lib.mprt_replay_load_priced(
+        out = flits
+        if flits is not None and getattr(flits, "dtype", None) != np.int64:
+            out = np.zeros(len(visits), np.int64)       # (narrowed into flits after)
+        try:
+            self._load_priced(h, rays, visits, table, children, pk, out, threads)
+        finally:
+            if out is not flits:
+                np.copyto(flits[:len(visits)], out, casting="unsafe")
+
+    def _load_priced(self, h, rays, visits, table, children, pk, flits, threads) -> None:
+        self._check(self.lib.mprt_replay_load_priced_threads(
             h, self._in("mprt_trace_ray", np.ascontiguousarray(rays), len(rays)), len(rays),
             self._in("mprt_trace_visit", np.ascontiguousarray(visits), len(visits)), len(visits),
             self.ffi.new("mprt_cost_table *", table), self._in("int64_t", children, 4 * len(rays)),
             self._in("int32_t", pk, len(pk)), len(pk),
-            self.ffi.NULL if flits is None else self._out("int32_t", flits, len(visits))), self.lib.mprt_replay_errmsg, h)
+            self.ffi.NULL if flits is None else self._out("int64_t", flits, len(visits)), max(1, int(threads))),
+            self.lib.mprt_replay_errmsg, h)
 
     def replay_load(self, h, rays: np.ndarray, visits: np.ndarray, process: np.ndarray, receive: np.ndarray,
                     send: np.ndarray) -> None:

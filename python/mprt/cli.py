@@ -26,7 +26,6 @@ from tqdm import tqdm
 from . import options, tracefile
 from .errors import MprtError
 from .grid import render_desc, write_png
-from .explore.cli import add_parsers as add_explore
 from .fidelity.cli import add_parser as add_simulate
 from .options import UsageError
 from .scene import SPD_SCENES
@@ -341,7 +340,9 @@ def cmd_stats(a) -> int:
 
 
 # -- the parser ---------------------------------------------------------------------------------
-def build_parser() -> argparse.ArgumentParser:
+def build_parser(explore: bool = True) -> argparse.ArgumentParser:
+    """The ``mprt`` parser; without ``explore`` (``mprt simulate``, which does not need them) the
+    explorer's commands are left out, and with them the explorer's imports (tens of ms)."""
     p = argparse.ArgumentParser(prog="mprt", description="3MPRT ray-tracing machine explorer", epilog=EPILOG)
     p.add_argument("--version", action="version", version=f"mprt {options.version()}")
     sub = p.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
@@ -399,13 +400,17 @@ def build_parser() -> argparse.ArgumentParser:
                          "table, as before (default: none)")
     st.set_defaults(func=cmd_stats)
     add_simulate(sub)
-    add_explore(sub)
+    if explore:
+        from .explore.cli import add_parsers as add_explore
+
+        add_explore(sub)
     return p
 
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else [str(v) for v in argv]
-    args = build_parser().parse_args(argv)
+    parser = build_parser(explore=False) if argv[:1] == ["simulate"] else build_parser()
+    args = parser.parse_args(argv)
     args.argv = argv
     try:
         rc = args.func(args)

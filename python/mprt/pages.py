@@ -19,19 +19,22 @@ except (AttributeError, OSError):   # no madvise: pages simply stay until the ke
 _AROUND = 1 << 21   # the kernel may map pages beyond a fault (fault-around, large folios): up to 2 MiB
 
 
-def release(a: np.ndarray) -> None:
+def release(a: np.ndarray, since: np.ndarray | None = None) -> None:
     """Let the kernel drop the pages of a read-only memory-mapped array from its start to the
     end of the slice ``a`` (and a little beyond, where the kernel maps ahead) from this
     process's resident set: they stay in the page cache and are read again if touched.  Called
     on each slice once it is processed, reading a file of any size through (in order, or with
-    look-ups behind) keeps memory bounded.  Anything but a read-only memory map is left alone."""
+    look-ups behind) keeps memory bounded.  ``since`` (a slice of the same map, at or before
+    ``a``): the pages from its start only (a reader of the map's second half, beside one of its
+    first).  Anything but a read-only memory map is left alone."""
     if _madvise is None or not isinstance(a, np.memmap) or a.mode != "r" or a.nbytes == 0 \
             or not a.flags.c_contiguous:
         return
     root = a
     while isinstance(root.base, np.ndarray):
         root = root.base
-    start = root.ctypes.data - root.ctypes.data % mmap.PAGESIZE
+    first = root.ctypes.data if since is None else max(since.ctypes.data, root.ctypes.data)
+    start = first - first % mmap.PAGESIZE
     _madvise(start, min(a.ctypes.data + a.nbytes + _AROUND, root.ctypes.data + root.nbytes) - start, _DONTNEED)
 
 

@@ -114,15 +114,21 @@ class Trace:
         return _stats.trace_stats(self)
 
 
-def load_trace(path, mmap: bool | None = None, verify: bool = True, invariants: bool = False) -> Trace:
+def load_trace(path, mmap: bool | None = None, verify: bool = True, invariants: bool = False,
+               memory_keys: bool = False) -> Trace:
     """Read a trace saved by Trace.save or streamed by trace(); checks the
     format version, that every array is present and whole, (``verify``) the
     checksums, and the metadata and arrays (``mprt.tracevalid``: one TraceError
     naming the member and the field), then (``invariants``) the invariants
     (``mprt.tracecheck``).  Uncompressed traces are memory-mapped (``mmap``; default:
     when the file is over 256 MB), so a trace of any size opens in bounded
-    memory."""
-    meta, arrays = tracefile.read(path, mmap, verify, invariants)   # (the invariants in the same pass)
+    memory.  ``memory_keys``: level 3's per-visit memory keys made in the same pass as the
+    checks (kept as ``trace.memory_keys``: (keys, voxel_refs, material_refs), for
+    ``fidelity.memdata``; absent where they were not made there)."""
+    keys = {} if memory_keys else None
+    meta, arrays = tracefile.read(path, mmap, verify, invariants, keys)   # (the invariants in the same pass)
     trace = Trace.from_arrays(meta, arrays, path)
     tracevalid.mark_checked(trace)      # tracefile.read ran tracevalid's checks
+    if keys and "keys" in keys:
+        trace.memory_keys = (keys["keys"], keys["voxel_refs"], keys["material_refs"])
     return trace

@@ -164,13 +164,16 @@ def _range(member: str, field: str | None, x: np.ndarray, lo: int, hi: int, offs
 
 
 
-def check_arrays(meta: dict, arrays: dict, chunk: int = CHUNK, invariants: bool = False) -> str | None:
+def check_arrays(meta: dict, arrays: dict, chunk: int = CHUNK, invariants: bool = False,
+                 keys: dict | None = None) -> str | None:
     """Raise TraceError naming the member and field of the first array or value a trace with
     this (valid) metadata cannot hold.  Reads the records in chunks of ``chunk``.  The records'
     ranges (and with ``invariants`` the invariants between them, ``mprt.tracecheck``'s rules) are
     checked in one pass in C where it reads them in place (``mprt.recordcheck``), a fault named
     by the Python checks below.  Returns None when the invariants were not checked, "" when they
-    hold, else C's reason for the broken one (``tracecheck.settle`` names it)."""
+    hold, else C's reason for the broken one (``tracecheck.settle`` names it).  ``keys`` (a dict):
+    level 3's memory keys made in the same pass where C checks the records (``recordcheck.check``:
+    its ``keys``, ``voxel_refs`` and ``material_refs`` added to the dict)."""
     voxels = meta["grid"][0] * meta["grid"][1] * meta["grid"][2]
     for k in ("voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material", "samples", "rays", "visits"):
         if k not in arrays:
@@ -198,7 +201,10 @@ def check_arrays(meta: dict, arrays: dict, chunk: int = CHUNK, invariants: bool 
     _dtype("rays", rays, RAY_DTYPE, 1)
     _dtype("visits", visits, VISIT_DTYPE, 1)
     if recordcheck.usable(rays, visits):
-        fault, reason = recordcheck.check(recordcheck.limits(meta, arrays, invariants), rays, visits)
+        want = None if keys is None else recordcheck.memory_keys(arrays["prim_material"], voxels)
+        fault, reason = recordcheck.check(recordcheck.limits(meta, arrays, invariants), rays, visits, keys=want)
+        if want is not None and "keys" in want:
+            keys.update(want)
         if fault == recordcheck.SOUND:
             return "" if invariants else None
         if fault == recordcheck.INVARIANT:

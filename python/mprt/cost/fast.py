@@ -85,10 +85,11 @@ class Priced:
         self._want = flits
 
     def load_flits(self) -> np.ndarray | None:
-        """The array the loading fills with the visits' flits (None: not asked for, or made)."""
+        """The array the loading fills with the visits' flits (None: not asked for, or made): int64,
+        as the ring's replay takes them (``replay_set_flits``: no copy to widen them)."""
         if not self._want or self._flits is not None:
             return None
-        self._flits = fresh(len(self.records.visits), np.int32)
+        self._flits = fresh(len(self.records.visits), np.int64)
         return self._flits
 
     @property

@@ -109,11 +109,43 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return s
 
 
+def _warm_cost_model(a):
+    """A thread making the cost model's table for the run's processors (the kernels' list
+    schedules: about 0.1 s of Python, memoised by ``cost.model``) while the trace file's records
+    are read and checked in C, which lets go of the interpreter; None where there is nothing to
+    make.  Its errors are left for the run to meet where it meets them."""
+    import threading
+
+    if not a.source.endswith(".npz") or getattr(a, "machine_config", None) is None:
+        return None
+
+    def warm():
+        try:
+            from ..cost import CostModel
+
+            p = _plan(a, a.machine_config)
+            if p is not None:
+                model, procs = CostModel.default(), p[0].processors()
+                model.cost_table(procs)
+                model.injection(procs)
+        except Exception:       # (the run names it)
+            pass
+
+    t = threading.Thread(target=warm, name="mprt-warm-costs", daemon=True)
+    t.start()
+    return t
+
+
 def _load(a):
     """The trace to replay: a sample of the tiles when --sample is given."""
     if a.sample is None:
         a.sampled_trace = None
-        return machine_cli._load_source(a)
+        warm = _warm_cost_model(a)
+        try:
+            return machine_cli._load_source(a)
+        finally:
+            if warm is not None:
+                warm.join()
     a.frame_trace = None
     if a.source.endswith(".npz") or a.sample.method == "runs":
         trace, _, how = machine_cli._load_source(a)     # the whole frame

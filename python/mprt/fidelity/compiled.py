@@ -25,6 +25,7 @@ counters, so a result cannot differ from SimPy's in how it is summed.
 """
 from __future__ import annotations
 
+import os
 import time
 
 import numpy as np
@@ -40,6 +41,19 @@ from .views import SystemView
 
 _LIB = binding("double")
 _DIS = {name: i for i, name in enumerate(DIS_POLICIES)}     # blocks, interleaved, dynamic: mprt_dis order
+
+
+THREADS_ENV = "MPRT_LOAD_THREADS"      # 1: the trace priced and loaded on one thread
+
+
+def load_threads() -> int:
+    """Threads pricing and loading a trace (``mprt_replay_load_priced_threads``: the visits priced
+    on a second thread ahead of the loading, the same replay and errors): the cores, at most 2,
+    or ``$MPRT_LOAD_THREADS``."""
+    env = os.environ.get(THREADS_ENV, "").strip()
+    if env.isdigit() and int(env) > 0:
+        return int(env)
+    return min(os.cpu_count() or 1, 2)
 
 
 def unsupported(config: SystemConfig) -> str | None:
@@ -131,7 +145,8 @@ class Compiled:
                 rec = costs.records
                 out = costs.load_flits()       # (the ring's: made in the same pass when wanted)
                 try:
-                    _LIB.replay_load_priced(self.h, rays, visits, costs.table, rec.children, rec.prim_kind, out)
+                    _LIB.replay_load_priced(self.h, rays, visits, costs.table, rec.children, rec.prim_kind, out,
+                                            threads=load_threads())
                 except InvalidArgument:
                     costs._flits = None if out is not None else costs._flits
                     raise

@@ -152,6 +152,11 @@ class MemoryData:
         if self._keys is not None:
             return
         t = self.trace
+        made = getattr(t, "memory_keys", None)      # made by load_trace as it checked the records
+        if made is not None and fast_usable(t) and len(made[0]) == len(t.visits):
+            self._keys, vref, mref = made
+            self._refs = (vref, mref)
+            return
         mat = np.asarray(t.prim_material, dtype=np.int64)
         if fast_usable(t):
             nmat = int(mat.max()) + 1 if len(mat) else 1

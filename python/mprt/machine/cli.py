@@ -57,6 +57,17 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return s
 
 
+def _wants_memory_keys(a) -> bool:
+    """Whether the run reads level 3's memory keys of the whole trace (its plan has modelled
+    memories and no sample is taken): then they are made while the records are checked."""
+    plan = getattr(a, "memory_plan", None)
+    cfg = getattr(a, "machine_config", None)
+    if plan is None or cfg is None or getattr(a, "sample", None) is not None:
+        return False
+    p = plan(a, cfg)
+    return p is not None and (p[0].ic_memory is not None or p[0].sc_memory is not None)
+
+
 def _load_source(a):
     """(trace, settings) from a trace file or a scene traced now."""
     from ..trace import load_trace
@@ -64,7 +75,8 @@ def _load_source(a):
 
     src = a.source
     if src.endswith(".npz"):
-        trace = load_trace(src, invariants=True)     # schema, ranges and invariants: before any engine
+        # schema, ranges and invariants: before any engine (level 3's memory keys in the same pass)
+        trace = load_trace(src, invariants=True, memory_keys=_wants_memory_keys(a))
         how = f"trace   {src}"
     else:
         scene, _ = opt.load_scene(src, skip_unknown=a.skip_unknown)
