@@ -168,8 +168,10 @@ class MemoryData:
     @property
     def replay_keys(self) -> np.ndarray:
         """The visits' keys as the C replay reads them with ``get``'s data: an IC key numbers the
-        voxel among those the trace visits, where fewer than half the grid's are (a small trace
-        on a fine grid: the data of the rest, never read, is neither made nor copied)."""
+        voxel among those the trace visits, where fewer than half the grid's are and the grid has
+        more than one voxel for every 8 visits (a small trace on a fine grid: the data of the
+        rest, never read, is neither made nor copied; renumbering costs a pass over the visits,
+        40 ns each, which the data of a grid's unvisited voxels repays only where it is large)."""
         self._restrict()
         return self._replay_keys
 
@@ -178,7 +180,7 @@ class MemoryData:
             return
         refs = self.layout.voxel_refs
         used = np.flatnonzero(refs > 0)
-        if 2 * len(used) >= len(refs):
+        if 2 * len(used) >= len(refs) or 8 * len(refs) < len(self.keys):
             self._used, self._replay_keys = False, self.keys
             return
         dense = np.zeros(len(refs), dtype=np.int32)
