@@ -21,24 +21,9 @@ int mprt_visit_keys(const mprt_trace_visit *visits, size_t nvisits, const int64_
     for (j = 0; j < nvoxels; j++) voxel_refs[j] = 0;
     for (j = 0; j < nmaterials; j++) material_refs[j] = 0;
     for (j = 0; j < nvisits; j++) {
-        const mprt_trace_visit va = mprt__visit_at(visits, j), *a = &va;
-        int64_t k = -1;
-        if (a->stage == MPRT_STAGE_IC) {
-            k = a->voxel_id;
-            if (k >= 0) {
-                if ((uint64_t)k >= nvoxels) break;
-                voxel_refs[k]++;
-            }
-        } else if (a->stage == MPRT_STAGE_SC && a->prim >= 0) {
-            int64_t m;
-            if ((size_t)a->prim >= nprims) break;
-            m = prim_material[a->prim];
-            if (m < 0 || (uint64_t)m >= nmaterials) break;
-            material_refs[m]++;
-            k = -2 - m;
-        }
-        if (k < INT32_MIN) break;
-        keys[j] = (int32_t)k;
+        const mprt_trace_visit a = mprt__visit_at(visits, j);
+        if (!mprt__visit_key(&a, prim_material, nprims, voxel_refs, nvoxels, material_refs, nmaterials, &keys[j]))
+            break;
     }
     if (j < nvisits) {
         if (errmsg && errlen)

@@ -320,4 +320,30 @@ static inline mprt_trace_visit mprt__visit_at(const void *visits, size_t j)
     return a;
 }
 
+/* Visit a's memory key for level 3 (an IC visit's voxel, an SC visit's shading -2 - its
+ * material, else -1) into *key, its reference counted in vref or mref: 1, or 0 (nothing
+ * counted) where the voxel, primitive or material is outside the ones given or the key does
+ * not fit 32 bits.  mprt_visit_keys and the trace check's keys (tracecheck.c) both use it. */
+static inline int mprt__visit_key(const mprt_trace_visit *a, const int64_t *prim_material, size_t nprims,
+                                  int64_t *vref, size_t nvox, int64_t *mref, size_t nmat, int32_t *key)
+{
+    int64_t k = -1;
+    if (a->stage == MPRT_STAGE_IC) {
+        k = a->voxel_id;
+        if (k >= 0) {
+            if ((uint64_t)k >= nvox || k > INT32_MAX) return 0;
+            vref[k]++;
+        }
+    } else if (a->stage == MPRT_STAGE_SC && a->prim >= 0) {
+        int64_t m;
+        if ((size_t)a->prim >= nprims) return 0;
+        m = prim_material[a->prim];
+        if (m < 0 || (uint64_t)m >= nmat || m > (int64_t)INT32_MAX - 2) return 0;
+        mref[m]++;
+        k = -2 - m;
+    }
+    *key = (int32_t)k;
+    return 1;
+}
+
 #endif

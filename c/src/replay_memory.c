@@ -186,13 +186,18 @@ int mprt_replay_set_memory(mprt_replay *r, const int32_t *key, size_t nvisits, c
     if (!r) return MPRT_ERR_INVALID_ARG;
     r->errmsg[0] = '\0';
     mprt__replay_free_run(r);
-    if (!r->loaded || nvisits != r->nv || (nvisits && !key)) mprt__replay_memory_free(r);
-    if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
-    if (nvisits != r->nv)
-        return fail(r, MPRT_ERR_INVALID_ARG, "memory keys: %zu given, the trace has %zu visits", nvisits, r->nv);
-    if (nvisits && !key) return fail(r, MPRT_ERR_INVALID_ARG, "memory keys: missing");
-    if (!r->mem && !(r->mem = calloc(1, sizeof *r->mem)))
-        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the memory data");
+    if (!r->loaded)
+        rc = fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
+    else if (nvisits != r->nv)
+        rc = fail(r, MPRT_ERR_INVALID_ARG, "memory keys: %zu given, the trace has %zu visits", nvisits, r->nv);
+    else if (nvisits && !key)
+        rc = fail(r, MPRT_ERR_INVALID_ARG, "memory keys: missing");
+    else if (!r->mem && !(r->mem = calloc(1, sizeof *r->mem)))
+        rc = fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the memory data");
+    if (rc != MPRT_OK) {                /* a failed call keeps no data */
+        mprt__replay_memory_free(r);
+        return rc;
+    }
     M = r->mem;             /* (the arrays of the data before are reused: copy_data) */
     M->m[0].has = M->m[1].has = 0;
     d[0] = ic;

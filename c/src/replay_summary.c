@@ -55,7 +55,8 @@ static int64_t summarise(memory *m, int64_t k)
     int64_t a = ki->start, b = ki[1].start, ways = m->ways, x, i, empty = 0, nset = 0, words = 2;
     size_t cells = (size_t)m->nsets * (size_t)m->ways, at = m->nsum, need = (size_t)(b - a) + 3;
     int64_t *sc, *cand, *sets, *o;
-    if (ways > SUM_MAX_WAYS || b - a < 4 * SUM_PAYS || b - a < SUM_MIN_LINES) return -1;
+    int pays;
+    if (ways > SUM_MAX_WAYS) return -1;         /* (the caller asks for keys of SUM_MIN_LINES or more) */
     if (!m->scratch) {          /* the empty cache, then the candidates by place (nsets x ways each) */
         if (!(m->scratch = malloc(2 * cells * sizeof *m->scratch))) return -1;
         for (i = 0; i < (int64_t)cells; i++) m->scratch[i] = -1;
@@ -88,7 +89,8 @@ static int64_t summarise(memory *m, int64_t k)
         words += 2 + 2 * n;
     }
     o = m->sum + at;
-    if (words * SUM_PAYS <= b - a) {
+    pays = words * SUM_PAYS <= b - a;
+    if (pays) {
         o[0] = empty;
         o[1] = nset;
         o += 2;
@@ -96,7 +98,7 @@ static int64_t summarise(memory *m, int64_t k)
     for (i = 0; i < nset; i++) {
         int64_t n = 0, *w = sc + sets[i];
         while (n < ways && w[n] != -1) n++;
-        if (words * SUM_PAYS <= b - a) {
+        if (pays) {
             o[0] = sets[i];
             o[1] = n;
             memcpy(o + 2, cand + sets[i], (size_t)n * sizeof *o);
@@ -105,7 +107,7 @@ static int64_t summarise(memory *m, int64_t k)
         }
         for (x = 0; x < n; x++) w[x] = -1;          /* the scratch cache empty again */
     }
-    if (words * SUM_PAYS > b - a) return -1;
+    if (!pays) return -1;
     m->nsum = at + (size_t)words;
     return (int64_t)at + 1;
 }

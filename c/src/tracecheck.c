@@ -152,24 +152,7 @@ int mprt_trace_checker_keys_done(const mprt_trace_checker *c)
  * keep a voxel id beyond 32 bits (the caller then makes them with mprt_visit_keys). */
 static int key_of(mprt_trace_checker *c, const mprt_trace_visit *a, size_t j)
 {
-    int64_t k = -1;
-    if (j >= c->nkeys) return 0;
-    if (a->stage == MPRT_STAGE_IC) {
-        k = a->voxel_id;
-        if (k >= 0) {
-            if ((uint64_t)k >= c->nvox || k > INT32_MAX) return 0;
-            c->vref[k]++;
-        }
-    } else if (a->stage == MPRT_STAGE_SC && a->prim >= 0) {
-        int64_t m;
-        if ((size_t)a->prim >= c->nmat_prims) return 0;
-        m = c->mat[a->prim];
-        if (m < 0 || (uint64_t)m >= c->nmat || m > (int64_t)INT32_MAX - 2) return 0;
-        c->mref[m]++;
-        k = -2 - m;
-    }
-    c->keys[j] = (int32_t)k;
-    return 1;
+    return j < c->nkeys && mprt__visit_key(a, c->mat, c->nmat_prims, c->vref, c->nvox, c->mref, c->nmat, &c->keys[j]);
 }
 
 const char *mprt_trace_checker_errmsg(const mprt_trace_checker *c)
