@@ -79,9 +79,10 @@ def _nlopt_run(problem: Problem, algorithm: str, x0, max_evals: int, seed: int, 
     # bounds that is floor(x); any other x gets its own entry, holding what the memo gives it),
     # so a revisit costs a conversion and a dictionary look-up (the search is unchanged)
     seen: dict = {}
-    idle = [0]              # calls since the last that found a new design
+    idle = 0                # calls since the last that found a new design
 
     def f(x, grad):
+        nonlocal idle
         raw = np.asarray(x).astype(np.int64).tobytes()
         v = seen.get(raw)
         if v is None:
@@ -89,11 +90,11 @@ def _nlopt_run(problem: Problem, algorithm: str, x0, max_evals: int, seed: int, 
             v = problem(problem.x_to_index(x))
             if v < INFEASIBLE * 10:          # not the stop sentinel (the cap reached)
                 seen[raw] = v
-            idle[0] = 0 if len(problem.memo) > n else idle[0] + 1
+            idle = 0 if len(problem.memo) > n else idle + 1
         else:
             problem.calls += 1
-            idle[0] += 1
-        if idle[0] >= IDLE_CALLS and problem.opt is not None:
+            idle += 1
+        if idle >= IDLE_CALLS and problem.opt is not None:
             problem.opt.force_stop()        # (not the closure's opt: a cycle that would hold the traces)
         return v
 
