@@ -422,6 +422,26 @@ def test_a_small_trace_on_a_fine_grid_has_data_for_its_voxels_alone():
     assert check(t, cfg).memory["ic_cache"]["accesses"] > 0
 
 
+def test_primitive_references_count_the_visited_voxels_listing_them():
+    """The layout goes through the visited voxels only; each primitive's references are still
+    the sum, over every voxel listing it, of that voxel's references (counted here voxel by
+    voxel over the whole grid), whether the layout counts the visits or is given C's counts."""
+    t = mprt.Scene.spd("balls", size=2).grid(24).trace(6, 6)[1]
+    own, md = DataLayout(t), MemoryData(t)
+    vs, ids, refs = t.voxel_start, t.voxel_ids, own.voxel_refs
+    expect = np.zeros(len(t.prim_words), np.int64)
+    for v in range(len(vs) - 1):
+        for p in ids[vs[v]:vs[v + 1]].tolist():
+            expect[p] += refs[v]
+    assert np.array_equal(md.layout.voxel_refs, refs)
+    assert np.array_equal(own.used, [v for v in range(len(vs) - 1) if refs[v] > 0])
+    listed = np.zeros(len(expect), bool)
+    listed[ids] = True
+    assert (expect > 0).any() and ((expect == 0) & listed).any()     # some listed only where no ray went
+    for layout in (own, md.layout):
+        assert np.array_equal(layout.prim_refs, expect) and layout.prim_refs.dtype == np.int64
+
+
 def test_one_replay_switching_data_gives_what_fresh_ones_give(coarse):
     """The C replay keeps its data arrays, tags, sets and summaries from one data and run to the
     next: one Compiled going through resident sizes, line sizes and cache shapes back and forth

@@ -179,7 +179,7 @@ class MemoryData:
         if self._used is not None:
             return
         refs = self.layout.voxel_refs
-        used = np.flatnonzero(refs > 0)
+        used = self.layout.used
         if 2 * len(used) >= len(refs) or 8 * len(refs) < len(self.keys):
             self._used, self._replay_keys = False, self.keys
             return

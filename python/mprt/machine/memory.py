@@ -115,6 +115,12 @@ class GlobalMemory:
         return done
 
 
+def cell_index(start: np.ndarray, lens: np.ndarray) -> np.ndarray:
+    """The positions start[k] .. start[k] + lens[k] - 1 of each k in turn (int64 arrays)."""
+    total = int(lens.sum())
+    return np.repeat(start - (np.cumsum(lens) - lens), lens) + np.arange(total, dtype=np.int64)
+
+
 def _greedy(nbytes, size: int) -> np.ndarray:
     """Which items, in the given order, are taken when each is taken if it still fits
     (boolean array).  Vectorised: a prefix that fits is taken, the next item is not, and
@@ -150,9 +156,13 @@ class DataLayout:
 
     def __init__(self, trace, refs: tuple | None = None):
         """``refs``: (voxel_refs, material_refs) when already counted (``fidelity.memdata``,
-        in C); else counted here over the trace's visits."""
-        self.voxel_start = np.asarray(trace.voxel_start, dtype=np.int64)
-        self.voxel_ids = np.asarray(trace.voxel_ids, dtype=np.int64)
+        in C); else counted here over the trace's visits.
+
+        Only the voxels the trace visits are gone through (``used``, their lists' ``used_start``
+        and ``used_lens``): a small trace on a fine grid (the explorer's 64x64 searches reach
+        256x256x256, 16 M voxels) costs what it visits, not the grid's size."""
+        self.voxel_start = np.asarray(trace.voxel_start)         # as stored: read where used
+        self.voxel_ids = np.asarray(trace.voxel_ids)
         words = np.asarray(trace.prim_words, dtype=np.int64)
         self.material = np.asarray(trace.prim_material, dtype=np.int64)
         self.list_base = 0
@@ -162,12 +172,14 @@ class DataLayout:
         nvox = len(self.voxel_start) - 1
         nmat = int(self.material.max()) + 1 if len(self.material) else 1
         # reference counts over the trace (chunked: a memory-mapped trace stays on disk)
-        self.voxel_refs = np.zeros(nvox, dtype=np.int64)
-        self.material_refs = np.zeros(nmat, dtype=np.int64)
         v = trace.visits
-        if refs is not None:
-            self.voxel_refs[:], self.material_refs[:] = refs
+        if refs is not None:                          # (shared, not copied: neither is written)
+            self.voxel_refs = np.asarray(refs[0], dtype=np.int64).reshape(nvox)
+            self.material_refs = np.asarray(refs[1], dtype=np.int64).reshape(nmat)
             v = v[:0]
+        else:
+            self.voxel_refs = np.zeros(nvox, dtype=np.int64)
+            self.material_refs = np.zeros(nmat, dtype=np.int64)
         for a in range(0, len(v), SCAN):
             c = np.asarray(v[a:a + SCAN])
             st = c["stage"]
@@ -175,22 +187,27 @@ class DataLayout:
             self.voxel_refs += np.bincount(vox[vox >= 0], minlength=nvox)
             pr = c["prim"][(st == SC) & (c["prim"] >= 0)]
             self.material_refs += np.bincount(self.material[pr], minlength=nmat)
-        lens = np.diff(self.voxel_start)
-        self.prim_refs = np.bincount(self.voxel_ids, weights=np.repeat(self.voxel_refs, lens),
-                                     minlength=len(words)).astype(np.int64)
+        self.used = np.flatnonzero(self.voxel_refs)
+        self.used_start = self.voxel_start[self.used].astype(np.int64)
+        self.used_lens = self.voxel_start[self.used + 1].astype(np.int64) - self.used_start
+        # each primitive's references: those of the voxels listing it (the unvisited add none)
+        cells = cell_index(self.used_start, self.used_lens)
+        self.prim_refs = np.bincount(self.voxel_ids[cells], weights=np.repeat(self.voxel_refs[self.used],
+                                     self.used_lens), minlength=len(words)).astype(np.int64)
 
     def ic_resident(self, size: int) -> ResidentMemory:
-        lens = np.diff(self.voxel_start)
-        vox = np.flatnonzero((self.voxel_refs > 0) & (lens > 0))
+        lens = self.used_lens
+        vox = self.used[lens > 0]
+        lens = lens[lens > 0]
         prim = np.flatnonzero(self.prim_refs > 0)
         refs = np.concatenate([self.voxel_refs[vox], self.prim_refs[prim]])
         kind = np.concatenate([np.zeros(len(vox), np.int64), np.ones(len(prim), np.int64)])
         ids = np.concatenate([vox, prim])
-        nbytes = np.concatenate([CELL_BYTES * lens[vox], self.shape_bytes[prim]])
+        nbytes = np.concatenate([CELL_BYTES * lens, self.shape_bytes[prim]])
         order = np.lexsort((ids, kind, -refs))        # most referenced first; lists first; lower id
         take = np.zeros(len(order), bool)
         take[order] = _greedy(nbytes[order], size)
-        items = {"list": np.zeros(len(lens), bool), "shape": np.zeros(len(self.shape_bytes), bool)}
+        items = {"list": np.zeros(len(self.voxel_refs), bool), "shape": np.zeros(len(self.shape_bytes), bool)}
         items["list"][vox[take[:len(vox)]]] = True
         items["shape"][prim[take[len(vox):]]] = True
         rm = ResidentMemory(size, items)
