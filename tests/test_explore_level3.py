@@ -2,7 +2,6 @@
 exhaustive enumeration there, the polish's trades, workers, and the prepass for a named machine."""
 import argparse
 import json
-import os
 from pathlib import Path
 
 import pytest
@@ -208,29 +207,6 @@ def test_one_and_two_workers_give_the_same_answer():
         assert got[0][key] == got[1][key], key
     errors = [[(r["level"], r["error_median"], r["error_worst"]) for r in g["level"]["ladder"]] for g in got]
     assert errors[0] == errors[1]
-
-
-def _forked_task(ev, x):
-    ev.wait()           # every task waits for the others: they run at once, each on a worker of its own
-    return os.getpid(), x * x
-
-
-def test_long_tasks_run_on_a_forked_worker_each_in_order():
-    """``Pool.map_forked`` (the polish's walks): one worker forked per task up to two a core, each
-    task on the explorer's own evaluator as it stands (here a barrier, which does not pickle: the
-    workers have it from the fork), the results in the order of the tasks, the workers gone after."""
-    import multiprocessing
-
-    from mprt.explore.parallel import OVERSUBSCRIBE, Pool, forked_workers
-    assert forked_workers(2, 3) == 3 and forked_workers(2, 9) == 2 * OVERSUBSCRIBE and forked_workers(4, 1) == 1
-    pool = Pool(None, workers=2)
-    together = multiprocessing.get_context("fork").Barrier(3, timeout=60)   # two workers: broken, not a hang
-    got = pool.map_forked(_forked_task, together, [(x,) for x in range(3)])
-    assert [g[1] for g in got] == [0, 1, 4]
-    assert len({g[0] for g in got}) == 3 and os.getpid() not in {g[0] for g in got}
-    assert pool._pool is None
-    one = multiprocessing.get_context("fork").Barrier(1)
-    assert Pool(None, workers=1).map_forked(_forked_task, one, [(2,), (3,)]) == [(os.getpid(), 4), (os.getpid(), 9)]
 
 
 def _run(*argv):
