@@ -8,7 +8,7 @@ import numpy as np
 from ..errors import MprtError
 from .evaluate import DEADLOCK_CYCLES, SceneEvaluator, grid_dims, machine_config
 from .hwcost import UnitCosts, cost_breakdown, hardware_cost
-from .parallel import Pool, forked_workers
+from .parallel import Pool
 from .prepass import low_resolution
 from .refine import SCREEN_MARGIN, Screen, refine as _refine
 from .search import Problem, cost_range, global_start, pareto, search, walk
@@ -172,8 +172,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
         def run_walks(tasks):
             # the walks report nothing until they end: say what runs meanwhile
             say(f"polish  walks from each of {len(tasks)} stage mappings' best, up to {tasks[0][5]} designs "
-                f"each, on {forked_workers(pool.workers, len(tasks)) if pool.workers > 1 else 1} worker(s); then from the "
-                f"best")
+                f"each, on {min(pool.workers, len(tasks))} worker(s); then from the best")
             return pool.map_forked(_walk_task, ev, [(lv, problem.bound_points is not None, t) for t in tasks])
         res = search(problem, algorithm, polish, max_evals, seed, starts=starts, run_starts=run_starts,
                      run_walks=run_walks)

@@ -31,14 +31,6 @@ def default_workers() -> int:
     return max(os.cpu_count() or 1, 1)
 
 
-OVERSUBSCRIBE = 2           # forked workers for long tasks (map_forked): at most this many a core
-
-
-def forked_workers(workers: int, tasks: int) -> int:
-    """Workers forked for ``tasks`` long tasks when the pool has ``workers`` (one a core)."""
-    return max(min(tasks, OVERSUBSCRIBE * workers), 1)
-
-
 def _evaluator(settings: dict):
     from .evaluate import SceneEvaluator
 
@@ -97,11 +89,11 @@ class Pool:
         self.workers = default_workers() if workers is None else max(int(workers), 1)
         self._pool = None
 
-    def _executor(self, n: int | None = None) -> ProcessPoolExecutor:
+    def _executor(self) -> ProcessPoolExecutor:
         if self._pool is None:
             _SHARED["scene"] = self.scene
             ctx = multiprocessing.get_context("fork")
-            self._pool = ProcessPoolExecutor(n or self.workers, mp_context=ctx)
+            self._pool = ProcessPoolExecutor(self.workers, mp_context=ctx)
         return self._pool
 
     def run(self, ev, points, level: int | None = None) -> list:
@@ -139,21 +131,14 @@ class Pool:
         as it stands (its traces made, their costs and memory data computed: copies, not an
         evaluator of their own to build again from its settings); for long tasks on an
         evaluator that has done most of its work (the polish's walks on the search's traces).
-        The workers are shut down after, so the next batch forks its own.
-
-        One worker per task, up to OVERSUBSCRIBE per core: the tasks are few, long and of
-        unequal lengths (a walk ends when it converges), and with a worker each the kernel
-        shares the cores among those still running, so the batch ends about when its work
-        divided by the cores is done, where one worker per core would run the last long task
-        alone (tree: three walks of 6 to 8 s on two cores).  The answers do not change: each
-        task runs alone on its own copy of ``ev``."""
+        The workers are shut down after, so the next batch forks its own."""
         args_list = list(args_list)
         if self.workers <= 1 or len(args_list) <= 1:
             return [fn(ev, *a) for a in args_list]
         self.close()
         _SHARED["ev"] = ev
         try:
-            ex = self._executor(forked_workers(self.workers, len(args_list)))
+            ex = self._executor()
             return [f.result() for f in [ex.submit(_call_forked, fn, a) for a in args_list]]
         finally:
             self.close()
