@@ -16,10 +16,10 @@ ORDER = [
     "errors",      # exceptions
     "atomic",      # outputs written whole (a temporary renamed into place)
     "progress",    # phase lines and clock-driven bars on stderr (tqdm)
+    "pages",       # arrays read in chunks, memory-mapped pages released, sparse zeroed arrays
     "_lowlevel",   # the only importer of the compiled extensions: one wrapper per C call, enums, record dtypes
     "scene",       # Scene
     "grid",        # Grid (adds Scene.grid), render, intersect, camera rays, per-tile calls
-    "pages",       # arrays read in chunks, memory-mapped pages released
     "recordcheck",  # a trace's records checked in C in one pass (ranges and invariants)
     "tracevalid",  # the one validation of a trace: meta schema, dtypes, shapes, ranges
     "tracecheck",  # trace invariants (named in Python)

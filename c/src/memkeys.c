@@ -18,7 +18,10 @@ int mprt_visit_keys(const mprt_trace_visit *visits, size_t nvisits, const int64_
         if (errmsg && errlen) snprintf(errmsg, errlen, "mprt_visit_keys: an array is missing");
         return MPRT_ERR_INVALID_ARG;
     }
-    for (j = 0; j < nvoxels; j++) voxel_refs[j] = 0;
+    /* zeroed, written only where not zero already: an array the caller got zeroed (calloc, a
+     * fine grid's 16 M voxels of which a small trace visits few) keeps its untouched pages */
+    for (j = 0; j < nvoxels; j++)
+        if (voxel_refs[j]) voxel_refs[j] = 0;
     for (j = 0; j < nmaterials; j++) material_refs[j] = 0;
     for (j = 0; j < nvisits; j++) {
         const mprt_trace_visit a = mprt__visit_at(visits, j);

@@ -23,6 +23,7 @@ import numpy as np
 
 from . import _mprt, _mprt32
 from .errors import CapacityError, InvalidArgument, MprtError, SceneParseError, SceneStateError, WorkLimitError
+from .pages import sparse_zeros
 
 _FFI = _mprt.ffi
 
@@ -663,7 +664,7 @@ class Binding:
         visits = self._records("visits", visits, VISIT_DTYPE)
         mat = _plain(prim_material, np.int64)
         keys = np.empty(len(visits), np.int32)
-        vref, mref = np.empty(int(nvoxels), np.int64), np.empty(int(nmaterials), np.int64)
+        vref, mref = sparse_zeros(int(nvoxels), np.int64), np.zeros(int(nmaterials), np.int64)  # (see memkeys.c)
         msg = self._cost_errmsg()
         if self.lib.mprt_visit_keys(self._in("mprt_trace_visit", np.ascontiguousarray(visits), len(visits)),
                                     len(visits), self._in("int64_t", mat), len(mat), self._out("int32_t", keys),

@@ -1,6 +1,7 @@
 """Reading large arrays in bounded memory: ``release`` lets the kernel drop the pages of a
 memory-mapped array once processed, ``chunks`` walks an array a copy of a chunk at a time.
-Used by the trace file format, its validation, its invariant check and its statistics."""
+Used by the trace file format, its validation, its invariant check and its statistics.
+``sparse_zeros`` makes a large zeroed array of which few entries will be written."""
 from __future__ import annotations
 
 import ctypes
@@ -45,3 +46,25 @@ def chunks(a: np.ndarray, size: int):
         part = a[i:i + size]
         yield i, np.array(part)
         release(part)
+
+
+SPARSE_MIN = 1 << 22    # bytes: smaller arrays are plain np.zeros
+
+
+def sparse_zeros(n: int, dtype) -> np.ndarray:
+    """A zeroed array of ``n`` entries for sparse writes (per voxel of a fine grid, of which a
+    small trace visits few): a large one is an anonymous mapping of its own, whose pages the
+    kernel gives, zeroed, only where written (in small pages).  NumPy asks for huge pages on large arrays
+    (madvise), so that its first write to each 2 MiB zeroes all of it: 16 M voxels' counts,
+    written at a few thousand places, took 0.4 s that way and 0.05 s this way."""
+    dtype = np.dtype(dtype)
+    nbytes = int(n) * dtype.itemsize
+    if nbytes < SPARSE_MIN:
+        return np.zeros(int(n), dtype)
+    m = mmap.mmap(-1, nbytes)
+    if hasattr(mmap, "MADV_NOHUGEPAGE"):       # (where the system gives huge pages unasked)
+        try:
+            m.madvise(mmap.MADV_NOHUGEPAGE)
+        except OSError:
+            pass
+    return np.frombuffer(m, dtype=dtype)

@@ -21,6 +21,7 @@ import numpy as np
 from .._lowlevel import binding
 from ..cost.fast import usable as fast_usable
 from ..machine.memory import CELL_BYTES, MATERIAL_BYTES, DataLayout
+from ..pages import sparse_zeros
 from ..trace import IC, SC
 
 SCAN = 1 << 22
@@ -183,7 +184,7 @@ class MemoryData:
         if 2 * len(used) >= len(refs) or 8 * len(refs) < len(self.keys):
             self._used, self._replay_keys = False, self.keys
             return
-        dense = np.zeros(len(refs), dtype=np.int32)
+        dense = sparse_zeros(len(refs), np.int32)
         dense[used] = np.arange(len(used), dtype=np.int32)
         keys = self.keys
         ic = keys >= 0

@@ -27,6 +27,7 @@ from collections import defaultdict
 
 import numpy as np
 
+from ..pages import sparse_zeros
 from ..trace import IC, SC
 
 CELL_BYTES = 8
@@ -178,7 +179,7 @@ class DataLayout:
             self.material_refs = np.asarray(refs[1], dtype=np.int64).reshape(nmat)
             v = v[:0]
         else:
-            self.voxel_refs = np.zeros(nvox, dtype=np.int64)
+            self.voxel_refs = sparse_zeros(nvox, np.int64)
             self.material_refs = np.zeros(nmat, dtype=np.int64)
         for a in range(0, len(v), SCAN):
             c = np.asarray(v[a:a + SCAN])
@@ -207,7 +208,7 @@ class DataLayout:
         order = np.lexsort((ids, kind, -refs))        # most referenced first; lists first; lower id
         take = np.zeros(len(order), bool)
         take[order] = _greedy(nbytes[order], size)
-        items = {"list": np.zeros(len(self.voxel_refs), bool), "shape": np.zeros(len(self.shape_bytes), bool)}
+        items = {"list": sparse_zeros(len(self.voxel_refs), bool), "shape": np.zeros(len(self.shape_bytes), bool)}
         items["list"][vox[take[:len(vox)]]] = True
         items["shape"][prim[take[len(vox):]]] = True
         rm = ResidentMemory(size, items)
