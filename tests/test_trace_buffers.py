@@ -121,28 +121,6 @@ def test_grid_trace_tiles_stops_before_what_does_not_fit():
         g.trace_tiles(desc, np.array([tx * ty], dtype=np.intc), samples, 0, r, v)
 
 
-def test_records_written_past_the_caches_are_the_same_bits():
-    """Visit buffers of 64 MiB or more, 16-byte aligned, are written by non-temporal stores
-    (record.h): the same records as a small buffer's, whatever the records' place in the buffer;
-    the bytes past the records stay as they were (a buffer off the 16-byte grid: plain stores)."""
-    g = grid()
-    desc = g.resolve(mprt.grid.render_desc(24, 20, tile=4))
-    sw, sh, tx, ty = g.tiling(desc)
-    samples = np.empty((sh, sw, 3))
-    tiles = np.arange(tx * ty, dtype=np.intc)
-    rays, visits, _ = reference()
-    n = (64 << 20) // VISIT_DTYPE.itemsize + 64
-    raw = np.full(n * VISIT_DTYPE.itemsize + 64, 0xA5, dtype=np.uint8)
-    base = (-raw.ctypes.data) % 16
-    for off in (base, base + 8):            # aligned: streamed; off by 8 bytes: plain stores
-        big = raw[off:off + n * VISIT_DTYPE.itemsize].view(VISIT_DTYPE)
-        r = np.empty(2 * len(rays), dtype=RAY_DTYPE)
-        assert g.trace_tiles(desc, tiles, samples, 0, r, big) == (len(tiles), len(rays), len(visits))
-        assert np.array_equal(big[:len(visits)], visits) and np.array_equal(r[:len(rays)], rays)
-        assert (big[len(visits):len(visits) + 16].view(np.uint8) == 0xA5).all()
-        big[:len(visits)] = np.zeros(1, dtype=VISIT_DTYPE)
-
-
 def test_a_failed_trace_leaves_the_file_as_it_was(tmp_path):
     """A trace to disk that fails (a sample over its ray budget) leaves an existing file untouched
     and nothing beside it."""

@@ -11,15 +11,6 @@
 #include <stdint.h>
 #include <string.h>
 
-#if defined(__SSE2__) && !defined(MPRT_NO_STREAM)
-#include <emmintrin.h>
-#define MPRT__STREAM 1
-#endif
-/* Record buffers of at least this many bytes are written past the caches (a trace's
- * final arrays: hundreds of MB written once, read by others later); smaller ones (the
- * trace file's chunks, read back at once for the checksum) through them. */
-#define MPRT__STREAM_MIN ((size_t)64 << 20)
-
 /* A ray that belongs to no ray tree (mprt_grid_intersect's rays). */
 #define MPRT__RAY_QUERY (-1)
 
@@ -69,7 +60,6 @@ typedef struct {
     size_t cap_visits, nvisits; /* likewise */
     int64_t base;               /* the number of the tile's first ray (ids are base + the tile-local number) */
     int too_wide;               /* 1 when a value did not fit its record field */
-    int stream;                 /* visits written by non-temporal stores (MPRT__STREAM_MIN; 16-aligned) */
 } mprt__recorder;
 
 /* Where the visits and rays of a tile go. */
@@ -104,52 +94,20 @@ static inline int64_t mprt__record_fit(mprt__recorder *recorder, int64_t v, int6
 static inline void mprt__record_visit_here(mprt__recorder *recorder, const mprt__visit *visit)
 {
     size_t at = recorder->nvisits++;
-    mprt_trace_visit rec;
+    mprt_trace_visit *out;
     int k;
     if (at >= recorder->cap_visits) return;
-    rec.ray = visit->ray;
-    rec.voxel_id = visit->voxel_id;
-    rec.steps = visit->steps;
-    for (k = 0; k < MPRT_NKINDS; k++) rec.tests[k] = visit->tests[k];
-    rec.vertices = visit->vertices;
-    rec.prim = visit->prim;
-    rec.stage = (uint8_t)visit->stage;
-    rec.outcome = (uint8_t)visit->outcome;
-    rec.made = (uint8_t)mprt__record_fit(recorder, visit->made, UINT8_MAX);
-    rec.suppressed = (uint8_t)mprt__record_fit(recorder, visit->suppressed, UINT8_MAX);
-#ifdef MPRT__STREAM
-    if (recorder->stream) {     /* 48 bytes, no padding: three 16-byte stores that bypass the caches */
-        __m128i *o = (__m128i *)(void *)&recorder->visits[at];
-        const char *src = (const char *)&rec;
-        _mm_stream_si128(o, _mm_loadu_si128((const __m128i *)(const void *)src));
-        _mm_stream_si128(o + 1, _mm_loadu_si128((const __m128i *)(const void *)(src + 16)));
-        _mm_stream_si128(o + 2, _mm_loadu_si128((const __m128i *)(const void *)(src + 32)));
-        return;
-    }
-#endif
-    recorder->visits[at] = rec;
-}
-
-/* Whether a recorder's visits go past the caches: a large buffer, 16-byte aligned. */
-static inline int mprt__record_streams(const mprt_trace_visit *visits, size_t cap)
-{
-#ifdef MPRT__STREAM
-    return visits && cap >= MPRT__STREAM_MIN / sizeof *visits && ((uintptr_t)(const void *)visits & 15) == 0;
-#else
-    (void)visits;
-    (void)cap;
-    return 0;
-#endif
-}
-
-/* The streamed stores made visible before the records are handed on. */
-static inline void mprt__record_fence(const mprt__recorder *recorder)
-{
-#ifdef MPRT__STREAM
-    if (recorder->stream) _mm_sfence();
-#else
-    (void)recorder;
-#endif
+    out = &recorder->visits[at];
+    out->ray = visit->ray;
+    out->voxel_id = visit->voxel_id;
+    out->steps = visit->steps;
+    for (k = 0; k < MPRT_NKINDS; k++) out->tests[k] = visit->tests[k];
+    out->vertices = visit->vertices;
+    out->prim = visit->prim;
+    out->stage = (uint8_t)visit->stage;
+    out->outcome = (uint8_t)visit->outcome;
+    out->made = (uint8_t)mprt__record_fit(recorder, visit->made, UINT8_MAX);
+    out->suppressed = (uint8_t)mprt__record_fit(recorder, visit->suppressed, UINT8_MAX);
 }
 
 /* The same out of line (record.c), so that the emit functions stay small where

@@ -259,12 +259,10 @@ int mprt_grid_trace_tiles(mprt_grid *g, const mprt_render_desc *desc, const int 
         recorder.visits = visits ? visits + nv : NULL;
         recorder.cap_visits = cap_visits - nv;
         recorder.base = first_ray + (int64_t)nr;
-        recorder.stream = mprt__record_streams(visits, cap_visits);
         {
             mprt_counters before = sink.counters;
             sink.recorder = &recorder;
             render_tile(&setup, tiles[i], &out, stack, &sink);
-            mprt__record_fence(&recorder);
             if (sink.bad_prim >= 0 || sink.over_budget >= 0 || recorder.too_wide) {
                 free(stack);
                 return tile_error(g, &setup, &sink, &recorder, tiles[i]);
