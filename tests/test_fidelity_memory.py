@@ -449,7 +449,8 @@ def test_primitive_references_count_the_visited_voxels_listing_them():
 def test_a_fine_grids_counts_take_the_pages_written_alone():
     """Per-voxel arrays of a fine grid that a small trace writes at few places (``sparse_zeros``)
     take memory where written: 256 writes 512 KiB apart in 128 MiB of counts (whole 2 MiB huge
-    pages, NumPy's choice for a large array, would take all of it); the keys and counts of a
+    pages, NumPy's choice for a large array, would take all of it), private to the process as any
+    memory is (a forked worker's writes stay its own); the keys and counts of a
     small trace on a fine grid are those of a count in NumPy."""
     from mprt.pages import sparse_zeros
 
@@ -463,6 +464,12 @@ def test_a_fine_grids_counts_take_the_pages_written_alone():
     assert a.dtype == np.int64 and a.shape == (1 << 24,) and a.sum() == 256 and a[1] == 0
     assert grew < 32 << 20, grew
     assert sparse_zeros(5, np.int32).tolist() == [0] * 5
+    pid = os.fork()                 # private memory: what a forked worker writes stays its own
+    if pid == 0:
+        a[1] = 5
+        os._exit(0)
+    os.waitpid(pid, 0)
+    assert a[1] == 0
     t = mprt.Scene.spd("balls", size=2).grid(160).trace(6, 6)[1]
     md = MemoryData(t)
     nvox = len(t.voxel_start) - 1

@@ -61,7 +61,8 @@ def sparse_zeros(n: int, dtype) -> np.ndarray:
     nbytes = int(n) * dtype.itemsize
     if nbytes < SPARSE_MIN:
         return np.zeros(int(n), dtype)
-    m = mmap.mmap(-1, nbytes)
+    # private, as any other memory: a worker forked from this process writes its own copy
+    m = mmap.mmap(-1, nbytes, flags=mmap.MAP_PRIVATE) if hasattr(mmap, "MAP_PRIVATE") else mmap.mmap(-1, nbytes)
     if hasattr(mmap, "MADV_NOHUGEPAGE"):       # (where the system gives huge pages unasked)
         try:
             m.madvise(mmap.MADV_NOHUGEPAGE)
