@@ -20,7 +20,7 @@ import numpy as np
 
 from .._lowlevel import binding
 from ..cost.fast import usable as fast_usable
-from ..machine.memory import CELL_BYTES, MATERIAL_BYTES, DataLayout
+from ..machine.memory import CELL_BYTES, MATERIAL_BYTES, DataLayout, cell_index
 from ..pages import sparse_zeros
 from ..trace import IC, SC
 
@@ -51,9 +51,7 @@ def _lines(addr, size, owner, nkeys, line):
     """Per key (owner, sorted), the lines of its byte ranges in order: (line_start, lines)."""
     first = addr // line
     nl = (addr + size - 1) // line - first + 1
-    total = int(nl.sum())
-    starts = np.cumsum(nl) - nl
-    lines = np.repeat(first - starts, nl) + np.arange(total, dtype=np.int64)
+    lines = cell_index(first, nl)
     per = np.zeros(nkeys, dtype=np.int64)
     np.add.at(per, owner, nl)
     return np.concatenate([[0], np.cumsum(per)]).astype(np.int64), lines
@@ -76,7 +74,7 @@ def ic_data(layout: DataLayout, items: dict, line: int, used=None) -> dict:
     res_shape = np.asarray(items["shape"], dtype=bool)
     first = np.cumsum(lens) - lens                       # each key's first cell among the keys' cells
     key = np.repeat(np.arange(nk, dtype=np.int64), lens)
-    cids = ids[np.arange(ncell, dtype=np.int64) - first[key] + start[key]] if ncell else np.zeros(0, np.int64)
+    cids = ids[cell_index(start, lens)] if ncell else np.zeros(0, np.int64)
     cell_res = res_shape[cids] if ncell else np.zeros(0, bool)
     resident = (nonempty & res_list).astype(np.int64) + np.bincount(key, weights=cell_res, minlength=nk).astype(
         np.int64)
