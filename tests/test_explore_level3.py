@@ -277,6 +277,47 @@ def test_level_1_bounds_keep_the_answer_in_fewer_level_3_runs(runs, scene):
     assert ran["bounded"] < ran["plain"]
 
 
+def test_work_bounds_in_the_polish_keep_its_steps_with_no_level_1_replay(runs):
+    """From the lattice polish on, the explorer's bounds are work bounds (``search(polish_bounds=)``,
+    ``TraceEvaluator.work_bound``: nothing run).  Bounds decide which designs are replayed, not the
+    polish's steps: the search evaluates the same designs in the same order, and reaches the same
+    answer, as with level-1 bounds throughout, and replays no design at level 1 after the global
+    phase; a design known by its work bound is below its level-3 cycles and behind the answer."""
+    from mprt.explore.explorer import _bounds
+    sp = load_space(MEMORY)
+    cost_of = lambda p: hardware_cost(p.design)  # noqa: E731
+    by_work = 0
+    for scene in ("tetra", "balls", "mount"):
+        memo = runs[scene]
+        level1 = lambda pts: _bounds(memo(1)(pts))  # noqa: E731
+        for budget in (None, 250.0, 350.0):
+            a = Problem(sp, memo(3), "time", budget, cost_of=cost_of, bound_points=level1)
+            ra = search(a, "direct-l", "lattice", max_evals=20, seed=1)
+            calls = {"level1": 0, "at_polish": None}
+
+            def counted(pts):
+                calls["level1"] += len(pts)
+                return level1(pts)
+
+            def work(pts):
+                if calls["at_polish"] is None:
+                    calls["at_polish"] = calls["level1"]
+                return [memo.ev.work_bound(p.design, 3) for p in pts]
+            b = Problem(sp, memo(3), "time", budget, cost_of=cost_of, bound_points=counted)
+            rb = search(b, "direct-l", "lattice", max_evals=20, seed=1, polish_bounds=work)
+            assert (rb.best.cycles, rb.best.cost, rb.best.index) == (ra.best.cycles, ra.best.cost, ra.best.index)
+            assert b.order == a.order
+            assert calls["at_polish"] is not None and calls["level1"] == calls["at_polish"] > 0
+            for k in b.order:
+                x, y = b.memo[k], a.memo[k]
+                assert x.bound or y.bound or x.cycles == y.cycles
+                if x.bound:
+                    assert x.cycles <= memo(3)([x.point])[0].cycles
+                    assert b.rank(x)[:2] > b.rank(rb.best)[:2]
+                    by_work += x.result.engine == "work bound"
+    assert by_work > 0      # (tetra 15, balls 8, mount 0 when written)
+
+
 @pytest.mark.parametrize("scene", ["tetra", "balls", "mount"])
 def test_walks_on_the_search_state_take_the_steps_of_walks_one_after_another(runs, scene):
     """The polish's walks from each mapping's start, each on a problem of its own that knows only

@@ -126,6 +126,19 @@ static int build(mprt_replay *r)
     return MPRT_OK;
 }
 
+/* What a run of the loaded trace on the configuration set is refused for, its figures: more
+ * PEs than primary rays, the visits' cycles and the primaries' making beyond 2^62. */
+static int check_figures(mprt_replay *r)
+{
+    int64_t g = r->cfg.gen_cycles;
+    if (r->cfg.pes > r->ntrees)
+        return fail(r, MPRT_ERR_INVALID_ARG, "pes: %d PEs but the trace has only %lld primary rays (one per pixel "
+                    "sample)", r->cfg.pes, (long long)r->ntrees);
+    if (g > 0 && r->ntrees > (INT64_MAX / 2 - r->total) / g)
+        return fail(r, MPRT_ERR_INVALID_ARG, "gen_cycles: with the visits' cycles, more than 2^62 cycles in all");
+    return MPRT_OK;
+}
+
 int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
 {
     int rc, k;
@@ -135,11 +148,7 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
     r->errmsg[0] = '\0';
     if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
     g = r->cfg.gen_cycles;
-    if (r->cfg.pes > r->ntrees)
-        return fail(r, MPRT_ERR_INVALID_ARG, "pes: %d PEs but the trace has only %lld primary rays (one per pixel "
-                    "sample)", r->cfg.pes, (long long)r->ntrees);
-    if (g > 0 && r->ntrees > (INT64_MAX / 2 - r->total) / g)
-        return fail(r, MPRT_ERR_INVALID_ARG, "gen_cycles: with the visits' cycles, more than 2^62 cycles in all");
+    if ((rc = check_figures(r)) != MPRT_OK) return rc;
     if (r->cfg.ring && !r->flits_set)
         return fail(r, MPRT_ERR_STATE, "ring: no packet sizes for this trace (mprt_replay_set_flits)");
     if (log && log_cap < 8 * (r->nv + (size_t)r->ntrees))
@@ -189,5 +198,51 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
         return fail(r, MPRT_ERR_STATE, "deadlock: the machine stopped with %lld of %zu rays still in it",
                     (long long)((int64_t)r->nr - r->retired), r->nr);
     }
+    return MPRT_OK;
+}
+
+int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
+{
+    const mprt_replay_config *c;
+    int64_t g, best = 0, w[3], pe_trees;
+    int p, k, s, rc;
+    if (!r || !cycles) return MPRT_ERR_INVALID_ARG;
+    r->errmsg[0] = '\0';
+    if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
+    c = &r->cfg;
+    g = c->gen_cycles;
+    if ((rc = check_figures(r)) != MPRT_OK) return rc;
+    /* (every sum below is at most the visits' cycles and the making's: under 2^62) */
+    for (p = 0; p < (c->dis == MPRT_DIS_DYNAMIC ? 1 : c->pes); p++) {
+        int64_t t, first, stop, step, sw[3] = {0, 0, 0};
+        if (c->dis == MPRT_DIS_BLOCKS) {        /* as the run's DIS deals the trees */
+            first = p * r->ntrees / c->pes;
+            stop = (p + 1) * r->ntrees / c->pes;
+            step = 1;
+        } else if (c->dis == MPRT_DIS_INTERLEAVED) {
+            first = p;
+            stop = r->ntrees;
+            step = c->pes;
+        } else {
+            first = 0;
+            stop = r->ntrees;
+            step = 1;
+        }
+        w[0] = w[1] = w[2] = 0;
+        for (t = first; t < stop; t += step) {
+            const int64_t *tc = r->tree_cost + 9 * t;
+            for (k = 0; k < 3; k++) w[k] += tc[k] + tc[3 + k];
+        }
+        pe_trees = first < stop ? (stop - first + step - 1) / step : 0;
+        for (k = 0; k < 3; k++) sw[c->stage_of[k]] += w[k];
+        sw[c->stage_of[MPRT_STAGE_SC]] += g > 0 ? g * pe_trees : 0;
+        for (s = 0; s < c->nstages; s++) {
+            /* one PE's share: its replicas; the dynamic DIS's: every PE's */
+            int64_t n = (int64_t)c->replicas[s] * (c->dis == MPRT_DIS_DYNAMIC ? c->pes : 1);
+            int64_t b = (sw[s] + n - 1) / n;
+            if (b > best) best = b;
+        }
+    }
+    *cycles = best;
     return MPRT_OK;
 }

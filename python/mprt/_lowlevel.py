@@ -531,6 +531,13 @@ class Binding:
         self._check(rc, lib.mprt_replay_errmsg, h)
         return True
 
+    def replay_work_bound(self, h) -> int:
+        """mprt_replay_work_bound: a lower bound of the cycles of a run of the configuration set
+        (the stages' work shared among their processors), at any level; nothing is run."""
+        out = self.ffi.new("int64_t *")
+        self._check(self.lib.mprt_replay_work_bound(h, out), self.lib.mprt_replay_errmsg, h)
+        return int(out[0])
+
     def replay_get_info(self, h) -> dict:
         """mprt_replay_info of the last run, by field."""
         i = self.ffi.new("mprt_replay_info *")

@@ -191,6 +191,56 @@ static void test_sc_makes_the_primaries(void)
     mprt_replay_destroy(r);
 }
 
+/* The work bound of the configuration set (-1: the call failed). */
+static int64_t bound(mprt_replay *r, const mprt_replay_config *c)
+{
+    int64_t b = -1;
+    if (mprt_replay_set_config(r, c) != MPRT_OK || mprt_replay_work_bound(r, &b) != MPRT_OK) return -1;
+    return b;
+}
+
+static void test_work_bound(void)
+{
+    /* four primaries: OS 10, 30, 10, 10 cycles (the second with a receive of 2), the third
+     * with an IC visit of 7 and an SC visit of 5 */
+    hand h = {0};
+    mprt_replay_config s = model_s(), m = model_m();
+    mprt_replay *r;
+    int64_t b = 0;
+    int i;
+    for (i = 0; i < 4; i++) {
+        ray(&h, -1, MPRT_RAY_PRIMARY);
+        visit(&h, i, MPRT_STAGE_OS, 0, i == 1 ? 30 : 10);
+        if (i == 2) {
+            visit(&h, i, MPRT_STAGE_IC, 0, 7);
+            visit(&h, i, MPRT_STAGE_SC, 0, 5);
+        }
+    }
+    h.receive[1] = 2;
+    CHECK(mprt_replay_create(&s, &r) == MPRT_OK);
+    CHECK(mprt_replay_work_bound(r, &b) == MPRT_ERR_STATE && strstr(mprt_replay_errmsg(r), "no trace loaded"));
+    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    CHECK(bound(r, &s) == 74 && cycles(&h, &s, NULL, 0) == 74);   /* S never waits: its work */
+    CHECK(bound(r, &m) == 62);              /* OS: 10 + 32 + 10 + 10 */
+    s.replicas[0] = 4;                      /* 74 over four, rounded up */
+    CHECK(bound(r, &s) == 19);
+    s.replicas[0] = 1;
+    s.pes = 2;                              /* blocks: 42 and 32 */
+    s.dis = MPRT_DIS_BLOCKS;
+    CHECK(bound(r, &s) == 42);
+    s.dis = MPRT_DIS_INTERLEAVED;           /* trees 0, 2: 32; trees 1, 3: 42 */
+    CHECK(bound(r, &s) == 42);
+    s.dis = MPRT_DIS_DYNAMIC;               /* 74 over both PEs */
+    CHECK(bound(r, &s) == 37);
+    m.gen_cycles = 20;                      /* SC makes the four primaries: 5 + 80 */
+    CHECK(bound(r, &m) == 85 && cycles(&h, &m, NULL, 0) >= 85);
+    m.pes = 5;                              /* more PEs than primaries: refused as the run refuses */
+    CHECK(bound(r, &m) == -1 && strstr(mprt_replay_errmsg(r), "pes: 5 PEs"));
+    CHECK(mprt_replay_work_bound(r, NULL) == MPRT_ERR_INVALID_ARG);
+    CHECK(mprt_replay_work_bound(NULL, &b) == MPRT_ERR_INVALID_ARG);
+    mprt_replay_destroy(r);
+}
+
 static void test_busy_record(void)
 {
     /* four primaries of 10 cycles on one processor, window 2: trees 0 and 1 at cycle 0
@@ -369,5 +419,6 @@ int main(void)
     RUN(test_bad_traces);
     RUN(test_runs_repeat_exactly);
     RUN(test_busy_record);
+    RUN(test_work_bound);
     return CHECK_DONE();
 }

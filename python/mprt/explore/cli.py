@@ -149,9 +149,10 @@ def add_parsers(sub) -> None:
                    help="processes evaluating independent designs in parallel; the answer is the same for any "
                         "number (default: one per core; 0 or 1: in this process)")
     e.add_argument("--no-bound", dest="bound", action="store_false",
-                   help="at levels 2 and 3, replay every design at the level (default: a design whose level-1 "
-                        "bound is slower than the best so far, or that is over the budget, is not replayed; in the "
-                        "full-resolution polish, nor one whose estimate from the search's figures is)")
+                   help="at levels 2 and 3, replay every design at the level (default: a design whose bound "
+                        "is slower than the best so far, or that is over the budget, is not replayed: its level-1 "
+                        "replay in the global phase, from the polish on its stages' work over their processors; "
+                        "in the full-resolution polish, nor one whose estimate from the search's figures is)")
     e.add_argument("--fraction", type=_positive(int), default=None, metavar="F",
                    help="search on traces at 1/F of --res, then polish the best at --res "
                         "(default: about 64 pixels across; 1: search at --res)")

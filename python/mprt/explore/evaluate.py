@@ -210,6 +210,22 @@ class TraceEvaluator:
             r = self.run_config(cfg, level, scale, cost)
         return r
 
+    def work_bound(self, design: Design, level: int, scale: float = 1.0) -> Result | None:
+        """A lower bound of the design's cycles at ``level`` (scaled as ``run``'s), nothing run:
+        each stage's work over its processors (``fidelity.Evaluator.work_bound``); None where
+        the level's run would not be the compiled replay's."""
+        from ..machine.errors import ConfigError
+
+        cfg = machine_config(design, self.leaves)
+        try:
+            b = self.evaluator(cfg).work_bound(cfg, level)
+        except ConfigError:
+            return None         # (the run says why)
+        if b is None:
+            return None
+        return Result(cycles=float(np.floor(b * scale)), level=level,
+                      cost=float(sum(cost_breakdown(design, self.unit_costs).values())), engine="work bound")
+
     def run_config(self, cfg, level: int = 1, scale: float = 1.0, cost: float = 0.0) -> Result:
         """A machine configuration (``SystemConfig``) at a level."""
         from ..machine.errors import DeadlockError
@@ -321,6 +337,14 @@ class SceneEvaluator:
         if not isinstance(point.design, Design):          # a machine configuration
             return ev.run_config(point.design, level, scale)
         return ev.run(point.design, level, scale)
+
+    def work_bound(self, point, level: int | None = None) -> Result | None:
+        """``TraceEvaluator.work_bound`` of a point (None for a machine configuration, or where
+        the compiled replay would not run it)."""
+        if not isinstance(point.design, Design):
+            return None
+        ev, scale = self.evaluator(grid_dims(self.scene, point.subdivision, self.shape))
+        return ev.work_bound(point.design, self.level if level is None else level, scale)
 
     def __call__(self, points) -> list[Result]:
         # grouped by grid (each trace made once per batch), then by processors (each costed once)

@@ -40,6 +40,15 @@ def _bounder(pool, lv: int, objective: str, bound: bool):
     return lambda sev: (lambda pts: _bounds(pool.run(sev, pts, BOUND_LEVEL)))
 
 
+def _polish_bounder(bounder, lv: int):
+    """``bounder`` (SceneEvaluator -> level-1 ``bound_points`` or None) for a lattice polish: work
+    bounds first (``_work_bounds``), level 1 where they cannot be had."""
+    def make(sev):
+        level1 = bounder(sev)
+        return None if level1 is None else _work_bounds(sev, lv, level1)
+    return make
+
+
 def explore(scene, width: int = 64, height: int = 64, space: Space | None = None, objective: str = "time",
             budget: float | None = None, level: int | str = "auto", tolerance: float = 0.01,
             algorithm: str = "direct-l", polish: str = "lattice", max_evals: int = 1000, seed: int = 1,
@@ -84,11 +93,15 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
     design, the search's per evaluation scaled by the pixels), and draws its progress.
 
     ``bound`` (at levels 2 and 3, objectives other than pareto): each new design is first
-    replayed at level 1, a lower bound (less BOUND_SLACK); one whose bound is already slower
-    than the best design run so far, or that is over the budget, is not replayed at the
-    search's level (``Problem.bound_points``), and one known so is replayed as soon as a
-    choice would take it.  The search then makes the choices it makes without bounds while
-    level 3 stays above level 1 less the slack, in far fewer level-3 replays.
+    bounded; one whose bound is already slower than the best design run so far, or that is
+    over the budget, is not replayed at the search's level (``Problem.bound_points``), and
+    one known so is replayed as soon as a choice would take it.  In the global phase the
+    bound is the design's level-1 replay less BOUND_SLACK (the global method is told it);
+    from the lattice polish on, its work bound (``_work_bounds``: each stage's work over its
+    processors, nothing run, below a run at any level), as the polish's steps do not depend
+    on which designs the bounds rule out.  The search then makes the choices it makes
+    without bounds while level 3 stays above level 1 less the slack, in far fewer level-3
+    replays.
 
     ``screen`` (with ``bound``; None: off): the full-resolution polish's neighbours are first
     estimated from the search's own low-resolution replay, scaled by the polish start's ratio
@@ -117,10 +130,24 @@ def _global_task(sev, level, bound, task):
     return global_start(lambda pts: [sev.run(p, level) for p in pts], *task, bound_points=_sev_bounds(sev, bound))
 
 
+def _work_bounds(sev, level: int, level1):
+    """Bounds of points on a SceneEvaluator for the polish: each design's work bound at the search's
+    level (``SceneEvaluator.work_bound``: nothing run), or where the compiled replay would not run it,
+    ``level1``'s (points -> level-1 bounds)."""
+    def bounds(points):
+        out = [sev.work_bound(p, level) for p in points]
+        miss = [i for i, b in enumerate(out) if b is None]
+        for i, b in zip(miss, level1([points[i] for i in miss]) if miss else ()):
+            out[i] = b
+        return out
+    return bounds
+
+
 def _walk_task(sev, level, bound, task):
     """One mapping's polish walk on a SceneEvaluator (in a worker or here); ``bound``: with
-    level-1 bounds."""
-    return walk(lambda pts: [sev.run(p, level) for p in pts], *task, bound_points=_sev_bounds(sev, bound),
+    work bounds (``_work_bounds``)."""
+    return walk(lambda pts: [sev.run(p, level) for p in pts], *task,
+                bound_points=_work_bounds(sev, level, _sev_bounds(sev, True)) if bound else None,
                 cost_of=lambda p: hardware_cost(p.design, sev.unit_costs))
 
 
@@ -174,8 +201,9 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
             say(f"polish  walks from each of {len(tasks)} stage mappings' best, up to {tasks[0][5]} designs "
                 f"each, on {min(pool.workers, len(tasks))} worker(s); then from the best")
             return pool.map_forked(_walk_task, ev, [(lv, problem.bound_points is not None, t) for t in tasks])
+        polish_bounds = None if problem.bound_points is None else _work_bounds(ev, lv, problem.bound_points)
         res = search(problem, algorithm, polish, max_evals, seed, starts=starts, run_starts=run_starts,
-                     run_walks=run_walks)
+                     run_walks=run_walks, polish_bounds=polish_bounds)
         best = res.best
     say(f"search  {len(problem.memo)} designs at level {lv}, {low[0]}x{low[1]}"
         f"{_ruled_out(problem)}: best {best.cycles:,.0f} cycles, cost {best.cost:.0f} kGE, "
@@ -200,7 +228,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
         else:
             scr = Screen(problem, ev, lv, screen) if screen is not None and problem.bound_points is not None else None
             best, rows, n, ran = _refine(problem, space, full, objective, budget, refine, refine_evals, verify,
-                                         pool, cost_of, phases, per_eval, bounder, scr)
+                                         pool, cost_of, phases, per_eval, _polish_bounder(bounder, lv), scr)
             history += [dict(r, resolution=[width, height], level=lv) for r in rows]
             evaluations += n
             runs.update(full=ran, full_bounded=n - ran)
@@ -238,7 +266,8 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
         "references": refs,
         "evaluations": evaluations,
         "runs": runs,
-        "bound": {"level": BOUND_LEVEL, "slack": BOUND_SLACK} if problem.bound_points is not None else None,
+        "bound": {"level": BOUND_LEVEL, "slack": BOUND_SLACK, "polish": "work"}
+        if problem.bound_points is not None else None,
         "screen": scr.report() if scr is not None else None,
         "search_resolution": list(low),
         "full_resolution_sample": sample if fraction > 1 else None,
@@ -364,7 +393,7 @@ def _ruled_out(problem=None, n=None, ran=None, screened: bool = False) -> str:
     """', N run, M ruled out by their bounds' (nothing when none was)."""
     if problem is not None:
         n, ran = len(problem.memo), problem.runs
-    by = f"level {BOUND_LEVEL}" + (" or the screen" if screened else "")
+    by = "their bounds" + (" or the screen" if screened else "")
     return f" ({ran} replayed, {n - ran} ruled out by {by})" if n != ran else ""
 
 
@@ -437,7 +466,7 @@ def plot(report: dict, path) -> None:
     dots(ax[0], feas & full, n, cyc, s=8, c="tab:green", label="full-resolution polish")
     dots(ax[0], feas & ver, n, cyc, s=14, c="tab:purple", marker="D", label=f"verified at level {lv['verify']}")
     dots(ax[0], ~feas & live & ~bnd, n, cyc, s=6, c="tab:gray", marker="x", label="over budget")
-    dots(ax[0], bnd & live, n, cyc, s=4, c="lightgray", label=f"ruled out by level {BOUND_LEVEL} (its bound)")
+    dots(ax[0], bnd & live, n, cyc, s=4, c="lightgray", label="ruled out by its bound")
     if np.isfinite(best).any():
         ax[0].step(n, best, where="post", c="tab:red", label="best so far")
     ax[0].set(yscale="log", xlabel="evaluation", ylabel="cycles", title="search history")

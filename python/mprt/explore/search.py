@@ -323,7 +323,7 @@ def _local_starts(problem: Problem):
 
 def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice", max_evals: int = 1000,
            seed: int = 1, polish_evals: int | None = None, starts: str = "whole", run_starts=None,
-           run_walks=None) -> SearchResult:
+           run_walks=None, polish_bounds=None) -> SearchResult:
     """Global search then polish; ``max_evals`` distinct designs for the global phase, shared
     by its starts: one over the whole space (``starts="whole"``, the default: the method
     measured in the README), or one per stage mapping (``"mapping"``, ``split_by_mapping``:
@@ -334,7 +334,10 @@ def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice
     workers); they are merged in the order of the starts, so the result does not depend on
     how they ran.  ``run_walks(tasks)`` likewise runs the polish's walks from each mapping's
     start (each task ``walk``'s arguments after ``evaluate_points``; default: one after
-    another on this problem), merged in the order of the starts."""
+    another on this problem), merged in the order of the starts.  ``polish_bounds`` (with the
+    lattice polish and a problem with bounds): the problem's ``bound_points`` from the polish
+    on, e.g. cheaper ones (the lattice's steps do not depend on which designs the bounds rule
+    out, only the global method is told a bound)."""
     if algorithm not in GLOBAL_ALGORITHMS:
         raise ValueError(f"algorithm must be one of {', '.join(GLOBAL_ALGORITHMS)}, not {algorithm!r}")
     if polish not in POLISHES:
@@ -361,6 +364,8 @@ def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice
     if polish_evals is None:
         polish_evals = max(max_evals, 32 * len(problem.free))        # as many again, at least 32 a variable
     if polish == "lattice":
+        if polish_bounds is not None and problem.bound_points is not None:
+            problem.bound_points = polish_bounds
         starts = _polish_starts(problem)
         # each mapping's start its share within its mapping (a step to another mapping would leave it
         # before its own trades are tried), then the best found gets what is left, anywhere

@@ -243,6 +243,18 @@ class Compiled:
         return (_LIB.replay_get_links(self.h, config.pes, K),
                 lambda p: _LIB.replay_get_ring(self.h, p, K, C))
 
+    def work_bound(self, config: SystemConfig) -> int:
+        """A lower bound of the configuration's cycles at any level, nothing run
+        (``mprt_replay_work_bound``: each stage's work over its processors, PE by PE as the
+        DIS deals the trees; the ring and the memories only add to a run)."""
+        check_config(config)
+        where = f"{config.source}: " if config.source else ""
+        try:
+            _LIB.replay_set_config(self.h, c_config(config, self.gen_process + self.gen_send))
+            return _LIB.replay_work_bound(self.h)
+        except InvalidArgument as e:
+            raise ConfigError(f"{where}{e}") from None
+
     def cycles(self, config: SystemConfig) -> int:
         """The run's cycles (nothing else assembled); DeadlockError if it deadlocks."""
         if not self._run(config):

@@ -158,6 +158,14 @@ class Evaluator:
                 c["analytical"] = Analytical(self.trace, c["costs"])
         return cfg, eng, c, level
 
+    def work_bound(self, config: SystemConfig, level: int) -> int | None:
+        """A lower bound of the configuration's cycles at ``level`` with nothing run
+        (``Compiled.work_bound``: each stage's work over its processors), from the trace
+        loaded as a run at that level would load it; None where that run is not the
+        compiled replay's."""
+        cfg, eng, c, _ = self.prepare(config, level)
+        return c["compiled"].work_bound(cfg) if eng == "compiled" else None
+
     def evaluate(self, config: SystemConfig | str, level: int | None = None, engine: str = "auto",
                  record: bool = False, timeline: bool = False, progress: bool = False) -> Evaluation:
         """The configuration at a level (default: its native level) on an engine; raises

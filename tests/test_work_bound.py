@@ -1,0 +1,121 @@
+"""The compiled replay's work bound (``mprt_replay_work_bound``, ``Compiled.work_bound``): each
+stage's work over its processors, PE by PE as the DIS deals the trees, with nothing run.  It is
+what the explorer's polish rules designs out with, so it must never exceed a run's cycles at any
+level; here it is worked out again in numpy from the visits' costs, checked against runs at
+levels 1 to 3 on the golden traces and random machines, and found exact where nothing waits."""
+import random
+
+import numpy as np
+import pytest
+
+import mprt
+from mprt.cost import CostModel
+from mprt.fidelity import Compiled, at_level
+from mprt.machine import ConfigError, DeadlockError, builtin, load_config
+from mprt.machine.config import SUBTASKS
+from mprt.trace import PRIMARY
+
+from test_fidelity import FULL, GOLDEN, NAMES, head
+from test_fidelity_full import random_machine
+from test_fidelity_ring import random_costs
+
+CM = CostModel.default()
+
+
+@pytest.fixture(scope="module")
+def traces():
+    return {n: mprt.load_trace(p) for n, p in zip(NAMES, GOLDEN)}
+
+
+def stage_work(t, cfg, vc) -> int:
+    """The bound from its definition, in numpy: per PE (its trees as the DIS deals them; the
+    dynamic DIS: all trees over all PEs) and stage, the visits' process, receive and send
+    cycles of the stage's subtasks, and on the stage running SC the making of the PE's
+    primary rays, over the stage's processors, rounded up; the largest of them."""
+    rays, vis = t.rays, t.visits
+    prim = np.flatnonzero(np.asarray(rays["kind"]) == PRIMARY)
+    n = len(prim)
+    tree = (np.searchsorted(prim, np.arange(len(rays)), "right") - 1)[np.asarray(vis["ray"], np.int64)]
+    dur = (np.asarray(vc.process, np.int64) + np.asarray(vc.receive, np.int64) + np.asarray(vc.send, np.int64))
+    work = np.zeros((n, 3), np.int64)
+    np.add.at(work, (tree, np.asarray(vis["stage"], np.int64)), dur)
+    gen = int(vc.inject_process) + int(vc.inject_send)
+    P = cfg.pes
+    if cfg.dis == "blocks":
+        groups, share = [np.arange(p * n // P, (p + 1) * n // P) for p in range(P)], 1
+    elif cfg.dis == "interleaved":
+        groups, share = [np.arange(p, n, P) for p in range(P)], 1
+    else:
+        groups, share = [np.arange(n)], P
+    best = 0
+    for g in groups:
+        for st in cfg.stages:
+            w = sum(int(work[g, SUBTASKS.index(s)].sum()) for s in st.subtasks)
+            w += gen * len(g) if "SC" in st.subtasks else 0
+            best = max(best, -(-w // (st.replicas * share)))
+    return best
+
+
+def cycles(c, cfg):
+    try:
+        return c.result(cfg).cycles
+    except DeadlockError:
+        return None
+
+
+@pytest.mark.parametrize("seed", range(3))
+def test_the_bound_is_the_stages_work_and_never_above_a_run(traces, seed):
+    # random ring machines with random memories (stages in any mapping, replicas, feeds, PEs,
+    # the three DIS policies, with and without SC making primaries), each at levels 1, 2, 3
+    rng = random.Random(900 + seed)
+    names = sorted(traces)
+    seen = {"runs": 0, "tight": 0, "below": 0, "dis": set()}
+    for i in range(40):
+        t = head(traces[rng.choice(names)], rng.choice([5, 20, 60]))
+        cfg = random_machine(rng)
+        vc = random_costs(t, cfg, rng, 1000 * seed + i)
+        c = Compiled(t, vc)
+        want = stage_work(t, cfg, vc)
+        for lv in (1, 2, 3):
+            cl = at_level(cfg, lv)
+            assert c.work_bound(cl) == want, (cl, lv)
+            got = cycles(c, cl)
+            if got is None:
+                continue
+            assert want <= got, (cl, lv)
+            seen["runs"] += 1
+            seen["tight"] += want == got
+            seen["below"] += want < got
+            seen["dis"].add(cl.dis)
+    assert seen["runs"] > 60 and seen["below"] and seen["dis"] == {"blocks", "interleaved", "dynamic"}, seen
+
+
+@pytest.mark.parametrize("name", NAMES)
+def test_the_bound_on_the_golden_traces(traces, name):
+    # model S never waits: its time is its one processor's work, so the bound is its cycles;
+    # the 3MPPE and full.toml as written (ring, memories), 1 and 2 PEs, stay above it
+    t = traces[name]
+    s = builtin("S")
+    vc = CM.visit_costs(t, s.processors())
+    c = Compiled(t, vc)
+    assert c.work_bound(s) == c.result(s).cycles == stage_work(t, s, vc)
+    for cfg in (builtin("3mppe"), load_config(FULL)):
+        for pes in (1, 2):
+            cfg = cfg.replace(pes=pes)
+            vc = CM.visit_costs(t, cfg.processors())
+            c = Compiled(t, vc)
+            b = c.work_bound(cfg)
+            assert b == stage_work(t, cfg, vc)
+            assert 0 < b <= c.result(cfg).cycles <= c.result(at_level(cfg, 1)).cycles * 10
+
+
+def test_the_bound_refuses_what_the_run_refuses(traces):
+    t = head(traces[NAMES[0]], 3)
+    cfg = builtin("3mppe").replace(pes=4, source="bound.toml")
+    c = Compiled(t, CM.visit_costs(t, cfg.processors()))
+    with pytest.raises(ConfigError) as bound_err:
+        c.work_bound(cfg)
+    with pytest.raises(ConfigError) as run_err:
+        c.result(cfg)
+    assert str(bound_err.value) == str(run_err.value)
+    assert "bound.toml: " in str(bound_err.value) and "pes: 4 PEs" in str(bound_err.value)
