@@ -661,12 +661,15 @@ int mprt_replay_set_flits(mprt_replay *r, const int64_t *flits, size_t nvisits, 
 int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap);
 
 /* A lower bound of the cycles a run of the loaded trace on the configuration
- * set would take, at any level (the ring and the memories' stalls only add to
- * a run): no processor finishes before its share of its stage's work, a
- * stage's work being its visits' process and communication cycles (and, on
- * the stage running SC, gen_cycles per primary ray made), shared among its
- * replicas; with the static DIS policies each PE's own trees, with the dynamic
- * one all trees over all PEs.  Nothing is run; the last run's figures stay.
+ * set would take, at any level (the ring and the memories only add to a
+ * visit): no processor finishes before its share of its stage's work, a
+ * stage's work being its visits' process and communication cycles, on the
+ * stage running SC gen_cycles per primary ray made, and at level 3, for a
+ * memory modelled without a cache whose data mprt_replay_set_memory gave,
+ * every line of a visit's key read at a transfer and the latency at least;
+ * shared among its replicas; with the static DIS policies each PE's own trees,
+ * with the dynamic one all trees over all PEs.  Nothing is run; the last
+ * run's figures stay.
  * A configuration the run would refuse for its figures (more PEs than
  * primary rays, cycles beyond 2^62) fails as the run does. OUT: cycles. */
 int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles);

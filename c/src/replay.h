@@ -209,6 +209,9 @@ int mprt__replay_memory_build(mprt_replay *r);
 int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j);
 void mprt__replay_memory_free_run(mprt_replay *r);
 void mprt__replay_memory_free(mprt_replay *r);
+/* mprt_replay_work_bound's part of level 3: the least stall cycles visits first .. stop - 1
+ * (one tree's) can take, added to the stage running each in add (nstages entries). */
+void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop, int64_t *add);
 
 
 void mprt__replay_free_run(mprt_replay *r);

@@ -403,6 +403,42 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
     return s - now + reads * (m->xfer + m->latency);
 }
 
+/* ---- the work bound's part ------------------------------------------------------------ */
+
+/* A memory modelled without a cache reads every line of a visit's key, each after the one
+ * before is back: at least a transfer and the latency a line (the port's queue only adds).
+ * With a cache a visit may read none, so it adds nothing here; nor does data that does not
+ * fit the configuration (the run refuses it) or whose reads could pass 2^62 cycles. */
+void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop, int64_t *add)
+{
+    const struct mprt__mem *M = r->mem;
+    const mprt_replay_config *c = &r->cfg;
+    int64_t each[2] = {0, 0}, j;
+    int t;
+    if (!M || M->nv != r->nv) return;
+    for (t = 0; t < 2; t++) {
+        const memory *m = &M->m[t];
+        if (c->memory[t] && !c->cache_size[t] && m->has && m->line == c->cache_line[t] && c->gm_bandwidth[t] > 0) {
+            each[t] = (c->cache_line[t] + c->gm_bandwidth[t] - 1) / c->gm_bandwidth[t] + c->gm_latency[t];
+            if (m->reads && each[t] > (INT64_MAX / 8) / m->reads) each[t] = 0;
+        }
+    }
+    if (!each[0] && !each[1]) return;
+    for (j = first; j < stop; j++) {
+        int32_t key = M->key[j];
+        int64_t k, nx;
+        int sub = 0;            /* a ray's first visit runs on OS; a later one where the one before sends it */
+        t = key >= 0 ? 0 : 1;
+        if (key == -1 || !each[t]) continue;
+        k = key >= 0 ? key : -2 - (int64_t)key;
+        if (j > first) {
+            nx = r->wide ? r->vi[j - 1].next : (int64_t)(r->vp[j - 1] & 1023);
+            if ((nx & 3) == NEXT_VISIT) sub = (int)((nx >> 2) & 3);
+        }
+        add[c->stage_of[sub]] += (M->m[t].info[k + 1].start - M->m[t].info[k].start) * each[t];
+    }
+}
+
 /* ---- figures ------------------------------------------------------------------------ */
 
 int mprt_replay_get_memory(const mprt_replay *r, mprt_replay_memory *out, size_t cap, int64_t *stall,

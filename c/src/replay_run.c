@@ -205,14 +205,16 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
 {
     const mprt_replay_config *c;
     int64_t g, best = 0, w[3], pe_trees;
-    int p, k, s, rc;
+    int p, k, s, rc, stalls;
     if (!r || !cycles) return MPRT_ERR_INVALID_ARG;
     r->errmsg[0] = '\0';
     if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
     c = &r->cfg;
     g = c->gen_cycles;
     if ((rc = check_figures(r)) != MPRT_OK) return rc;
-    /* (every sum below is at most the visits' cycles and the making's: under 2^62) */
+    stalls = (c->memory[0] && !c->cache_size[0]) || (c->memory[1] && !c->cache_size[1]);
+    /* (every sum below is at most the visits' cycles and the making's, under 2^62, and the
+     * stalls, under 2^60 a memory: mprt__replay_memory_floor) */
     for (p = 0; p < (c->dis == MPRT_DIS_DYNAMIC ? 1 : c->pes); p++) {
         int64_t t, first, stop, step, sw[3] = {0, 0, 0};
         if (c->dis == MPRT_DIS_BLOCKS) {        /* as the run's DIS deals the trees */
@@ -232,6 +234,9 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
         for (t = first; t < stop; t += step) {
             const int64_t *tc = r->tree_cost + 9 * t;
             for (k = 0; k < 3; k++) w[k] += tc[k] + tc[3 + k];
+            if (stalls)         /* level 3's stalls that no cache can spare */
+                mprt__replay_memory_floor(r, r->tree_first[t], t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv,
+                                          sw);
         }
         pe_trees = first < stop ? (stop - first + step - 1) / step : 0;
         for (k = 0; k < 3; k++) sw[c->stage_of[k]] += w[k];

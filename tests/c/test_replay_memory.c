@@ -136,6 +136,33 @@ static void test_misses_hits_and_stalls(void)
     mprt_replay_destroy(r);
 }
 
+static int64_t work_bound(mprt_replay *r, const mprt_replay_config *c)
+{
+    int64_t b = -1;
+    if (mprt_replay_set_config(r, c) != MPRT_OK || mprt_replay_work_bound(r, &b) != MPRT_OK) return -1;
+    return b;
+}
+
+static void test_work_bound_with_memories(void)
+{
+    /* two rays of OS 1 and IC 10 cycles on model S: 22 cycles of work.  With the cache, a visit
+     * may read nothing: 22.  Without: each IC visit reads its 3 lines at 2 + 10 cycles at
+     * least, 22 + 72 = 94, the run's cycles exactly (one processor, its reads never queued).
+     * Two PEs on a shared port, without the cache: a PE's work 11 + 36 = 47, below the run's
+     * 73 (the second PE's reads wait for the port until 27: 1 + 10 + 26 + 36). */
+    hand h = primaries(2, 0);
+    mprt_replay_config c = model_s(1, 1);
+    mprt_replay *r = loaded(&h, &c);
+    CHECK(work_bound(r, &c) == 22 && run_cycles(r) == 46);
+    c.cache_size[0] = 0;
+    CHECK(work_bound(r, &c) == 94 && run_cycles(r) == 94);
+    c.pes = 2;
+    CHECK(work_bound(r, &c) == 47 && run_cycles(r) == 73);
+    c.memory[0] = 0;                    /* not modelled: no stalls */
+    CHECK(work_bound(r, &c) == 11);
+    mprt_replay_destroy(r);
+}
+
 static void test_ports_shared_or_per_pe(void)
 {
     /* two PEs, one ray each, their IC visits both start at 1 (PE 0 first, by rank).  Shared
@@ -280,6 +307,7 @@ int main(void)
     RUN(test_caches_of_more_than_2_28_entries_are_refused);
     RUN(test_misses_hits_and_stalls);
     RUN(test_ports_shared_or_per_pe);
+    RUN(test_work_bound_with_memories);
     RUN(test_sc_data);
     RUN(test_bad_memory_configurations_and_data);
     return CHECK_DONE();

@@ -246,11 +246,14 @@ class Compiled:
     def work_bound(self, config: SystemConfig) -> int:
         """A lower bound of the configuration's cycles at any level, nothing run
         (``mprt_replay_work_bound``: each stage's work over its processors, PE by PE as the
-        DIS deals the trees; the ring and the memories only add to a run)."""
+        DIS deals the trees, with the reads of a memory modelled without a cache; the ring and
+        the memories' other stalls only add to a run)."""
         check_config(config)
         where = f"{config.source}: " if config.source else ""
         try:
             _LIB.replay_set_config(self.h, c_config(config, self.gen_process + self.gen_send))
+            if any(mc is not None and mc.cache is None for mc in (config.ic_memory, config.sc_memory)):
+                self._set_memory(config)        # (what the run reads: its data, sent once)
             return _LIB.replay_work_bound(self.h)
         except InvalidArgument as e:
             raise ConfigError(f"{where}{e}") from None
