@@ -122,7 +122,8 @@ asan-py: $(VENV)/.installed
 	    LD_PRELOAD="$$($(CC) -print-file-name=libasan.so) $$($(CC) -print-file-name=libubsan.so)" \
 	    PYTHONPATH=../build/asan-py ../$(PY) -m pytest -q --capture=sys -p no:cacheprovider test_fidelity_full.py \
 	    test_fidelity_memory.py test_fidelity_ring.py test_fidelity.py test_compiled_priced.py test_recordcheck.py \
-	    test_lifetimes.py test_compiled_threads.py test_simulate_fused.py test_tracecheck_split.py
+	    test_lifetimes.py test_compiled_threads.py test_simulate_fused.py test_tracecheck_split.py \
+	    test_work_bound.py
 
 # The fuzz target over NFF parse, write, grids, renders and intersection
 # (tests/fuzz/fuzz_nff.c), replayed on its seed corpus and on every input

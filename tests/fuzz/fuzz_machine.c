@@ -20,7 +20,9 @@
  *     longest visit or (one stage, one processor, one PE, no memories) differ
  *     from the sum of all visits' cycles (model S never waits);
  *   - a second run of the same configuration gives other cycles (determinism),
- *     or a deadlock is reported by one run and not the other.
+ *     or a deadlock is reported by one run and not the other;
+ *   - the work bound (mprt_replay_work_bound) is above a finished run's cycles,
+ *     or (one stage, one processor, one PE, no memories) differs from them.
  *
  * Built like fuzz_nff.c: with clang and libFuzzer (make fuzz), and with gcc and
  * the sanitizers as a replay of tests/fuzz/corpus_machine in make test. */
@@ -353,6 +355,13 @@ int LLVMFuzzerTestOneInput(const uint8_t *data, size_t size)
     c2 = run_once(r, &d2);
     if (c1 != c2 || d1 != d2) FAIL("two runs differ: %lld (deadlock %d) and %lld (deadlock %d)", (long long)c1, d1,
                                    (long long)c2, d2);
+    if (c1 >= 0) {                  /* the work bound (nothing run) never exceeds a run */
+        int64_t wb = -1;
+        if (mprt_replay_work_bound(r, &wb) != MPRT_OK) FAIL("work bound refused after a run: %s", mprt_replay_errmsg(r));
+        if (wb > c1) FAIL("work bound %lld above the run's %lld cycles", (long long)wb, (long long)c1);
+        if (c.nstages == 1 && c.replicas[0] == 1 && c.pes == 1 && !c.memory[0] && !c.memory[1] && wb != c1)
+            FAIL("one processor: work bound %lld, run %lld", (long long)wb, (long long)c1);
+    }
     if (c1 >= 0 && !damaged) {
         for (i = 0; i < nv; i++) {
             int64_t v = t.process[i] + t.receive[i] + t.send[i];
