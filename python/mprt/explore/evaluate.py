@@ -22,6 +22,8 @@ from __future__ import annotations
 
 import hashlib
 import json
+import threading
+import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
 from functools import lru_cache
@@ -293,6 +295,9 @@ class SceneEvaluator:
         self._held: dict = {}             # dims -> (TraceEvaluator, scale)
         self.trace_seconds = 0.0
         self.traces_made = 0
+        self._lock = threading.Lock()     # _held and _pending, shared with a prefetch thread
+        self._pending: dict = {}          # dims -> threading.Event: being made, set when done
+        self._prefetch = None             # (thread, stop Event) while prefetching
 
     def settings(self) -> dict:
         """What makes this evaluator's results (the scene apart): a worker process builds its own
@@ -302,31 +307,87 @@ class SceneEvaluator:
                 "sample": self.sample, "threshold": self.threshold}
 
     def evaluator(self, dims) -> tuple:
-        """(TraceEvaluator, scale) of a grid's trace."""
-        import time
-
+        """(TraceEvaluator, scale) of a grid's trace (made here, or waited for where a prefetch
+        is making it)."""
         dims = tuple(dims)
-        if dims in self._held:
-            self._held[dims] = self._held.pop(dims)      # most recent last
+        while True:
+            with self._lock:
+                if dims in self._held:
+                    self._held[dims] = self._held.pop(dims)      # most recent last
+                    return self._held[dims]
+                wait = self._pending.get(dims)
+                if wait is None:
+                    self._pending[dims] = done = threading.Event()
+                    break
+            wait.wait()         # (a prefetch that failed leaves it to be made here, failing here)
+        try:
+            self._make(dims, self.threads)
+        finally:
+            with self._lock:
+                self._pending.pop(dims, None)
+            done.set()
+        with self._lock:
             return self._held[dims]
+
+    def _make(self, dims, threads: int) -> None:
+        """Trace a grid (on ``threads``: the same trace for any number) and keep its evaluator."""
         t0 = time.perf_counter()
         grid = self.scene.grid(dims)
         if self.sample:
             from ..fidelity import trace_sample
             st = trace_sample(grid, self.sample, self.width, self.height, rules=self.rules,
-                              threshold=self.threshold, threads=self.threads)
+                              threshold=self.threshold, threads=threads)
             tr, scale = st.trace, 1.0 / st.fraction
         else:
-            _, tr = grid.trace(self.width, self.height, rules=self.rules, threshold=self.threshold,
-                              threads=self.threads)
+            _, tr = grid.trace(self.width, self.height, rules=self.rules, threshold=self.threshold, threads=threads)
             scale = 1.0
-        while self._held and sum(e.visits for e, _ in self._held.values()) + len(tr.visits) > self.max_visits:
-            self._held.pop(next(iter(self._held)))
         ev = TraceEvaluator(tr, self.unit_costs, keep=KEEP_PROCESSORS)
-        self.trace_seconds += time.perf_counter() - t0
-        self.traces_made += 1
-        self._held[dims] = (ev, scale)
-        return self._held[dims]
+        with self._lock:
+            while self._held and sum(e.visits for e, _ in self._held.values()) + len(tr.visits) > self.max_visits:
+                self._held.pop(next(iter(self._held)))
+            self.trace_seconds += time.perf_counter() - t0
+            self.traces_made += 1
+            self._held[dims] = (ev, scale)
+
+    def prefetch(self, dims_list) -> None:
+        """Make these grids' traces (and their evaluators), in this order, on a thread of this
+        process while the caller goes on (one tracing thread; the C tracer and replay let go of
+        the interpreter, so a search replaying on one core traces on the other).  A grid the
+        caller asks for while it is being made is waited for, one not yet begun is made by the
+        caller; a trace is the same whichever thread made it, so nothing a search finds depends
+        on it.  ``stop_prefetch`` ends it: before this process forks (a thread's locks would be
+        copied held)."""
+        self.stop_prefetch()
+        stop = threading.Event()
+        todo = [tuple(d) for d in dims_list]
+
+        def work():
+            for dims in todo:
+                if stop.is_set():
+                    return
+                with self._lock:
+                    if dims in self._held or dims in self._pending:
+                        continue
+                    self._pending[dims] = done = threading.Event()
+                try:
+                    self._make(dims, 1)
+                except Exception:       # (a grid that fails is made again by whoever needs it, failing there)
+                    pass
+                finally:
+                    with self._lock:
+                        self._pending.pop(dims, None)
+                    done.set()
+        t = threading.Thread(target=work, name="mprt-prefetch", daemon=True)
+        self._prefetch = (t, stop)
+        t.start()
+
+    def stop_prefetch(self) -> None:
+        """End a prefetch: the trace under way is finished, the rest left (made when asked for)."""
+        if self._prefetch is not None:
+            t, stop = self._prefetch
+            stop.set()
+            t.join()
+            self._prefetch = None
 
     def trace(self, dims):
         return self.evaluator(dims)[0].trace

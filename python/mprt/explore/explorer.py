@@ -40,6 +40,20 @@ def _bounder(pool, lv: int, objective: str, bound: bool):
     return lambda sev: (lambda pts: _bounds(pool.run(sev, pts, BOUND_LEVEL)))
 
 
+PREFETCH_MAX = 32      # subdivisions a search traces ahead, at most
+
+
+def _prefetch_order(scene, space: Space) -> list:
+    """The grids of a space's subdivisions from the middle one outwards (where DIRECT-L begins;
+    the walks then step to neighbours): what the search's evaluator traces ahead while the
+    global phase replays on one core (none where the space has more than PREFETCH_MAX)."""
+    subs = space.subdivisions()
+    if len(subs) > PREFETCH_MAX:
+        return []
+    m = len(subs) // 2
+    return [grid_dims(scene, subs[i], space.shape) for i in sorted(range(len(subs)), key=lambda i: (abs(i - m), i))]
+
+
 def _polish_bounder(bounder, lv: int):
     """``bounder`` (SceneEvaluator -> level-1 ``bound_points`` or None) for a lattice polish: work
     bounds first (``_work_bounds``), level 1 where they cannot be had."""
@@ -211,8 +225,15 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
                 out[i] = rows
             return out
         polish_bounds = None if problem.bound_points is None else _work_bounds(ev, lv, problem.bound_points)
-        res = search(problem, algorithm, polish, max_evals, seed, starts=starts, run_starts=run_starts,
-                     run_walks=run_walks, polish_bounds=polish_bounds)
+        if starts == "whole" and pool.workers > 1:     # the global phase replays on one core: trace on the other
+            pool.before_fork = ev.stop_prefetch
+            ev.prefetch(_prefetch_order(scene, space))
+        try:
+            res = search(problem, algorithm, polish, max_evals, seed, starts=starts, run_starts=run_starts,
+                         run_walks=run_walks, polish_bounds=polish_bounds)
+        finally:
+            ev.stop_prefetch()
+            pool.before_fork = None
         best = res.best
     say(f"search  {len(problem.memo)} designs at level {lv}, {low[0]}x{low[1]}"
         f"{_ruled_out(problem)}: best {best.cycles:,.0f} cycles, cost {best.cost:.0f} kGE, "

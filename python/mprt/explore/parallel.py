@@ -88,8 +88,11 @@ class Pool:
         self.scene = scene
         self.workers = default_workers() if workers is None else max(int(workers), 1)
         self._pool = None
+        self.before_fork = None     # called before the workers may fork (ends threads: SceneEvaluator.prefetch)
 
     def _executor(self) -> ProcessPoolExecutor:
+        if self.before_fork is not None:
+            self.before_fork()
         if self._pool is None:
             _SHARED["scene"] = self.scene
             ctx = multiprocessing.get_context("fork")
