@@ -56,6 +56,23 @@ void mprt__replay_note_busy(mprt_replay *r, int64_t t)
 }
 
 
+/* The trees a static DIS deals PE p: first, first + step, ... before stop (blocks: a
+ * contiguous share; interleaved: every pes-th).  The dynamic DIS draws from one shared
+ * sequence instead (its per-PE fields go unused). */
+static void deal(const mprt_replay *r, int p, int64_t *first, int64_t *stop, int64_t *step)
+{
+    const mprt_replay_config *c = &r->cfg;
+    if (c->dis == MPRT_DIS_BLOCKS) {
+        *first = p * r->ntrees / c->pes;
+        *stop = (p + 1) * r->ntrees / c->pes;
+        *step = 1;
+    } else {
+        *first = p;
+        *stop = r->ntrees;
+        *step = c->pes;
+    }
+}
+
 static int build(mprt_replay *r)
 {
     const mprt_replay_config *c = &r->cfg;
@@ -84,15 +101,7 @@ static int build(mprt_replay *r)
     i = 0;
     for (p = 0; p < c->pes; p++) {
         pe_t *e = &r->pes[p];
-        if (c->dis == MPRT_DIS_BLOCKS) {
-            e->next = p * r->ntrees / c->pes;
-            e->stop = (p + 1) * r->ntrees / c->pes;
-            e->step = 1;
-        } else {
-            e->next = p;
-            e->stop = r->ntrees;
-            e->step = c->pes;
-        }
+        deal(r, p, &e->next, &e->stop, &e->step);
         for (s = 0; s < c->nstages; s++, n++) {
             node *nd = &r->nodes[n];
             int words = (c->replicas[s] + 63) / 64;
@@ -217,18 +226,12 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
      * stalls, under 2^60 a memory: mprt__replay_memory_floor) */
     for (p = 0; p < (c->dis == MPRT_DIS_DYNAMIC ? 1 : c->pes); p++) {
         int64_t t, first, stop, step, sw[3] = {0, 0, 0};
-        if (c->dis == MPRT_DIS_BLOCKS) {        /* as the run's DIS deals the trees */
-            first = p * r->ntrees / c->pes;
-            stop = (p + 1) * r->ntrees / c->pes;
-            step = 1;
-        } else if (c->dis == MPRT_DIS_INTERLEAVED) {
-            first = p;
-            stop = r->ntrees;
-            step = c->pes;
-        } else {
+        if (c->dis == MPRT_DIS_DYNAMIC) {       /* every tree, over every PE */
             first = 0;
             stop = r->ntrees;
             step = 1;
+        } else {                                /* as the run's DIS deals them */
+            deal(r, p, &first, &stop, &step);
         }
         w[0] = w[1] = w[2] = 0;
         for (t = first; t < stop; t += step) {

@@ -202,7 +202,7 @@ class TraceEvaluator:
 
     def run(self, design: Design, level: int = 1, scale: float = 1.0) -> Result:
         """The design at a level; ``scale`` multiplies the cycles (a sampled trace's frame)."""
-        cost = float(sum(cost_breakdown(design, self.unit_costs).values()))
+        cost = self._cost(design)
         cfg = machine_config(design, self.leaves)
         r = self.run_config(cfg, level, scale, cost)
         # The window's bound is the ideal network's; on the ring (level 3) a machine can still deadlock:
@@ -225,8 +225,11 @@ class TraceEvaluator:
             return None         # (the run says why)
         if b is None:
             return None
-        return Result(cycles=float(np.floor(b * scale)), level=level,
-                      cost=float(sum(cost_breakdown(design, self.unit_costs).values())), engine="work bound")
+        return Result(cycles=float(np.floor(b * scale)), level=level, cost=self._cost(design), engine="work bound")
+
+    def _cost(self, design: Design) -> float:
+        """The design's hardware cost (kGE)."""
+        return float(sum(cost_breakdown(design, self.unit_costs).values()))
 
     def run_config(self, cfg, level: int = 1, scale: float = 1.0, cost: float = 0.0) -> Result:
         """A machine configuration (``SystemConfig``) at a level."""
@@ -320,17 +323,21 @@ class SceneEvaluator:
                     self._pending[dims] = done = threading.Event()
                     break
             wait.wait()         # (a prefetch that failed leaves it to be made here, failing here)
+        self._make(dims, self.threads, done)
+        with self._lock:
+            return self._held[dims]
+
+    def _make(self, dims, threads: int, done: threading.Event) -> None:
+        """Trace a grid (on ``threads``: the same trace for any number) and keep its evaluator;
+        then, made or failed, the grid is no longer pending (``done`` set)."""
         try:
-            self._make(dims, self.threads)
+            self._trace(dims, threads)
         finally:
             with self._lock:
                 self._pending.pop(dims, None)
             done.set()
-        with self._lock:
-            return self._held[dims]
 
-    def _make(self, dims, threads: int) -> None:
-        """Trace a grid (on ``threads``: the same trace for any number) and keep its evaluator."""
+    def _trace(self, dims, threads: int) -> None:
         t0 = time.perf_counter()
         grid = self.scene.grid(dims)
         if self.sample:
@@ -370,13 +377,9 @@ class SceneEvaluator:
                         continue
                     self._pending[dims] = done = threading.Event()
                 try:
-                    self._make(dims, 1)
+                    self._make(dims, 1, done)
                 except Exception:       # (a grid that fails is made again by whoever needs it, failing there)
                     pass
-                finally:
-                    with self._lock:
-                        self._pending.pop(dims, None)
-                    done.set()
         t = threading.Thread(target=work, name="mprt-prefetch", daemon=True)
         self._prefetch = (t, stop)
         t.start()

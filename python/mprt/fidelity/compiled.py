@@ -180,7 +180,8 @@ class Compiled:
             raise ValueError(str(e)) from None
         self._flits = ()
 
-    def _configure(self, config: SystemConfig) -> None:
+    def _configure(self, config: SystemConfig, memory: bool = True) -> None:
+        """Hand the C replay the configuration (and, with ``memory``, the memory data it reads)."""
         check_config(config)
         why = unsupported(config)
         if why:
@@ -194,7 +195,8 @@ class Compiled:
             _LIB.replay_set_config(self.h, c_config(config, self.gen_process + self.gen_send))
         except InvalidArgument as e:
             raise ConfigError(f"{where}{e}") from None
-        self._set_memory(config)
+        if memory:
+            self._set_memory(config)
 
     def _set_memory(self, config: SystemConfig) -> None:
         """Hand the C replay the memory data the configuration reads (once per resident and
@@ -248,15 +250,12 @@ class Compiled:
         (``mprt_replay_work_bound``: each stage's work over its processors, PE by PE as the
         DIS deals the trees, with the reads of a memory modelled without a cache; the ring and
         the memories' other stalls only add to a run)."""
-        check_config(config)
-        where = f"{config.source}: " if config.source else ""
+        # the memory data only where it counts: a memory without a cache (sent once, as the run's)
+        self._configure(config, any(mc is not None and mc.cache is None for mc in (config.ic_memory, config.sc_memory)))
         try:
-            _LIB.replay_set_config(self.h, c_config(config, self.gen_process + self.gen_send))
-            if any(mc is not None and mc.cache is None for mc in (config.ic_memory, config.sc_memory)):
-                self._set_memory(config)        # (what the run reads: its data, sent once)
             return _LIB.replay_work_bound(self.h)
         except InvalidArgument as e:
-            raise ConfigError(f"{where}{e}") from None
+            raise ConfigError(f"{config.source}: {e}" if config.source else str(e)) from None
 
     def cycles(self, config: SystemConfig) -> int:
         """The run's cycles (nothing else assembled); DeadlockError if it deadlocks."""
