@@ -44,17 +44,38 @@ def stalls(t, cfg, memory) -> np.ndarray:
     return out
 
 
+def critical_paths(t, dur) -> np.ndarray:
+    """Per tree, the longest chain of visits' cycles: a ray starts when its parent's visits
+    (the last made it) are done, and lasts its own visits' cycles."""
+    rays = t.rays
+    per_ray = np.zeros(len(rays), np.int64)
+    np.add.at(per_ray, np.asarray(t.visits["ray"], np.int64), dur)
+    fin = np.zeros(len(rays), np.int64)
+    out = []
+    for i, (kind, parent) in enumerate(zip(np.asarray(rays["kind"]).tolist(), np.asarray(rays["parent"]).tolist())):
+        if kind == PRIMARY:
+            out.append(0)
+            fin[i] = per_ray[i]
+        else:
+            fin[i] = fin[parent] + per_ray[i]
+        out[-1] = max(out[-1], int(fin[i]))
+    return np.array(out, np.int64)
+
+
 def stage_work(t, cfg, vc, memory=None) -> int:
     """The bound from its definition, in numpy: per PE (its trees as the DIS deals them; the
     dynamic DIS: all trees over all PEs) and stage, the visits' process, receive and send
     cycles of the stage's subtasks (with ``memory``, a MemoryData, at level 3 the reads
     ``stalls`` gives), and on the stage running SC the making of the PE's primary rays, over
-    the stage's processors, rounded up; the largest of them."""
+    the stage's processors, rounded up; and per PE its trees' lifetimes (the making of the
+    primary and the critical path, stalls not counted) over the window (the dynamic DIS: over
+    window x PEs); the largest of them."""
     rays, vis = t.rays, t.visits
     prim = np.flatnonzero(np.asarray(rays["kind"]) == PRIMARY)
     n = len(prim)
     tree = (np.searchsorted(prim, np.arange(len(rays)), "right") - 1)[np.asarray(vis["ray"], np.int64)]
     dur = (np.asarray(vc.process, np.int64) + np.asarray(vc.receive, np.int64) + np.asarray(vc.send, np.int64))
+    cp = critical_paths(t, dur)
     if memory is not None:
         dur = dur + stalls(t, cfg, memory)
     work = np.zeros((n, 3), np.int64)
@@ -69,6 +90,7 @@ def stage_work(t, cfg, vc, memory=None) -> int:
         groups, share = [np.arange(n)], P
     best = 0
     for g in groups:
+        best = max(best, -(-int((cp[g] + gen).sum()) // (cfg.window * share)))
         for st in cfg.stages:
             w = sum(int(work[g, SUBTASKS.index(s)].sum()) for s in st.subtasks)
             w += gen * len(g) if "SC" in st.subtasks else 0

@@ -668,8 +668,13 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap);
  * memory modelled without a cache whose data mprt_replay_set_memory gave,
  * every line of a visit's key read at a transfer and the latency at least;
  * shared among its replicas; with the static DIS policies each PE's own trees,
- * with the dynamic one all trees over all PEs.  Nothing is run; the last
- * run's figures stay.
+ * with the dynamic one all trees over all PEs.  Nor does it finish before
+ * its trees' lifetimes over window (DIS admits a tree while fewer than window
+ * rays are live, so at most window trees of a PE are in flight; with the
+ * dynamic DIS, window x PEs trees in all), a tree living at least gen_cycles and its critical
+ * path: the longest chain of its visits' cycles, a ray's visits in turn and
+ * the rays an SC visit made after it.  Nothing is run; the last run's
+ * figures stay.
  * A configuration the run would refuse for its figures (more PEs than
  * primary rays, cycles beyond 2^62) fails as the run does. OUT: cycles. */
 int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles);

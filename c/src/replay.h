@@ -158,6 +158,11 @@ struct mprt_replay {
     int64_t ntrees, max_leaves;
     int64_t total;               /* the visits' cycles in all */
     int loaded;
+    int64_t loads;               /* traces loaded so far (a load makes tree_cp stale) */
+    int64_t *tree_cp;            /* per tree: its critical path, the longest chain of visits' cycles
+                                  * (mprt_replay_work_bound's; made for the load numbered cp_load) */
+    size_t cap_tree_cp;
+    int64_t cp_load;
     /* the run */
     int64_t now, retired, t_end, shared_next;
     int64_t *log;

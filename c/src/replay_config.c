@@ -119,6 +119,7 @@ void mprt_replay_destroy(mprt_replay *r)
     mprt__replay_free_run(r);
     mprt__replay_memory_free(r);
     mprt__replay_free_trace(r);
+    free(r->tree_cp);
     free(r);
 }
 

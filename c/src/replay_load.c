@@ -431,8 +431,8 @@ static int load(mprt_replay *r, const mprt_trace_ray *rays, size_t nrays, const 
     mprt__replay_free_run(r);
     mprt__replay_memory_free(r);     /* the memory data was the last trace's */
     r->errmsg[0] = '\0';
-    r->loaded = 0;
-    r->flits_set = 0;
+    r->loaded = r->flits_set = 0;
+    r->loads++;
     r->ntrees = r->max_leaves = r->total = 0;
     if ((nrays && !rays) || (nvisits && !visits)) return fail(r, MPRT_ERR_INVALID_ARG, "rays or visits: missing");
     r->nv = nvisits;

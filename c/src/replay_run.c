@@ -210,6 +210,56 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
     return MPRT_OK;
 }
 
+/* Each tree's critical path (tree_cp): the longest chain of its visits' cycles, a ray's
+ * visits one after the other and the rays an SC visit made after it.  Worked out once a
+ * load, on demand: the rays' first visits on a stack with their start (nothing recurses). */
+static int critical_paths(mprt_replay *r)
+{
+    int64_t t, most = 1, *stack;
+    size_t nt = (size_t)r->ntrees;
+    if (r->cp_load == r->loads && r->tree_cp) return MPRT_OK;
+    for (t = 0; t < r->ntrees; t++) {   /* a tree's rays are at most its visits */
+        int64_t n = (t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv) - r->tree_first[t];
+        if (n > most) most = n;
+    }
+    stack = malloc(2 * (size_t)most * sizeof *stack);
+    if (!stack || RESERVE(r, tree_cp, cap_tree_cp, nt + 1)) {
+        free(stack);
+        return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the trees' critical paths");
+    }
+    for (t = 0; t < r->ntrees; t++) {
+        int64_t n = 0, cp = 0;
+        stack[n++] = r->tree_first[t];
+        stack[n++] = 0;
+        while (n) {
+            int64_t at = stack[--n], j = stack[--n], nx;
+            for (;; j++) {              /* the ray's visits: the next one is j + 1 */
+                if (r->wide) {
+                    at += r->vi[j].dur;
+                    nx = r->vi[j].next;
+                } else {
+                    uint64_t w = r->vp[j];
+                    at += (int64_t)((w >> 10) & (((uint64_t)1 << PACK_DUR_BITS) - 1));
+                    nx = (int64_t)((w >> 34) << 10 | (w & 1023));
+                }
+                if ((nx & 3) != NEXT_VISIT) break;
+            }
+            if (at > cp) cp = at;
+            if ((nx & 3) == NEXT_CHILDREN) {
+                int64_t c, a = nx >> 10, b = a + ((nx >> 2) & 255);
+                for (c = a; c < b; c++) {
+                    stack[n++] = r->child[c];
+                    stack[n++] = at;
+                }
+            }
+        }
+        r->tree_cp[t] = cp;
+    }
+    free(stack);
+    r->cp_load = r->loads;
+    return MPRT_OK;
+}
+
 int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
 {
     const mprt_replay_config *c;
@@ -220,12 +270,12 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
     if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
     c = &r->cfg;
     g = c->gen_cycles;
-    if ((rc = check_figures(r)) != MPRT_OK) return rc;
+    if ((rc = check_figures(r)) != MPRT_OK || (rc = critical_paths(r)) != MPRT_OK) return rc;
     stalls = (c->memory[0] && !c->cache_size[0]) || (c->memory[1] && !c->cache_size[1]);
     /* (every sum below is at most the visits' cycles and the making's, under 2^62, and the
      * stalls, under 2^60 a memory: mprt__replay_memory_floor) */
     for (p = 0; p < (c->dis == MPRT_DIS_DYNAMIC ? 1 : c->pes); p++) {
-        int64_t t, first, stop, step, sw[3] = {0, 0, 0};
+        int64_t t, first, stop, step, sw[3] = {0, 0, 0}, life = 0, b;
         if (c->dis == MPRT_DIS_DYNAMIC) {       /* every tree, over every PE */
             first = 0;
             stop = r->ntrees;
@@ -237,17 +287,25 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
         for (t = first; t < stop; t += step) {
             const int64_t *tc = r->tree_cost + 9 * t;
             for (k = 0; k < 3; k++) w[k] += tc[k] + tc[3 + k];
+            life += r->tree_cp[t];
             if (stalls)         /* level 3's stalls that no cache can spare */
                 mprt__replay_memory_floor(r, r->tree_first[t], t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv,
                                           sw);
         }
         pe_trees = first < stop ? (stop - first + step - 1) / step : 0;
+        /* DIS admits a tree while fewer than window rays are live, and a tree in flight has one:
+         * at most window trees of a PE at once (the dynamic DIS's: every PE's), each for at
+         * least the making of its primary and its critical path */
+        life += g > 0 ? g * pe_trees : 0;
+        b = life / c->window + (life % c->window != 0);
+        if (c->dis == MPRT_DIS_DYNAMIC) b = b / c->pes + (b % c->pes != 0);
+        if (b > best) best = b;
         for (k = 0; k < 3; k++) sw[c->stage_of[k]] += w[k];
         sw[c->stage_of[MPRT_STAGE_SC]] += g > 0 ? g * pe_trees : 0;
         for (s = 0; s < c->nstages; s++) {
             /* one PE's share: its replicas; the dynamic DIS's: every PE's */
             int64_t n = (int64_t)c->replicas[s] * (c->dis == MPRT_DIS_DYNAMIC ? c->pes : 1);
-            int64_t b = (sw[s] + n - 1) / n;
+            b = (sw[s] + n - 1) / n;
             if (b > best) best = b;
         }
     }

@@ -241,6 +241,42 @@ static void test_work_bound(void)
     mprt_replay_destroy(r);
 }
 
+static void test_work_bound_window(void)
+{
+    /* four primaries, each OS 10, IC 7, SC 5 making a reflection (OS 4, IC 6): chains of 32
+     * cycles.  On model M with window 1 the trees run one after another, 4 x 32, where the
+     * stages' work alone bounds at OS's 4 x 14 */
+    hand h = {0};
+    mprt_replay_config m = model_m();
+    mprt_replay *r;
+    int i;
+    for (i = 0; i < 4; i++) {
+        int64_t p = (int64_t)h.nr;
+        ray(&h, -1, MPRT_RAY_PRIMARY);
+        ray(&h, p, MPRT_RAY_REFLECT);
+        visit(&h, p, MPRT_STAGE_OS, 0, 10);
+        visit(&h, p, MPRT_STAGE_IC, 0, 7);
+        visit(&h, p, MPRT_STAGE_SC, 1, 5);
+        visit(&h, p + 1, MPRT_STAGE_OS, 0, 4);
+        visit(&h, p + 1, MPRT_STAGE_IC, 0, 6);
+    }
+    CHECK(mprt_replay_create(&m, &r) == MPRT_OK);
+    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    m.window = 1;
+    CHECK(bound(r, &m) == 128 && cycles(&h, &m, NULL, 0) == 128);
+    m.window = 3;                           /* three trees at a time: 43, below OS's 56 */
+    CHECK(bound(r, &m) == 56 && cycles(&h, &m, NULL, 0) >= 56);
+    m.window = 1;
+    m.pes = 2;                              /* dynamic DIS: 128 over both PEs */
+    CHECK(bound(r, &m) == 64 && cycles(&h, &m, NULL, 0) == 64);
+    m.dis = MPRT_DIS_BLOCKS;                /* each PE its two trees */
+    CHECK(bound(r, &m) == 64 && cycles(&h, &m, NULL, 0) == 64);
+    m.dis = MPRT_DIS_DYNAMIC;
+    m.gen_cycles = 3;                       /* SC makes each primary first: 4 x 35 over both */
+    CHECK(bound(r, &m) == 70 && cycles(&h, &m, NULL, 0) == 70);
+    mprt_replay_destroy(r);
+}
+
 static void test_busy_record(void)
 {
     /* four primaries of 10 cycles on one processor, window 2: trees 0 and 1 at cycle 0
@@ -420,5 +456,6 @@ int main(void)
     RUN(test_runs_repeat_exactly);
     RUN(test_busy_record);
     RUN(test_work_bound);
+    RUN(test_work_bound_window);
     return CHECK_DONE();
 }
