@@ -44,6 +44,28 @@ def stalls(t, cfg, memory) -> np.ndarray:
     return out
 
 
+def ring_times(t, cfg, vc) -> np.ndarray:
+    """Per visit, the least flit times the packet that starts it takes on the ring (none on
+    the ideal network): its header's hops from the stage before to the visit's, then its
+    other flits; a ray SC made (a primary too, where SC makes them) comes from SC's stage."""
+    out = np.zeros(len(t.visits), np.int64)
+    if cfg.ring is None:
+        return out
+    K, ft = len(cfg.stages), cfg.ring.flit_time
+    node = np.array([cfg.stage_of(s) for s in SUBTASKS])[np.asarray(t.visits["stage"], np.int64)]
+    ray = np.asarray(t.visits["ray"], np.int64)
+    kind = np.asarray(t.rays["kind"], np.int64)
+    fl = np.asarray(vc.flits, np.int64)
+    kids = np.array([CM.packet_flits("SC", "OS", k) for k in range(4)], np.int64)
+    first = np.r_[True, ray[1:] != ray[:-1]]
+    src = np.where(first, cfg.stage_of("SC"), np.r_[0, node[:-1]])
+    size = np.where(first, np.where(kind[ray] == PRIMARY, int(getattr(vc, "inject_flits", 0)), kids[kind[ray]]),
+                    np.r_[0, fl[:-1]])
+    lat = ((node - src) % K + np.maximum(size - 1, 0)) * ft
+    made = int(vc.inject_process) + int(vc.inject_send) > 0
+    return np.where((src == node) | (first & (kind[ray] == PRIMARY) & (not made)), 0, lat)
+
+
 def critical_paths(t, dur) -> np.ndarray:
     """Per tree, the longest chain of visits' cycles: a ray starts when its parent's visits
     (the last made it) are done, and lasts its own visits' cycles."""
@@ -62,22 +84,23 @@ def critical_paths(t, dur) -> np.ndarray:
     return np.array(out, np.int64)
 
 
-def stage_work(t, cfg, vc, memory=None) -> int:
+def stage_work(t, cfg, vc, memory=None, window: bool = True, ring: bool = True) -> int:
     """The bound from its definition, in numpy: per PE (its trees as the DIS deals them; the
     dynamic DIS: all trees over all PEs) and stage, the visits' process, receive and send
     cycles of the stage's subtasks (with ``memory``, a MemoryData, at level 3 the reads
     ``stalls`` gives), and on the stage running SC the making of the PE's primary rays, over
     the stage's processors, rounded up; and per PE its trees' lifetimes (the making of the
-    primary and the critical path, stalls not counted) over the window (the dynamic DIS: over
-    window x PEs); the largest of them."""
+    primary and the critical path, with its packets' least times on the ring and those reads)
+    over the window (the dynamic DIS: over window x PEs); the largest of them (``window``
+    false: the stages' terms alone; ``ring`` false: the chains without the ring's times)."""
     rays, vis = t.rays, t.visits
     prim = np.flatnonzero(np.asarray(rays["kind"]) == PRIMARY)
     n = len(prim)
     tree = (np.searchsorted(prim, np.arange(len(rays)), "right") - 1)[np.asarray(vis["ray"], np.int64)]
     dur = (np.asarray(vc.process, np.int64) + np.asarray(vc.receive, np.int64) + np.asarray(vc.send, np.int64))
-    cp = critical_paths(t, dur)
     if memory is not None:
         dur = dur + stalls(t, cfg, memory)
+    cp = critical_paths(t, dur + ring_times(t, cfg, vc)) if ring else critical_paths(t, dur)
     work = np.zeros((n, 3), np.int64)
     np.add.at(work, (tree, np.asarray(vis["stage"], np.int64)), dur)
     gen = int(vc.inject_process) + int(vc.inject_send)
@@ -90,7 +113,8 @@ def stage_work(t, cfg, vc, memory=None) -> int:
         groups, share = [np.arange(n)], P
     best = 0
     for g in groups:
-        best = max(best, -(-int((cp[g] + gen).sum()) // (cfg.window * share)))
+        if window:
+            best = max(best, -(-int((cp[g] + gen).sum()) // (cfg.window * share)))
         for st in cfg.stages:
             w = sum(int(work[g, SUBTASKS.index(s)].sum()) for s in st.subtasks)
             w += gen * len(g) if "SC" in st.subtasks else 0
@@ -111,7 +135,7 @@ def test_the_bound_is_the_stages_work_and_never_above_a_run(traces, seed):
     # the three DIS policies, with and without SC making primaries), each at levels 1, 2, 3
     rng = random.Random(900 + seed)
     names = sorted(traces)
-    seen = {"runs": 0, "tight": 0, "below": 0, "uncached": 0, "dis": set()}
+    seen = {"runs": 0, "tight": 0, "below": 0, "uncached": 0, "window": 0, "ring": 0, "dis": set()}
     for i in range(40):
         t = head(traces[rng.choice(names)], rng.choice([5, 20, 60]))
         cfg = random_machine(rng)
@@ -130,8 +154,11 @@ def test_the_bound_is_the_stages_work_and_never_above_a_run(traces, seed):
             seen["below"] += want < got
             seen["dis"].add(cl.dis)
             seen["uncached"] += lv == 3 and want > stage_work(t, cl, vc)
+            seen["window"] += want > stage_work(t, cl, vc, c.memory if lv == 3 else None, window=False)
+            seen["ring"] += want > stage_work(t, cl, vc, c.memory if lv == 3 else None, ring=False)
     assert seen["runs"] > 60 and seen["below"] and seen["dis"] == {"blocks", "interleaved", "dynamic"}, seen
     assert seen["uncached"], seen       # memories without a cache raised some bounds
+    assert seen["window"] and seen["ring"], seen    # so did the trees' chains, and the ring's times in them
 
 
 @pytest.mark.parametrize("name", NAMES)

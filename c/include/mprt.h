@@ -673,8 +673,10 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap);
  * rays are live, so at most window trees of a PE are in flight; with the
  * dynamic DIS, window x PEs trees in all), a tree living at least gen_cycles and its critical
  * path: the longest chain of its visits' cycles, a ray's visits in turn and
- * the rays an SC visit made after it.  Nothing is run; the last run's
- * figures stay.
+ * the rays an SC visit made after it; on a ring (packet sizes set) each step
+ * between stages adds its packet's least time (the header's hops, then its
+ * other flits, a flit time each), and the reads of a memory without a cache
+ * add to each visit as above.  Nothing is run; the last run's figures stay.
  * A configuration the run would refuse for its figures (more PEs than
  * primary rays, cycles beyond 2^62) fails as the run does. OUT: cycles. */
 int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles);

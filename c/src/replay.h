@@ -163,6 +163,8 @@ struct mprt_replay {
                                   * (mprt_replay_work_bound's; made for the load numbered cp_load) */
     size_t cap_tree_cp;
     int64_t cp_load;
+    int64_t *tree_cx;            /* ... with the ring's and memories' least times, for a configuration */
+    size_t cap_tree_cx;
     /* the run */
     int64_t now, retired, t_end, shared_next;
     int64_t *log;
@@ -217,6 +219,10 @@ void mprt__replay_memory_free(mprt_replay *r);
 /* mprt_replay_work_bound's part of level 3: the least stall cycles visits first .. stop - 1
  * (one tree's) can take, added to the stage running each in add (nstages entries). */
 void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop, int64_t *add);
+/* ... its parts: each memory's least cycles a line read (0: it adds none; returns 0 when
+ * neither does), and visit j's least stall cycles at those. */
+int mprt__replay_memory_each(const mprt_replay *r, int64_t *each);
+int64_t mprt__replay_memory_lines(const mprt_replay *r, int64_t j, const int64_t *each);
 
 
 void mprt__replay_free_run(mprt_replay *r);

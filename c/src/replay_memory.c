@@ -408,14 +408,15 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
 /* A memory modelled without a cache reads every line of a visit's key, each after the one
  * before is back: at least a transfer and the latency a line (the port's queue only adds).
  * With a cache a visit may read none, so it adds nothing here; nor does data that does not
- * fit the configuration (the run refuses it) or whose reads could pass 2^62 cycles. */
-void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop, int64_t *add)
+ * fit the configuration (the run refuses it) or whose reads could pass 2^62 cycles.
+ * each[t]: memory t's least cycles a line (0: nothing to add); 0 when neither adds. */
+int mprt__replay_memory_each(const mprt_replay *r, int64_t *each)
 {
     const struct mprt__mem *M = r->mem;
     const mprt_replay_config *c = &r->cfg;
-    int64_t each[2] = {0, 0}, j;
     int t;
-    if (!M || M->nv != r->nv) return;
+    each[0] = each[1] = 0;
+    if (!M || M->nv != r->nv) return 0;
     for (t = 0; t < 2; t++) {
         const memory *m = &M->m[t];
         if (c->memory[t] && !c->cache_size[t] && m->has && m->line == c->cache_line[t] && c->gm_bandwidth[t] > 0) {
@@ -423,19 +424,31 @@ void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop
             if (m->reads && each[t] > (INT64_MAX / 8) / m->reads) each[t] = 0;
         }
     }
-    if (!each[0] && !each[1]) return;
+    return each[0] || each[1];
+}
+
+int64_t mprt__replay_memory_lines(const mprt_replay *r, int64_t j, const int64_t *each)
+{
+    const struct mprt__mem *M = r->mem;
+    int32_t key = M->key[j];
+    int t = key >= 0 ? 0 : 1;
+    int64_t k = key >= 0 ? key : -2 - (int64_t)key;
+    if (key == -1 || !each[t]) return 0;
+    return (M->m[t].info[k + 1].start - M->m[t].info[k].start) * each[t];
+}
+
+void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop, int64_t *add)
+{
+    const mprt_replay_config *c = &r->cfg;
+    int64_t each[2], j, nx;
+    if (!mprt__replay_memory_each(r, each)) return;
     for (j = first; j < stop; j++) {
-        int32_t key = M->key[j];
-        int64_t k, nx;
         int sub = 0;            /* a ray's first visit runs on OS; a later one where the one before sends it */
-        t = key >= 0 ? 0 : 1;
-        if (key == -1 || !each[t]) continue;
-        k = key >= 0 ? key : -2 - (int64_t)key;
         if (j > first) {
             nx = r->wide ? r->vi[j - 1].next : (int64_t)(r->vp[j - 1] & 1023);
             if ((nx & 3) == NEXT_VISIT) sub = (int)((nx >> 2) & 3);
         }
-        add[c->stage_of[sub]] += (M->m[t].info[k + 1].start - M->m[t].info[k].start) * each[t];
+        add[c->stage_of[sub]] += mprt__replay_memory_lines(r, j, each);
     }
 }
 

@@ -210,29 +210,38 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap)
     return MPRT_OK;
 }
 
-/* Each tree's critical path (tree_cp): the longest chain of its visits' cycles, a ray's
- * visits one after the other and the rays an SC visit made after it.  Worked out once a
- * load, on demand: the rays' first visits on a stack with their start (nothing recurses). */
-static int critical_paths(mprt_replay *r)
+/* Flit times a packet from node s to node d takes at least on the ring: its header's hops,
+ * then the rest of its flits (none to its own node). */
+INLINE int64_t ring_latency(const mprt_replay *r, int s, int d, int64_t flits)
 {
+    int k = r->cfg.nstages;
+    if (s == d) return 0;
+    return ((d - s + k) % k + (flits > 1 ? flits - 1 : 0)) * r->cfg.flit_time;
+}
+
+/* Each tree's critical path into out: the longest chain of its visits' cycles, a ray's
+ * visits one after the other and the rays an SC visit made after it.  With ring (its
+ * packets' sizes set), each step between stages also takes the packet's least time on the
+ * ring (a primary SC made too); with reads (mprt__replay_memory_each's), each visit the
+ * least stalls of its memory's reads.  The rays' first visits go on a stack with their
+ * start (nothing recurses). */
+static int chains(mprt_replay *r, int64_t *out, int ring, const int64_t *reads)
+{
+    const int *on = r->cfg.stage_of;
     int64_t t, most = 1, *stack;
-    size_t nt = (size_t)r->ntrees;
-    if (r->cp_load == r->loads && r->tree_cp) return MPRT_OK;
     for (t = 0; t < r->ntrees; t++) {   /* a tree's rays are at most its visits */
         int64_t n = (t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv) - r->tree_first[t];
         if (n > most) most = n;
     }
-    stack = malloc(2 * (size_t)most * sizeof *stack);
-    if (!stack || RESERVE(r, tree_cp, cap_tree_cp, nt + 1)) {
-        free(stack);
+    if (!(stack = malloc(2 * (size_t)most * sizeof *stack)))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the trees' critical paths");
-    }
     for (t = 0; t < r->ntrees; t++) {
-        int64_t n = 0, cp = 0;
-        stack[n++] = r->tree_first[t];
-        stack[n++] = 0;
+        int64_t n = 0, cp = 0, x = r->tree_first[t];
+        stack[n++] = x;                 /* a primary SC made comes from SC's stage */
+        stack[n++] = ring && r->cfg.gen_cycles > 0 ? ring_latency(r, on[2], on[0], r->pflits[x]) : 0;
         while (n) {
             int64_t at = stack[--n], j = stack[--n], nx;
+            int sub = 0;                /* a ray begins on OS */
             for (;; j++) {              /* the ray's visits: the next one is j + 1 */
                 if (r->wide) {
                     at += r->vi[j].dur;
@@ -242,35 +251,67 @@ static int critical_paths(mprt_replay *r)
                     at += (int64_t)((w >> 10) & (((uint64_t)1 << PACK_DUR_BITS) - 1));
                     nx = (int64_t)((w >> 34) << 10 | (w & 1023));
                 }
+                if (reads) at += mprt__replay_memory_lines(r, j, reads);
                 if ((nx & 3) != NEXT_VISIT) break;
+                if (ring) at += ring_latency(r, on[sub], on[(nx >> 2) & 3], r->pflits[j + 1]);
+                sub = (int)((nx >> 2) & 3);
             }
             if (at > cp) cp = at;
             if ((nx & 3) == NEXT_CHILDREN) {
                 int64_t c, a = nx >> 10, b = a + ((nx >> 2) & 255);
                 for (c = a; c < b; c++) {
                     stack[n++] = r->child[c];
-                    stack[n++] = at;
+                    stack[n++] = at + (ring ? ring_latency(r, on[2], on[0], r->pflits[r->child[c]]) : 0);
                 }
             }
         }
-        r->tree_cp[t] = cp;
+        out[t] = cp;
     }
     free(stack);
-    r->cp_load = r->loads;
     return MPRT_OK;
+}
+
+/* The trees' critical paths for the configuration set: the visits' cycles alone (worked out
+ * once a load), or with the ring's and the uncached memories' least times (a run's). */
+static const int64_t *critical_paths(mprt_replay *r)
+{
+    const mprt_replay_config *c = &r->cfg;
+    int64_t each[2], room;
+    int ring = c->ring && r->flits_set, mem = mprt__replay_memory_each(r, each);
+    size_t nt = (size_t)r->ntrees;
+    /* (every packet's least time at most what the run allows it: mprt_replay_run's check) */
+    room = INT64_MAX / 8 - r->total - (c->gen_cycles > 0 ? c->gen_cycles * r->ntrees : 0);
+    if (ring && c->flit_time > room / ((int64_t)(r->nv + nt) * (RING_MAX + r->max_flits) + 1)) ring = 0;
+    if (ring || mem) {
+        if (RESERVE(r, tree_cx, cap_tree_cx, nt + 1)) {
+            fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the trees' critical paths");
+            return NULL;
+        }
+        return chains(r, r->tree_cx, ring, mem ? each : NULL) == MPRT_OK ? r->tree_cx : NULL;
+    }
+    if (r->cp_load != r->loads || !r->tree_cp) {
+        if (RESERVE(r, tree_cp, cap_tree_cp, nt + 1) || chains(r, r->tree_cp, 0, NULL) != MPRT_OK) {
+            fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the trees' critical paths");
+            return NULL;
+        }
+        r->cp_load = r->loads;
+    }
+    return r->tree_cp;
 }
 
 int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
 {
     const mprt_replay_config *c;
     int64_t g, best = 0, w[3], pe_trees;
+    const int64_t *cp;
     int p, k, s, rc, stalls;
     if (!r || !cycles) return MPRT_ERR_INVALID_ARG;
     r->errmsg[0] = '\0';
     if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
     c = &r->cfg;
     g = c->gen_cycles;
-    if ((rc = check_figures(r)) != MPRT_OK || (rc = critical_paths(r)) != MPRT_OK) return rc;
+    if ((rc = check_figures(r)) != MPRT_OK) return rc;
+    if (!(cp = critical_paths(r))) return MPRT_ERR_OUT_OF_MEMORY;
     stalls = (c->memory[0] && !c->cache_size[0]) || (c->memory[1] && !c->cache_size[1]);
     /* (every sum below is at most the visits' cycles and the making's, under 2^62, and the
      * stalls, under 2^60 a memory: mprt__replay_memory_floor) */
@@ -287,7 +328,7 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
         for (t = first; t < stop; t += step) {
             const int64_t *tc = r->tree_cost + 9 * t;
             for (k = 0; k < 3; k++) w[k] += tc[k] + tc[3 + k];
-            life += r->tree_cp[t];
+            life += cp[t];
             if (stalls)         /* level 3's stalls that no cache can spare */
                 mprt__replay_memory_floor(r, r->tree_first[t], t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv,
                                           sw);
