@@ -90,8 +90,8 @@ def stage_work(t, cfg, vc, memory=None, window: bool = True, ring: bool = True) 
     cycles of the stage's subtasks (with ``memory``, a MemoryData, at level 3 the reads
     ``stalls`` gives), and on the stage running SC the making of the PE's primary rays, over
     the stage's processors, rounded up; and per PE its trees' lifetimes (the making of the
-    primary and the critical path, with its packets' least times on the ring and those reads)
-    over the window (the dynamic DIS: over window x PEs); the largest of them (``window``
+    primary and the critical path, with its packets' least times on the ring and those reads,
+    or its work on a stage over the stage's replicas, whichever is longer) over the window (the dynamic DIS: over window x PEs); the largest of them (``window``
     false: the stages' terms alone; ``ring`` false: the chains without the ring's times)."""
     rays, vis = t.rays, t.visits
     prim = np.flatnonzero(np.asarray(rays["kind"]) == PRIMARY)
@@ -111,10 +111,15 @@ def stage_work(t, cfg, vc, memory=None, window: bool = True, ring: bool = True) 
         groups, share = [np.arange(p, n, P) for p in range(P)], 1
     else:
         groups, share = [np.arange(n)], P
+    # a tree lives at least its chain, and its work on each stage over the stage's replicas
+    lives = cp + gen
+    for st in cfg.stages:
+        tw = sum(work[:, SUBTASKS.index(s)] for s in st.subtasks) + (gen if "SC" in st.subtasks else 0)
+        lives = np.maximum(lives, -(-tw // st.replicas))
     best = 0
     for g in groups:
         if window:
-            best = max(best, -(-int((cp[g] + gen).sum()) // (cfg.window * share)))
+            best = max(best, -(-int(lives[g].sum()) // (cfg.window * share)))
         for st in cfg.stages:
             w = sum(int(work[g, SUBTASKS.index(s)].sum()) for s in st.subtasks)
             w += gen * len(g) if "SC" in st.subtasks else 0

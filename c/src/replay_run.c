@@ -302,14 +302,14 @@ static const int64_t *critical_paths(mprt_replay *r)
 int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
 {
     const mprt_replay_config *c;
-    int64_t g, best = 0, w[3], pe_trees;
+    int64_t g, best = 0;
     const int64_t *cp;
     int p, k, s, rc, stalls;
     if (!r || !cycles) return MPRT_ERR_INVALID_ARG;
     r->errmsg[0] = '\0';
     if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
     c = &r->cfg;
-    g = c->gen_cycles;
+    g = c->gen_cycles > 0 ? c->gen_cycles : 0;
     if ((rc = check_figures(r)) != MPRT_OK) return rc;
     if (!(cp = critical_paths(r))) return MPRT_ERR_OUT_OF_MEMORY;
     stalls = (c->memory[0] && !c->cache_size[0]) || (c->memory[1] && !c->cache_size[1]);
@@ -324,25 +324,29 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
         } else {                                /* as the run's DIS deals them */
             deal(r, p, &first, &stop, &step);
         }
-        w[0] = w[1] = w[2] = 0;
         for (t = first; t < stop; t += step) {
+            /* the tree's work by stage: its visits' cycles, the making of its primary, and at
+             * level 3 the stalls no cache can spare */
             const int64_t *tc = r->tree_cost + 9 * t;
-            for (k = 0; k < 3; k++) w[k] += tc[k] + tc[3 + k];
-            life += cp[t];
-            if (stalls)         /* level 3's stalls that no cache can spare */
+            int64_t tw[3] = {0, 0, 0}, lives = cp[t] + g;
+            for (k = 0; k < 3; k++) tw[c->stage_of[k]] += tc[k] + tc[3 + k];
+            tw[c->stage_of[MPRT_STAGE_SC]] += g;
+            if (stalls)
                 mprt__replay_memory_floor(r, r->tree_first[t], t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv,
-                                          sw);
+                                          tw);
+            /* it lives at least its chain, and its work on a stage over the stage's replicas */
+            for (s = 0; s < c->nstages; s++) {
+                sw[s] += tw[s];
+                b = (tw[s] + c->replicas[s] - 1) / c->replicas[s];
+                if (b > lives) lives = b;
+            }
+            life += lives;
         }
-        pe_trees = first < stop ? (stop - first + step - 1) / step : 0;
         /* DIS admits a tree while fewer than window rays are live, and a tree in flight has one:
-         * at most window trees of a PE at once (the dynamic DIS's: every PE's), each for at
-         * least the making of its primary and its critical path */
-        life += g > 0 ? g * pe_trees : 0;
+         * at most window trees of a PE at once (the dynamic DIS's: every PE's) */
         b = life / c->window + (life % c->window != 0);
         if (c->dis == MPRT_DIS_DYNAMIC) b = b / c->pes + (b % c->pes != 0);
         if (b > best) best = b;
-        for (k = 0; k < 3; k++) sw[c->stage_of[k]] += w[k];
-        sw[c->stage_of[MPRT_STAGE_SC]] += g > 0 ? g * pe_trees : 0;
         for (s = 0; s < c->nstages; s++) {
             /* one PE's share: its replicas; the dynamic DIS's: every PE's */
             int64_t n = (int64_t)c->replicas[s] * (c->dis == MPRT_DIS_DYNAMIC ? c->pes : 1);
