@@ -28,19 +28,34 @@ def traces():
     return {n: mprt.load_trace(p) for n, p in zip(NAMES, GOLDEN)}
 
 
-def stalls(t, cfg, memory) -> np.ndarray:
-    """Per visit, the least stall cycles level 3 gives it: a memory modelled without a cache
-    reads every line of the visit's key (memdata's lines), a transfer and the latency each."""
+def least_misses(lines, start, sets: int, ways: int) -> np.ndarray:
+    """Per key, the fewest misses a look-up takes in a cache of ``sets`` x ``ways`` whatever it
+    held: in each set, its distinct lines there beyond the ways."""
+    out = np.zeros(len(start) - 1, np.int64)
+    for k in range(len(out)):
+        _, per_set = np.unique(np.unique(lines[start[k]:start[k + 1]]) % sets, return_counts=True)
+        out[k] = int(np.maximum(per_set - ways, 0).sum())
+    return out
+
+
+def stalls(t, cfg, memory, caches: bool = True) -> np.ndarray:
+    """Per visit, the least stall cycles level 3 gives it, a transfer and the latency each read
+    (memdata's lines): a memory modelled without a cache reads every line of the visit's key,
+    one with a cache at least ``least_misses`` (``caches`` false: those add none)."""
     out = np.zeros(len(t.visits), np.int64)
     keys = np.asarray(memory.replay_keys, np.int64)
     for tag, mc, gm in (("ic", cfg.ic_memory, cfg.icgm), ("sc", cfg.sc_memory, cfg.scgm)):
-        if mc is None or mc.cache is not None:
+        if mc is None or (mc.cache is not None and not caches):
             continue
         data, _ = memory.get(tag, mc.resident, _line(mc))
         start = np.asarray(data["line_start"], np.int64)
+        reads = start[1:] - start[:-1]
+        if mc.cache is not None:
+            c = mc.cache
+            reads = least_misses(np.asarray(data["lines"], np.int64), start, c.size // (c.line * c.ways), c.ways)
         mine = keys >= 0 if tag == "ic" else keys <= -2
         k = np.where(keys >= 0, keys, -2 - keys)[mine]
-        out[mine] += (start[k + 1] - start[k]) * (-(-_line(mc) // gm.bandwidth) + gm.latency)
+        out[mine] += reads[k] * (-(-_line(mc) // gm.bandwidth) + gm.latency)
     return out
 
 
@@ -84,7 +99,7 @@ def critical_paths(t, dur) -> np.ndarray:
     return np.array(out, np.int64)
 
 
-def stage_work(t, cfg, vc, memory=None, window: bool = True, ring: bool = True) -> int:
+def stage_work(t, cfg, vc, memory=None, window: bool = True, ring: bool = True, caches: bool = True) -> int:
     """The bound from its definition, in numpy: per PE (its trees as the DIS deals them; the
     dynamic DIS: all trees over all PEs) and stage, the visits' process, receive and send
     cycles of the stage's subtasks (with ``memory``, a MemoryData, at level 3 the reads
@@ -92,14 +107,15 @@ def stage_work(t, cfg, vc, memory=None, window: bool = True, ring: bool = True) 
     the stage's processors, rounded up; and per PE its trees' lifetimes (the making of the
     primary and the critical path, with its packets' least times on the ring and those reads,
     or its work on a stage over the stage's replicas, whichever is longer) over the window (the dynamic DIS: over window x PEs); the largest of them (``window``
-    false: the stages' terms alone; ``ring`` false: the chains without the ring's times)."""
+    false: the stages' terms alone; ``ring`` false: the chains without the ring's times;
+    ``caches`` false: no reads of a memory with a cache)."""
     rays, vis = t.rays, t.visits
     prim = np.flatnonzero(np.asarray(rays["kind"]) == PRIMARY)
     n = len(prim)
     tree = (np.searchsorted(prim, np.arange(len(rays)), "right") - 1)[np.asarray(vis["ray"], np.int64)]
     dur = (np.asarray(vc.process, np.int64) + np.asarray(vc.receive, np.int64) + np.asarray(vc.send, np.int64))
     if memory is not None:
-        dur = dur + stalls(t, cfg, memory)
+        dur = dur + stalls(t, cfg, memory, caches)
     cp = critical_paths(t, dur + ring_times(t, cfg, vc)) if ring else critical_paths(t, dur)
     work = np.zeros((n, 3), np.int64)
     np.add.at(work, (tree, np.asarray(vis["stage"], np.int64)), dur)
@@ -140,7 +156,7 @@ def test_the_bound_is_the_stages_work_and_never_above_a_run(traces, seed):
     # the three DIS policies, with and without SC making primaries), each at levels 1, 2, 3
     rng = random.Random(900 + seed)
     names = sorted(traces)
-    seen = {"runs": 0, "tight": 0, "below": 0, "uncached": 0, "window": 0, "ring": 0, "dis": set()}
+    seen = {"runs": 0, "tight": 0, "below": 0, "uncached": 0, "cached": 0, "window": 0, "ring": 0, "dis": set()}
     for i in range(40):
         t = head(traces[rng.choice(names)], rng.choice([5, 20, 60]))
         cfg = random_machine(rng)
@@ -159,10 +175,12 @@ def test_the_bound_is_the_stages_work_and_never_above_a_run(traces, seed):
             seen["below"] += want < got
             seen["dis"].add(cl.dis)
             seen["uncached"] += lv == 3 and want > stage_work(t, cl, vc)
+            seen["cached"] += lv == 3 and want > stage_work(t, cl, vc, c.memory, caches=False)
             seen["window"] += want > stage_work(t, cl, vc, c.memory if lv == 3 else None, window=False)
             seen["ring"] += want > stage_work(t, cl, vc, c.memory if lv == 3 else None, ring=False)
     assert seen["runs"] > 60 and seen["below"] and seen["dis"] == {"blocks", "interleaved", "dynamic"}, seen
     assert seen["uncached"], seen       # memories without a cache raised some bounds
+    assert seen["cached"], seen         # and so did misses no state of a cache spares
     assert seen["window"] and seen["ring"], seen    # so did the trees' chains, and the ring's times in them
 
 
@@ -186,7 +204,7 @@ def test_the_bound_on_the_golden_traces(traces, name):
             vc = CM.visit_costs(t, cfg.processors())
             c = Compiled(t, vc)
             b = c.work_bound(cfg)
-            assert b == stage_work(t, cfg, vc)
+            assert b == stage_work(t, cfg, vc, c.memory)
             assert 0 < b <= c.result(cfg).cycles <= c.result(at_level(cfg, 1)).cycles * 10
 
 

@@ -665,18 +665,20 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap);
  * visit): no processor finishes before its share of its stage's work, a
  * stage's work being its visits' process and communication cycles, on the
  * stage running SC gen_cycles per primary ray made, and at level 3, for a
- * memory modelled without a cache whose data mprt_replay_set_memory gave,
- * every line of a visit's key read at a transfer and the latency at least;
- * shared among its replicas; with the static DIS policies each PE's own trees,
- * with the dynamic one all trees over all PEs.  Nor does it finish before
- * its trees' lifetimes over window (DIS admits a tree while fewer than window
- * rays are live, so at most window trees of a PE are in flight; with the
- * dynamic DIS, window x PEs trees in all), a tree living at least gen_cycles and its critical
- * path: the longest chain of its visits' cycles, a ray's visits in turn and
- * the rays an SC visit made after it; on a ring (packet sizes set) each step
- * between stages adds its packet's least time (the header's hops, then its
- * other flits, a flit time each), and the reads of a memory without a cache
- * add to each visit as above.  Nothing is run; the last run's figures stay.
+ * memory whose data mprt_replay_set_memory gave, the reads no state of it can
+ * spare, each at a transfer and the latency at least: without a cache every
+ * line of a visit's key, with one the key's distinct lines in each set beyond
+ * its ways; shared among its replicas; with the static DIS policies each PE's
+ * own trees, with the dynamic one all trees over all PEs.  Nor does it finish
+ * before its trees' lifetimes over window (DIS admits a tree while fewer than
+ * window rays are live, so at most window trees of a PE are in flight; with
+ * the dynamic DIS, window x PEs trees in all), a tree living at least
+ * gen_cycles and its critical path, and at least its work on a stage over
+ * the stage's replicas.  Its critical path is the longest chain of its
+ * visits' cycles and reads as above, a ray's visits in turn and the rays an
+ * SC visit made after it; on a ring (packet sizes set) each step between
+ * stages adds its packet's least time (the header's hops, then its other
+ * flits, a flit time each).  Nothing is run; the last run's figures stay.
  * A configuration the run would refuse for its figures (more PEs than
  * primary rays, cycles beyond 2^62) fails as the run does. OUT: cycles. */
 int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles);

@@ -216,13 +216,13 @@ int mprt__replay_memory_build(mprt_replay *r);
 int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j);
 void mprt__replay_memory_free_run(mprt_replay *r);
 void mprt__replay_memory_free(mprt_replay *r);
-/* mprt_replay_work_bound's part of level 3: the least stall cycles visits first .. stop - 1
- * (one tree's) can take, added to the stage running each in add (nstages entries). */
-void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop, int64_t *add);
-/* ... its parts: each memory's least cycles a line read (0: it adds none; returns 0 when
- * neither does), and visit j's least stall cycles at those. */
-int mprt__replay_memory_each(const mprt_replay *r, int64_t *each);
+/* mprt_replay_work_bound's part of level 3: each memory's least cycles a line read (0: it
+ * adds none; returns 0 when neither does), with a cache the fewest misses of each key worked
+ * out for its shape; visit j's least stall cycles at those; and those of visits first ..
+ * stop - 1 (one tree's), added to the stage running each in add (nstages entries). */
+int mprt__replay_memory_each(mprt_replay *r, int64_t *each);
 int64_t mprt__replay_memory_lines(const mprt_replay *r, int64_t j, const int64_t *each);
+void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop, int64_t *add, const int64_t *each);
 
 
 void mprt__replay_free_run(mprt_replay *r);

@@ -106,6 +106,10 @@ static void free_data(memory *m)
     m->lines = NULL;
     m->repeat = NULL;
     m->rep_sets = m->rep_ways = 0;
+    free(m->least);
+    m->least = NULL;
+    m->cap_least = 0;
+    m->least_sets = m->least_ways = 0;
     m->has = 0;
     m->nkeys = 0;
 }
@@ -157,6 +161,7 @@ static int copy_data(mprt_replay *r, memory *m, int t, const mprt_replay_memory_
         mprt__replay_reserve((void **)&m->lines, &m->cap_lines, nl + 1, sizeof *m->lines))
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the %s memory data", NAME[t]);
     m->rep_sets = m->rep_ways = 0;      /* the next run's repeats, summaries and sets made anew */
+    m->least_sets = m->least_ways = 0;  /* and the work bound's fewest misses */
     if (n != m->nkeys) {                /* and their per-key arrays sized anew */
         free(m->repeat);
         m->repeat = NULL;
@@ -405,23 +410,73 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
 
 /* ---- the work bound's part ------------------------------------------------------------ */
 
-/* A memory modelled without a cache reads every line of a visit's key, each after the one
- * before is back: at least a transfer and the latency a line (the port's queue only adds).
- * With a cache a visit may read none, so it adds nothing here; nor does data that does not
- * fit the configuration (the run refuses it) or whose reads could pass 2^62 cycles.
- * each[t]: memory t's least cycles a line (0: nothing to add); 0 when neither adds. */
-int mprt__replay_memory_each(const mprt_replay *r, int64_t *each)
+static int by_value(const void *a, const void *b)
 {
-    const struct mprt__mem *M = r->mem;
+    int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
+    return (x > y) - (x < y);
+}
+
+/* Per key, the fewest misses any look-up of it takes in a cache of nsets sets of ways ways
+ * (line x in set x mod nsets): of the d distinct lines of the key a set holds, at most ways
+ * can be there when the look-up begins, so at least d - ways miss, whatever came before. */
+static int least_misses(memory *m, int64_t nsets, int64_t ways)
+{
+    size_t k, most = 0, n, i, u;
+    int64_t *buf;
+    if (m->least && m->least_sets == nsets && m->least_ways == ways) return MPRT_OK;
+    for (k = 0; k < m->nkeys; k++) {
+        n = (size_t)(m->info[k + 1].start - m->info[k].start);
+        if (n > most) most = n;
+    }
+    if (!(buf = malloc((most + 1) * sizeof *buf)) ||
+        mprt__replay_reserve((void **)&m->least, &m->cap_least, m->nkeys + 1, sizeof *m->least)) {
+        free(buf);
+        return MPRT_ERR_OUT_OF_MEMORY;
+    }
+    for (k = 0; k < m->nkeys; k++) {
+        int64_t miss = 0, run = 0;
+        n = (size_t)(m->info[k + 1].start - m->info[k].start);
+        if ((int64_t)n > ways) {        /* (no set gets more than ways lines of fewer) */
+            memcpy(buf, m->lines + m->info[k].start, n * sizeof *buf);
+            qsort(buf, n, sizeof *buf, by_value);
+            for (i = u = 0; i < n; i++)  /* its distinct lines' sets */
+                if (i == 0 || buf[i] != buf[i - 1]) buf[u++] = buf[i];
+            for (i = 0; i < u; i++) buf[i] %= nsets;
+            qsort(buf, u, sizeof *buf, by_value);
+            for (i = 0; i < u; i++) {
+                run = i > 0 && buf[i] == buf[i - 1] ? run + 1 : 1;
+                if (run > ways) miss++;
+            }
+        }
+        m->least[k] = miss;
+    }
+    free(buf);
+    m->least_sets = nsets;
+    m->least_ways = ways;
+    return MPRT_OK;
+}
+
+/* A memory's reads each wait for the one before to be back: at least a transfer and the
+ * latency a line read (the port's queue only adds).  Without a cache a visit reads every
+ * line of its key; with one, at least the misses no state of the cache can spare (above).
+ * Data that does not fit the configuration (the run refuses it), reads that could pass
+ * 2^62 cycles, or no room to work the misses out, add nothing.
+ * each[t]: memory t's least cycles a line read (0: nothing to add); 0 when neither adds. */
+int mprt__replay_memory_each(mprt_replay *r, int64_t *each)
+{
+    struct mprt__mem *M = r->mem;
     const mprt_replay_config *c = &r->cfg;
     int t;
     each[0] = each[1] = 0;
     if (!M || M->nv != r->nv) return 0;
     for (t = 0; t < 2; t++) {
-        const memory *m = &M->m[t];
-        if (c->memory[t] && !c->cache_size[t] && m->has && m->line == c->cache_line[t] && c->gm_bandwidth[t] > 0) {
-            each[t] = (c->cache_line[t] + c->gm_bandwidth[t] - 1) / c->gm_bandwidth[t] + c->gm_latency[t];
+        memory *m = &M->m[t];
+        int64_t size = c->cache_size[t], line = c->cache_line[t], ways = c->cache_ways[t];
+        if (c->memory[t] && m->has && m->line == line && c->gm_bandwidth[t] > 0) {
+            each[t] = (line + c->gm_bandwidth[t] - 1) / c->gm_bandwidth[t] + c->gm_latency[t];
             if (m->reads && each[t] > (INT64_MAX / 8) / m->reads) each[t] = 0;
+            if (size > 0 && (ways < 1 || size % (line * ways) || least_misses(m, size / (line * ways), ways)))
+                each[t] = 0;
         }
     }
     return each[0] || each[1];
@@ -434,14 +489,14 @@ int64_t mprt__replay_memory_lines(const mprt_replay *r, int64_t j, const int64_t
     int t = key >= 0 ? 0 : 1;
     int64_t k = key >= 0 ? key : -2 - (int64_t)key;
     if (key == -1 || !each[t]) return 0;
+    if (r->cfg.cache_size[t] > 0) return M->m[t].least[k] * each[t];
     return (M->m[t].info[k + 1].start - M->m[t].info[k].start) * each[t];
 }
 
-void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop, int64_t *add)
+void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop, int64_t *add, const int64_t *each)
 {
     const mprt_replay_config *c = &r->cfg;
-    int64_t each[2], j, nx;
-    if (!mprt__replay_memory_each(r, each)) return;
+    int64_t j, nx;
     for (j = first; j < stop; j++) {
         int sub = 0;            /* a ray's first visit runs on OS; a later one where the one before sends it */
         if (j > first) {

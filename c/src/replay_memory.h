@@ -41,6 +41,11 @@ typedef struct {
     size_t nsum, cap_sum;
     int64_t *scratch;            /* nsets x ways: the empty cache a summary is made in (-1: empty) */
     int summaries;               /* this run looks long keys up by summary (MPRT_CACHE_SUMMARY=0: never) */
+    /* the work bound's: per key, the fewest misses any look-up of it takes in a cache of
+     * least_sets x least_ways (0 x 0: not made for this data) */
+    int64_t *least;
+    size_t cap_least;
+    int64_t least_sets, least_ways;
 } memory;
 
 struct mprt__mem {

@@ -302,7 +302,7 @@ static const int64_t *critical_paths(mprt_replay *r)
 int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
 {
     const mprt_replay_config *c;
-    int64_t g, best = 0;
+    int64_t g, best = 0, each[2];
     const int64_t *cp;
     int p, k, s, rc, stalls;
     if (!r || !cycles) return MPRT_ERR_INVALID_ARG;
@@ -312,7 +312,7 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
     g = c->gen_cycles > 0 ? c->gen_cycles : 0;
     if ((rc = check_figures(r)) != MPRT_OK) return rc;
     if (!(cp = critical_paths(r))) return MPRT_ERR_OUT_OF_MEMORY;
-    stalls = (c->memory[0] && !c->cache_size[0]) || (c->memory[1] && !c->cache_size[1]);
+    stalls = mprt__replay_memory_each(r, each);
     /* (every sum below is at most the visits' cycles and the making's, under 2^62, and the
      * stalls, under 2^60 a memory: mprt__replay_memory_floor) */
     for (p = 0; p < (c->dis == MPRT_DIS_DYNAMIC ? 1 : c->pes); p++) {
@@ -333,7 +333,7 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
             tw[c->stage_of[MPRT_STAGE_SC]] += g;
             if (stalls)
                 mprt__replay_memory_floor(r, r->tree_first[t], t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv,
-                                          tw);
+                                          tw, each);
             /* it lives at least its chain, and its work on a stage over the stage's replicas */
             for (s = 0; s < c->nstages; s++) {
                 sw[s] += tw[s];

@@ -160,6 +160,16 @@ static void test_work_bound_with_memories(void)
     CHECK(work_bound(r, &c) == 47 && run_cycles(r) == 73);
     c.memory[0] = 0;                    /* not modelled: no stalls */
     CHECK(work_bound(r, &c) == 11);
+    /* one set of one way: lines 5 and 6 cannot both be there when a visit begins, so each IC
+     * visit misses once at least whatever came before: 22 + 2 x 12, below the run's 82 */
+    c.memory[0] = 1;
+    c.pes = 1;
+    c.cache_size[0] = 8;
+    CHECK(work_bound(r, &c) == 46 && run_cycles(r) == 82);
+    c.cache_size[0] = 16;               /* two sets, or (below) two ways: both lines fit */
+    CHECK(work_bound(r, &c) == 22);
+    c.cache_ways[0] = 2;
+    CHECK(work_bound(r, &c) == 22);
     mprt_replay_destroy(r);
 }
 

@@ -248,10 +248,10 @@ class Compiled:
     def work_bound(self, config: SystemConfig) -> int:
         """A lower bound of the configuration's cycles at any level, nothing run
         (``mprt_replay_work_bound``: each stage's work over its processors, PE by PE as the
-        DIS deals the trees, with the reads of a memory modelled without a cache; the ring and
-        the memories' other stalls only add to a run)."""
-        # the memory data only where it counts: a memory without a cache (sent once, as the run's)
-        self._configure(config, any(mc is not None and mc.cache is None for mc in (config.ic_memory, config.sc_memory)))
+        DIS deals the trees, and the trees' lifetimes over the window, with the reads no
+        memory can spare, every line without a cache and the misses no state of a cache
+        avoids; the ring and the memories' other stalls only add to a run)."""
+        self._configure(config)         # with the memory data (sent once, as the run's)
         try:
             return _LIB.replay_work_bound(self.h)
         except InvalidArgument as e:
