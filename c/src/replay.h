@@ -164,7 +164,12 @@ struct mprt_replay {
     size_t cap_tree_cp;
     int64_t cp_load;
     int64_t *tree_cx;            /* ... with the ring's and memories' least times, for a configuration */
-    size_t cap_tree_cx;
+    int64_t *tree_fl;            /* ... and the memories' least stalls per tree and stage */
+    size_t cap_tree_cx, cap_tree_fl;
+#define CX_SIG 16
+    int64_t cx_sig[CX_SIG];      /* what they were made for (cx_ok: they were, for the memory
+                                  * data and packet sizes set since) */
+    int cx_ok;
     /* the run */
     int64_t now, retired, t_end, shared_next;
     int64_t *log;
@@ -218,11 +223,9 @@ void mprt__replay_memory_free_run(mprt_replay *r);
 void mprt__replay_memory_free(mprt_replay *r);
 /* mprt_replay_work_bound's part of level 3: each memory's least cycles a line read (0: it
  * adds none; returns 0 when neither does), with a cache the fewest misses of each key worked
- * out for its shape; visit j's least stall cycles at those; and those of visits first ..
- * stop - 1 (one tree's), added to the stage running each in add (nstages entries). */
+ * out for its shape; and visit j's least stall cycles at those. */
 int mprt__replay_memory_each(mprt_replay *r, int64_t *each);
 int64_t mprt__replay_memory_lines(const mprt_replay *r, int64_t j, const int64_t *each);
-void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop, int64_t *add, const int64_t *each);
 
 
 void mprt__replay_free_run(mprt_replay *r);

@@ -226,6 +226,7 @@ int mprt_replay_set_memory(mprt_replay *r, const int32_t *key, size_t nvisits, c
         if (m->reads > MAX_READS) m->reads = MAX_READS;
     }
     M->nv = nvisits;
+    r->cx_ok = 0;                       /* (the work bound's chains were for the data before) */
     if (rc != MPRT_OK) mprt__replay_memory_free(r);
     return rc;
 }
@@ -410,47 +411,52 @@ int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j)
 
 /* ---- the work bound's part ------------------------------------------------------------ */
 
-static int by_value(const void *a, const void *b)
-{
-    int64_t x = *(const int64_t *)a, y = *(const int64_t *)b;
-    return (x > y) - (x < y);
-}
-
 /* Per key, the fewest misses any look-up of it takes in a cache of nsets sets of ways ways
  * (line x in set x mod nsets): of the d distinct lines of the key a set holds, at most ways
- * can be there when the look-up begins, so at least d - ways miss, whatever came before. */
+ * can be there when the look-up begins, so at least d - ways miss, whatever came before.
+ * One pass over the keys' lines: a line's last key and a set's last key and count mark
+ * what this key has seen (with more sets than line numbers no set holds two lines). */
 static int least_misses(memory *m, int64_t nsets, int64_t ways)
 {
-    size_t k, most = 0, n, i, u;
-    int64_t *buf;
+    size_t k;
+    int64_t *seen, *stamp, *count, span = m->span > 0 ? m->span : 1;
     if (m->least && m->least_sets == nsets && m->least_ways == ways) return MPRT_OK;
-    for (k = 0; k < m->nkeys; k++) {
-        n = (size_t)(m->info[k + 1].start - m->info[k].start);
-        if (n > most) most = n;
-    }
-    if (!(buf = malloc((most + 1) * sizeof *buf)) ||
-        mprt__replay_reserve((void **)&m->least, &m->cap_least, m->nkeys + 1, sizeof *m->least)) {
-        free(buf);
+    if (mprt__replay_reserve((void **)&m->least, &m->cap_least, m->nkeys + 1, sizeof *m->least))
         return MPRT_ERR_OUT_OF_MEMORY;
-    }
-    for (k = 0; k < m->nkeys; k++) {
-        int64_t miss = 0, run = 0;
-        n = (size_t)(m->info[k + 1].start - m->info[k].start);
-        if ((int64_t)n > ways) {        /* (no set gets more than ways lines of fewer) */
-            memcpy(buf, m->lines + m->info[k].start, n * sizeof *buf);
-            qsort(buf, n, sizeof *buf, by_value);
-            for (i = u = 0; i < n; i++)  /* its distinct lines' sets */
-                if (i == 0 || buf[i] != buf[i - 1]) buf[u++] = buf[i];
-            for (i = 0; i < u; i++) buf[i] %= nsets;
-            qsort(buf, u, sizeof *buf, by_value);
-            for (i = 0; i < u; i++) {
-                run = i > 0 && buf[i] == buf[i - 1] ? run + 1 : 1;
-                if (run > ways) miss++;
-            }
+    if (nsets >= span || span > ((int64_t)1 << 28)) {   /* (huge line numbers: none counted) */
+        memset(m->least, 0, (m->nkeys + 1) * sizeof *m->least);
+    } else {
+        seen = malloc((size_t)span * sizeof *seen);
+        stamp = malloc((size_t)nsets * sizeof *stamp);
+        count = malloc((size_t)nsets * sizeof *count);
+        if (!seen || !stamp || !count) {
+            free(seen);
+            free(stamp);
+            free(count);
+            return MPRT_ERR_OUT_OF_MEMORY;
         }
-        m->least[k] = miss;
+        memset(seen, 0xff, (size_t)span * sizeof *seen);
+        memset(stamp, 0xff, (size_t)nsets * sizeof *stamp);
+        for (k = 0; k < m->nkeys; k++) {
+            int64_t miss = 0, a = m->info[k].start, b = m->info[k + 1].start;
+            if (b - a > ways) {         /* (no set gets more than ways lines of fewer) */
+                for (; a < b; a++) {
+                    int64_t x = m->lines[a], st = x % nsets;
+                    if (seen[x] == (int64_t)k) continue;
+                    seen[x] = (int64_t)k;
+                    if (stamp[st] != (int64_t)k) {
+                        stamp[st] = (int64_t)k;
+                        count[st] = 0;
+                    }
+                    if (++count[st] > ways) miss++;
+                }
+            }
+            m->least[k] = miss;
+        }
+        free(seen);
+        free(stamp);
+        free(count);
     }
-    free(buf);
     m->least_sets = nsets;
     m->least_ways = ways;
     return MPRT_OK;
@@ -491,20 +497,6 @@ int64_t mprt__replay_memory_lines(const mprt_replay *r, int64_t j, const int64_t
     if (key == -1 || !each[t]) return 0;
     if (r->cfg.cache_size[t] > 0) return M->m[t].least[k] * each[t];
     return (M->m[t].info[k + 1].start - M->m[t].info[k].start) * each[t];
-}
-
-void mprt__replay_memory_floor(const mprt_replay *r, int64_t first, int64_t stop, int64_t *add, const int64_t *each)
-{
-    const mprt_replay_config *c = &r->cfg;
-    int64_t j, nx;
-    for (j = first; j < stop; j++) {
-        int sub = 0;            /* a ray's first visit runs on OS; a later one where the one before sends it */
-        if (j > first) {
-            nx = r->wide ? r->vi[j - 1].next : (int64_t)(r->vp[j - 1] & 1023);
-            if ((nx & 3) == NEXT_VISIT) sub = (int)((nx >> 2) & 3);
-        }
-        add[c->stage_of[sub]] += mprt__replay_memory_lines(r, j, each);
-    }
 }
 
 /* ---- figures ------------------------------------------------------------------------ */

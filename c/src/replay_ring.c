@@ -345,6 +345,7 @@ int mprt_replay_set_flits(mprt_replay *r, const int64_t *flits, size_t nvisits, 
     for (c = 0; c < r->nchild; c++) r->pflits[r->child[c]] = (uint16_t)kid_flits[r->child_kind[c]];
     r->max_flits = most;
     r->flits_set = 1;
+    r->cx_ok = 0;               /* (the work bound's chains were for the sizes before) */
     return MPRT_OK;
 }
 

@@ -223,9 +223,9 @@ INLINE int64_t ring_latency(const mprt_replay *r, int s, int d, int64_t flits)
  * visits one after the other and the rays an SC visit made after it.  With ring (its
  * packets' sizes set), each step between stages also takes the packet's least time on the
  * ring (a primary SC made too); with reads (mprt__replay_memory_each's), each visit the
- * least stalls of its memory's reads.  The rays' first visits go on a stack with their
- * start (nothing recurses). */
-static int chains(mprt_replay *r, int64_t *out, int ring, const int64_t *reads)
+ * least stalls of its memory's reads, also summed by stage into fl (3 per tree).  The rays'
+ * first visits go on a stack with their start (nothing recurses). */
+static int chains(mprt_replay *r, int64_t *out, int64_t *fl, int ring, const int64_t *reads)
 {
     const int *on = r->cfg.stage_of;
     int64_t t, most = 1, *stack;
@@ -237,6 +237,7 @@ static int chains(mprt_replay *r, int64_t *out, int ring, const int64_t *reads)
         return fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the trees' critical paths");
     for (t = 0; t < r->ntrees; t++) {
         int64_t n = 0, cp = 0, x = r->tree_first[t];
+        if (fl) fl[3 * t] = fl[3 * t + 1] = fl[3 * t + 2] = 0;
         stack[n++] = x;                 /* a primary SC made comes from SC's stage */
         stack[n++] = ring && r->cfg.gen_cycles > 0 ? ring_latency(r, on[2], on[0], r->pflits[x]) : 0;
         while (n) {
@@ -251,7 +252,11 @@ static int chains(mprt_replay *r, int64_t *out, int ring, const int64_t *reads)
                     at += (int64_t)((w >> 10) & (((uint64_t)1 << PACK_DUR_BITS) - 1));
                     nx = (int64_t)((w >> 34) << 10 | (w & 1023));
                 }
-                if (reads) at += mprt__replay_memory_lines(r, j, reads);
+                if (reads) {
+                    int64_t m = mprt__replay_memory_lines(r, j, reads);
+                    at += m;
+                    fl[3 * t + on[sub]] += m;   /* (the stage running it) */
+                }
                 if ((nx & 3) != NEXT_VISIT) break;
                 if (ring) at += ring_latency(r, on[sub], on[(nx >> 2) & 3], r->pflits[j + 1]);
                 sub = (int)((nx >> 2) & 3);
@@ -272,25 +277,47 @@ static int chains(mprt_replay *r, int64_t *out, int ring, const int64_t *reads)
 }
 
 /* The trees' critical paths for the configuration set: the visits' cycles alone (worked out
- * once a load), or with the ring's and the uncached memories' least times (a run's). */
-static const int64_t *critical_paths(mprt_replay *r)
+ * once a load), or with the ring's and the memories' least times (a run's), with *fl the
+ * memories' least stalls per tree and stage (NULL: none), kept while what they depend on
+ * stays (a search's designs differ in FIFOs, replicas and PEs more often). */
+static const int64_t *critical_paths(mprt_replay *r, const int64_t **fl)
 {
     const mprt_replay_config *c = &r->cfg;
-    int64_t each[2], room;
-    int ring = c->ring && r->flits_set, mem = mprt__replay_memory_each(r, each);
+    int64_t each[2], room, sig[CX_SIG];
+    int ring = c->ring && r->flits_set, mem = mprt__replay_memory_each(r, each), i = 0;
     size_t nt = (size_t)r->ntrees;
     /* (every packet's least time at most what the run allows it: mprt_replay_run's check) */
     room = INT64_MAX / 8 - r->total - (c->gen_cycles > 0 ? c->gen_cycles * r->ntrees : 0);
     if (ring && c->flit_time > room / ((int64_t)(r->nv + nt) * (RING_MAX + r->max_flits) + 1)) ring = 0;
+    *fl = NULL;
     if (ring || mem) {
-        if (RESERVE(r, tree_cx, cap_tree_cx, nt + 1)) {
-            fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the trees' critical paths");
-            return NULL;
+        int t;
+        sig[i++] = r->loads;
+        sig[i++] = c->nstages;
+        for (t = 0; t < 3; t++) sig[i++] = c->stage_of[t];
+        sig[i++] = ring ? c->flit_time : 0;
+        sig[i++] = c->gen_cycles > 0;
+        for (t = 0; t < 2; t++) {
+            sig[i++] = each[t];
+            sig[i++] = c->cache_size[t];
+            sig[i++] = c->cache_line[t];
+            sig[i++] = c->cache_ways[t];
         }
-        return chains(r, r->tree_cx, ring, mem ? each : NULL) == MPRT_OK ? r->tree_cx : NULL;
+        if (!r->cx_ok || memcmp(sig, r->cx_sig, sizeof sig) != 0) {
+            r->cx_ok = 0;
+            if (RESERVE(r, tree_cx, cap_tree_cx, nt + 1) || RESERVE(r, tree_fl, cap_tree_fl, 3 * nt + 1) ||
+                chains(r, r->tree_cx, r->tree_fl, ring, mem ? each : NULL) != MPRT_OK) {
+                fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the trees' critical paths");
+                return NULL;
+            }
+            memcpy(r->cx_sig, sig, sizeof sig);
+            r->cx_ok = 1;
+        }
+        *fl = mem ? r->tree_fl : NULL;
+        return r->tree_cx;
     }
     if (r->cp_load != r->loads || !r->tree_cp) {
-        if (RESERVE(r, tree_cp, cap_tree_cp, nt + 1) || chains(r, r->tree_cp, 0, NULL) != MPRT_OK) {
+        if (RESERVE(r, tree_cp, cap_tree_cp, nt + 1) || chains(r, r->tree_cp, NULL, 0, NULL) != MPRT_OK) {
             fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the trees' critical paths");
             return NULL;
         }
@@ -302,19 +329,18 @@ static const int64_t *critical_paths(mprt_replay *r)
 int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
 {
     const mprt_replay_config *c;
-    int64_t g, best = 0, each[2];
-    const int64_t *cp;
-    int p, k, s, rc, stalls;
+    int64_t g, best = 0;
+    const int64_t *cp, *fl;
+    int p, k, s, rc;
     if (!r || !cycles) return MPRT_ERR_INVALID_ARG;
     r->errmsg[0] = '\0';
     if (!r->loaded) return fail(r, MPRT_ERR_STATE, "no trace loaded (mprt_replay_load)");
     c = &r->cfg;
     g = c->gen_cycles > 0 ? c->gen_cycles : 0;
     if ((rc = check_figures(r)) != MPRT_OK) return rc;
-    if (!(cp = critical_paths(r))) return MPRT_ERR_OUT_OF_MEMORY;
-    stalls = mprt__replay_memory_each(r, each);
+    if (!(cp = critical_paths(r, &fl))) return MPRT_ERR_OUT_OF_MEMORY;
     /* (every sum below is at most the visits' cycles and the making's, under 2^62, and the
-     * stalls, under 2^60 a memory: mprt__replay_memory_floor) */
+     * stalls, under 2^60 a memory: mprt__replay_memory_each) */
     for (p = 0; p < (c->dis == MPRT_DIS_DYNAMIC ? 1 : c->pes); p++) {
         int64_t t, first, stop, step, sw[3] = {0, 0, 0}, life = 0, b;
         if (c->dis == MPRT_DIS_DYNAMIC) {       /* every tree, over every PE */
@@ -331,9 +357,8 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
             int64_t tw[3] = {0, 0, 0}, lives = cp[t] + g;
             for (k = 0; k < 3; k++) tw[c->stage_of[k]] += tc[k] + tc[3 + k];
             tw[c->stage_of[MPRT_STAGE_SC]] += g;
-            if (stalls)
-                mprt__replay_memory_floor(r, r->tree_first[t], t + 1 < r->ntrees ? r->tree_first[t + 1] : (int64_t)r->nv,
-                                          tw, each);
+            if (fl)
+                for (s = 0; s < 3; s++) tw[s] += fl[3 * t + s];
             /* it lives at least its chain, and its work on a stage over the stage's replicas */
             for (s = 0; s < c->nstages; s++) {
                 sw[s] += tw[s];
