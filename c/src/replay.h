@@ -221,7 +221,7 @@ int mprt__replay_memory_build(mprt_replay *r);
 int64_t mprt__replay_stall(mprt_replay *r, int i, int64_t j);
 void mprt__replay_memory_free_run(mprt_replay *r);
 void mprt__replay_memory_free(mprt_replay *r);
-/* mprt_replay_work_bound's part of level 3: each memory's least cycles a line read (0: it
+/* mprt_replay_work_bound's part of level 3 (replay_bound.c): each memory's least cycles a line read (0: it
  * adds none; returns 0 when neither does), with a cache the fewest misses of each key worked
  * out for its shape; and visit j's least stall cycles at those. */
 int mprt__replay_memory_each(mprt_replay *r, int64_t *each);
@@ -229,6 +229,11 @@ int64_t mprt__replay_memory_lines(const mprt_replay *r, int64_t j, const int64_t
 
 
 void mprt__replay_free_run(mprt_replay *r);
+/* The trees a static DIS deals PE p (replay_run.c; first, first + step, ... before stop),
+ * and what a run of the configuration set is refused for, its figures (the work bound,
+ * replay_bound.c, refuses the same). */
+void mprt__replay_deal(const mprt_replay *r, int p, int64_t *first, int64_t *stop, int64_t *step);
+int mprt__replay_check_figures(mprt_replay *r);
 void mprt__replay_free_trace(mprt_replay *r);
 
 /* The machine (replay.c): admit each PE's first trees and run the events. */
