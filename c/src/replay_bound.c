@@ -17,11 +17,13 @@
 static int least_misses(memory *m, int64_t nsets, int64_t ways)
 {
     size_t k;
-    int64_t *seen, *stamp, *count, span = m->span > 0 ? m->span : 1;
+    int32_t *seen, *stamp;
+    int64_t *count, span = m->span > 0 ? m->span : 1;
     if (m->least && m->least_sets == nsets && m->least_ways == ways) return MPRT_OK;
     if (mprt__replay_reserve((void **)&m->least, &m->cap_least, m->nkeys + 1, sizeof *m->least))
         return MPRT_ERR_OUT_OF_MEMORY;
-    if (nsets >= span || span > ((int64_t)1 << 28)) {   /* (huge line numbers: none counted) */
+    /* (line numbers past 2^24, or keys past 2^31: none counted, rather than arrays that large) */
+    if (nsets >= span || span > ((int64_t)1 << 24) || m->nkeys >= (size_t)INT32_MAX) {
         memset(m->least, 0, (m->nkeys + 1) * sizeof *m->least);
     } else {
         seen = malloc((size_t)span * sizeof *seen);
@@ -40,10 +42,10 @@ static int least_misses(memory *m, int64_t nsets, int64_t ways)
             if (b - a > ways) {         /* (no set gets more than ways lines of fewer) */
                 for (; a < b; a++) {
                     int64_t x = m->lines[a], st = x % nsets;
-                    if (seen[x] == (int64_t)k) continue;
-                    seen[x] = (int64_t)k;
-                    if (stamp[st] != (int64_t)k) {
-                        stamp[st] = (int64_t)k;
+                    if (seen[x] == (int32_t)k) continue;
+                    seen[x] = (int32_t)k;
+                    if (stamp[st] != (int32_t)k) {
+                        stamp[st] = (int32_t)k;
                         count[st] = 0;
                     }
                     if (++count[st] > ways) miss++;
