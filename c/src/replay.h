@@ -163,6 +163,8 @@ struct mprt_replay {
                                   * (mprt_replay_work_bound's; made for the load numbered cp_load) */
     size_t cap_tree_cp;
     int64_t cp_load;
+    int64_t *tree_ex;            /* per tree and subtask: the visits' cycles it runs (made with tree_cp) */
+    size_t cap_tree_ex;
     int64_t *tree_cx;            /* ... with the ring's and memories' least times, for a configuration */
     int64_t *tree_fl;            /* ... and the memories' least stalls per tree and stage */
     size_t cap_tree_cx, cap_tree_fl;

@@ -116,7 +116,7 @@ INLINE int64_t ring_latency(const mprt_replay *r, int s, int d, int64_t flits)
  * ring (a primary SC made too); with reads (mprt__replay_memory_each's), each visit the
  * least stalls of its memory's reads, also summed by stage into fl (3 per tree).  The rays'
  * first visits go on a stack with their start (nothing recurses). */
-static int chains(mprt_replay *r, int64_t *out, int64_t *fl, int ring, const int64_t *reads)
+static int chains(mprt_replay *r, int64_t *out, int64_t *ex, int64_t *fl, int ring, const int64_t *reads)
 {
     const int *on = r->cfg.stage_of;
     int64_t t, most = 1, *stack;
@@ -129,20 +129,24 @@ static int chains(mprt_replay *r, int64_t *out, int64_t *fl, int ring, const int
     for (t = 0; t < r->ntrees; t++) {
         int64_t n = 0, cp = 0, x = r->tree_first[t];
         if (fl) fl[3 * t] = fl[3 * t + 1] = fl[3 * t + 2] = 0;
+        if (ex) ex[3 * t] = ex[3 * t + 1] = ex[3 * t + 2] = 0;
         stack[n++] = x;                 /* a primary SC made comes from SC's stage */
         stack[n++] = ring && r->cfg.gen_cycles > 0 ? ring_latency(r, on[2], on[0], r->pflits[x]) : 0;
         while (n) {
             int64_t at = stack[--n], j = stack[--n], nx;
             int sub = 0;                /* a ray begins on OS */
             for (;; j++) {              /* the ray's visits: the next one is j + 1 */
+                int64_t d;
                 if (r->wide) {
-                    at += r->vi[j].dur;
+                    d = r->vi[j].dur;
                     nx = r->vi[j].next;
                 } else {
                     uint64_t w = r->vp[j];
-                    at += (int64_t)((w >> 10) & (((uint64_t)1 << PACK_DUR_BITS) - 1));
+                    d = (int64_t)((w >> 10) & (((uint64_t)1 << PACK_DUR_BITS) - 1));
                     nx = (int64_t)((w >> 34) << 10 | (w & 1023));
                 }
+                at += d;
+                if (ex) ex[3 * t + sub] += d;   /* (by the subtask running it, as the run does) */
                 if (reads) {
                     int64_t m = mprt__replay_memory_lines(r, j, reads);
                     at += m;
@@ -157,7 +161,7 @@ static int chains(mprt_replay *r, int64_t *out, int64_t *fl, int ring, const int
                 int64_t c, a = nx >> 10, b = a + ((nx >> 2) & 255);
                 for (c = a; c < b; c++) {
                     stack[n++] = r->child[c];
-                    stack[n++] = at + (ring ? ring_latency(r, on[2], on[0], r->pflits[r->child[c]]) : 0);
+                    stack[n++] = at + (ring ? ring_latency(r, on[sub], on[0], r->pflits[r->child[c]]) : 0);
                 }
             }
         }
@@ -167,21 +171,33 @@ static int chains(mprt_replay *r, int64_t *out, int64_t *fl, int ring, const int
     return MPRT_OK;
 }
 
-/* The trees' critical paths for the configuration set: the visits' cycles alone (worked out
- * once a load), or with the ring's and the memories' least times (a run's), with *fl the
- * memories' least stalls per tree and stage (NULL: none), kept while what they depend on
- * stays (a search's designs differ in FIFOs, replicas and PEs more often). */
-static const int64_t *critical_paths(mprt_replay *r, const int64_t **fl)
+/* The trees' critical paths for the configuration set: the visits' cycles alone, or with
+ * the ring's and the memories' least times (a run's), with *fl the memories' least stalls
+ * per tree and stage (NULL: none), kept while what they depend on stays (a search's designs
+ * differ in FIFOs, replicas and PEs more often); and *ex each tree's visits' cycles by the
+ * subtask that runs them (a ray's first visit on OS, as in a run).  What depends on the
+ * trace alone is worked out once a load. */
+static const int64_t *critical_paths(mprt_replay *r, const int64_t **fl, const int64_t **ex)
 {
     const mprt_replay_config *c = &r->cfg;
     int64_t each[2], room, sig[CX_SIG];
     int ring = c->ring && r->flits_set, mem = mprt__replay_memory_each(r, each), i = 0;
     size_t nt = (size_t)r->ntrees;
+    *fl = NULL;
+    if (r->cp_load != r->loads || !r->tree_cp) {
+        if (RESERVE(r, tree_cp, cap_tree_cp, nt + 1) || RESERVE(r, tree_ex, cap_tree_ex, 3 * nt + 1) ||
+            chains(r, r->tree_cp, r->tree_ex, NULL, 0, NULL) != MPRT_OK) {
+            fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the trees' critical paths");
+            return NULL;
+        }
+        r->cp_load = r->loads;
+    }
+    *ex = r->tree_ex;
     /* (every packet's least time at most what the run allows it: mprt_replay_run's check) */
     room = INT64_MAX / 8 - r->total - (c->gen_cycles > 0 ? c->gen_cycles * r->ntrees : 0);
     if (ring && c->flit_time > room / ((int64_t)(r->nv + nt) * (RING_MAX + r->max_flits) + 1)) ring = 0;
-    *fl = NULL;
-    if (ring || mem) {
+    if (!ring && !mem) return r->tree_cp;
+    {
         int t;
         sig[i++] = r->loads;
         sig[i++] = c->nstages;
@@ -194,34 +210,26 @@ static const int64_t *critical_paths(mprt_replay *r, const int64_t **fl)
             sig[i++] = c->cache_line[t];
             sig[i++] = c->cache_ways[t];
         }
-        if (!r->cx_ok || memcmp(sig, r->cx_sig, sizeof sig) != 0) {
-            r->cx_ok = 0;
-            if (RESERVE(r, tree_cx, cap_tree_cx, nt + 1) || RESERVE(r, tree_fl, cap_tree_fl, 3 * nt + 1) ||
-                chains(r, r->tree_cx, r->tree_fl, ring, mem ? each : NULL) != MPRT_OK) {
-                fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the trees' critical paths");
-                return NULL;
-            }
-            memcpy(r->cx_sig, sig, sizeof sig);
-            r->cx_ok = 1;
-        }
-        *fl = mem ? r->tree_fl : NULL;
-        return r->tree_cx;
     }
-    if (r->cp_load != r->loads || !r->tree_cp) {
-        if (RESERVE(r, tree_cp, cap_tree_cp, nt + 1) || chains(r, r->tree_cp, NULL, 0, NULL) != MPRT_OK) {
+    if (!r->cx_ok || memcmp(sig, r->cx_sig, sizeof sig) != 0) {
+        r->cx_ok = 0;
+        if (RESERVE(r, tree_cx, cap_tree_cx, nt + 1) || RESERVE(r, tree_fl, cap_tree_fl, 3 * nt + 1) ||
+            chains(r, r->tree_cx, NULL, r->tree_fl, ring, mem ? each : NULL) != MPRT_OK) {
             fail(r, MPRT_ERR_OUT_OF_MEMORY, "out of memory for the trees' critical paths");
             return NULL;
         }
-        r->cp_load = r->loads;
+        memcpy(r->cx_sig, sig, sizeof sig);
+        r->cx_ok = 1;
     }
-    return r->tree_cp;
+    *fl = mem ? r->tree_fl : NULL;
+    return r->tree_cx;
 }
 
 int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
 {
     const mprt_replay_config *c;
     int64_t g, best = 0;
-    const int64_t *cp, *fl;
+    const int64_t *cp, *fl, *ex;
     int p, k, s, rc;
     if (!r || !cycles) return MPRT_ERR_INVALID_ARG;
     r->errmsg[0] = '\0';
@@ -229,7 +237,7 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
     c = &r->cfg;
     g = c->gen_cycles > 0 ? c->gen_cycles : 0;
     if ((rc = mprt__replay_check_figures(r)) != MPRT_OK) return rc;
-    if (!(cp = critical_paths(r, &fl))) return MPRT_ERR_OUT_OF_MEMORY;
+    if (!(cp = critical_paths(r, &fl, &ex))) return MPRT_ERR_OUT_OF_MEMORY;
     /* (every sum below is at most the visits' cycles and the making's, under 2^62, and the
      * stalls, under 2^60 a memory: mprt__replay_memory_each) */
     for (p = 0; p < (c->dis == MPRT_DIS_DYNAMIC ? 1 : c->pes); p++) {
@@ -244,9 +252,8 @@ int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles)
         for (t = first; t < stop; t += step) {
             /* the tree's work by stage: its visits' cycles, the making of its primary, and at
              * level 3 the stalls no cache can spare */
-            const int64_t *tc = r->tree_cost + 9 * t;
             int64_t tw[3] = {0, 0, 0}, lives = cp[t] + g;
-            for (k = 0; k < 3; k++) tw[c->stage_of[k]] += tc[k] + tc[3 + k];
+            for (k = 0; k < 3; k++) tw[c->stage_of[k]] += ex[3 * t + k];
             tw[c->stage_of[MPRT_STAGE_SC]] += g;
             if (fl)
                 for (s = 0; s < 3; s++) tw[s] += fl[3 * t + s];

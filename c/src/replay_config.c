@@ -121,6 +121,7 @@ void mprt_replay_destroy(mprt_replay *r)
     mprt__replay_free_trace(r);
     free(r->tree_cp);
     free(r->tree_cx);
+    free(r->tree_ex);
     free(r->tree_fl);
     free(r);
 }

@@ -277,6 +277,31 @@ static void test_work_bound_window(void)
     mprt_replay_destroy(r);
 }
 
+static void test_work_bound_counts_a_ray_from_os(void)
+{
+    /* a ray begins on OS whatever its first record says (as in the SimPy model): tree 0's
+     * reflection, recorded on IC, runs on OS beside tree 1's IC visit.  Window 2 on model M:
+     * OS 0-1 (tree 0), 1-2 (tree 1), SC 1-2, then IC and the reflection's OS 2-12, SC 12-13.
+     * The bound counts 12 on OS, not 20 on IC */
+    hand h = {0};
+    mprt_replay_config m = model_m();
+    mprt_replay *r;
+    ray(&h, -1, MPRT_RAY_PRIMARY);
+    ray(&h, 0, MPRT_RAY_REFLECT);
+    ray(&h, -1, MPRT_RAY_PRIMARY);
+    visit(&h, 0, MPRT_STAGE_OS, 0, 1);
+    visit(&h, 0, MPRT_STAGE_SC, 1, 1);
+    visit(&h, 1, MPRT_STAGE_IC, 0, 10);
+    visit(&h, 2, MPRT_STAGE_OS, 0, 1);
+    visit(&h, 2, MPRT_STAGE_IC, 0, 10);
+    visit(&h, 2, MPRT_STAGE_SC, 0, 1);
+    m.window = 2;
+    CHECK(mprt_replay_create(&m, &r) == MPRT_OK);
+    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    CHECK(bound(r, &m) == 12 && cycles(&h, &m, NULL, 0) == 13);
+    mprt_replay_destroy(r);
+}
+
 static void test_busy_record(void)
 {
     /* four primaries of 10 cycles on one processor, window 2: trees 0 and 1 at cycle 0
@@ -457,5 +482,6 @@ int main(void)
     RUN(test_busy_record);
     RUN(test_work_bound);
     RUN(test_work_bound_window);
+    RUN(test_work_bound_counts_a_ray_from_os);
     return CHECK_DONE();
 }
