@@ -30,6 +30,15 @@ static mprt_replay_config model_s(void)
     return c;
 }
 
+/* A replay made for c with the hand-built trace loaded. */
+static mprt_replay *loaded(const hand *h, const mprt_replay_config *c)
+{
+    mprt_replay *r = NULL;
+    CHECK(mprt_replay_create(c, &r) == MPRT_OK);
+    CHECK(mprt_replay_load(r, h->rays, h->nr, h->visits, h->nv, h->process, h->receive, h->send) == MPRT_OK);
+    return r;
+}
+
 /* Cycles of a run (-1: the run failed). */
 static int64_t cycles(const hand *h, const mprt_replay_config *c, int64_t *log, size_t cap)
 {
@@ -183,8 +192,7 @@ static void test_sc_makes_the_primaries(void)
     visit(&h, 0, MPRT_STAGE_OS, 0, 12);
     m.gen_cycles = 4;
     CHECK(cycles(&h, &m, NULL, 0) == 16);
-    CHECK(mprt_replay_create(&m, &r) == MPRT_OK);
-    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    r = loaded(&h, &m);
     CHECK(mprt_replay_run(r, NULL, 0) == MPRT_OK);
     CHECK(mprt_replay_get_nodes(r, nodes, 3) == MPRT_OK);
     CHECK(nodes[2].generated == 1 && nodes[0].generated == 0);
@@ -260,8 +268,7 @@ static void test_work_bound_window(void)
         visit(&h, p + 1, MPRT_STAGE_OS, 0, 4);
         visit(&h, p + 1, MPRT_STAGE_IC, 0, 6);
     }
-    CHECK(mprt_replay_create(&m, &r) == MPRT_OK);
-    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    r = loaded(&h, &m);
     m.window = 1;
     CHECK(bound(r, &m) == 128 && cycles(&h, &m, NULL, 0) == 128);
     m.window = 3;                           /* three trees at a time: 43, below OS's 56 */
@@ -296,8 +303,7 @@ static void test_work_bound_counts_a_ray_from_os(void)
     visit(&h, 2, MPRT_STAGE_IC, 0, 10);
     visit(&h, 2, MPRT_STAGE_SC, 0, 1);
     m.window = 2;
-    CHECK(mprt_replay_create(&m, &r) == MPRT_OK);
-    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    r = loaded(&h, &m);
     CHECK(bound(r, &m) == 12 && cycles(&h, &m, NULL, 0) == 13);
     mprt_replay_destroy(r);
 }
@@ -316,8 +322,7 @@ static void test_busy_record(void)
         visit(&h, i, MPRT_STAGE_OS, 0, 10);
     }
     s.window = 2;
-    CHECK(mprt_replay_create(&s, &r) == MPRT_OK);
-    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    r = loaded(&h, &s);
     CHECK(mprt_replay_get_tree_busy(r, busy, 4) == MPRT_ERR_STATE);     /* nothing run */
     CHECK(mprt_replay_run(r, NULL, 0) == MPRT_OK);
     CHECK(mprt_replay_get_tree_busy(r, busy, 4) == MPRT_OK);             /* not recorded: -1 */
@@ -355,8 +360,7 @@ static void test_deadlock(void)
     c.receive_fifo[1] = 1;
     c.send_fifo[1] = 1;
     c.window = 8;
-    CHECK(mprt_replay_create(&c, &r) == MPRT_OK);
-    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    r = loaded(&h, &c);
     CHECK(mprt_replay_run(r, NULL, 0) == MPRT_ERR_STATE);
     CHECK(strstr(mprt_replay_errmsg(r), "deadlock: the machine stopped with 8 of 8 rays") != NULL);
     CHECK(mprt_replay_get_info(r, &info) == MPRT_OK);
@@ -441,8 +445,7 @@ static void test_bad_traces(void)
     /* more PEs than primary rays */
     h = parent_and_children();
     c.pes = 2;
-    CHECK(mprt_replay_create(&c, &r) == MPRT_OK);
-    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    r = loaded(&h, &c);
     CHECK(mprt_replay_run(r, NULL, 0) == MPRT_ERR_INVALID_ARG);
     CHECK(strstr(mprt_replay_errmsg(r), "pes: 2 PEs but the trace has only 1 primary rays") != NULL);
     mprt_replay_destroy(r);
@@ -454,8 +457,7 @@ static void test_runs_repeat_exactly(void)
     mprt_replay_config c = model_m();
     mprt_replay *r;
     mprt_replay_pe a, b;
-    CHECK(mprt_replay_create(&c, &r) == MPRT_OK);
-    CHECK(mprt_replay_load(r, h.rays, h.nr, h.visits, h.nv, h.process, h.receive, h.send) == MPRT_OK);
+    r = loaded(&h, &c);
     CHECK(mprt_replay_run(r, NULL, 0) == MPRT_OK && mprt_replay_get_pes(r, &a, 1) == MPRT_OK);
     CHECK(mprt_replay_run(r, NULL, 0) == MPRT_OK && mprt_replay_get_pes(r, &b, 1) == MPRT_OK);
     CHECK(memcmp(&a, &b, sizeof a) == 0);

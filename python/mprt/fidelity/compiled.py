@@ -180,8 +180,8 @@ class Compiled:
             raise ValueError(str(e)) from None
         self._flits = ()
 
-    def _configure(self, config: SystemConfig, memory: bool = True) -> None:
-        """Hand the C replay the configuration (and, with ``memory``, the memory data it reads)."""
+    def _configure(self, config: SystemConfig) -> None:
+        """Hand the C replay the configuration and the memory data it reads."""
         check_config(config)
         why = unsupported(config)
         if why:
@@ -195,8 +195,7 @@ class Compiled:
             _LIB.replay_set_config(self.h, c_config(config, self.gen_process + self.gen_send))
         except InvalidArgument as e:
             raise ConfigError(f"{where}{e}") from None
-        if memory:
-            self._set_memory(config)
+        self._set_memory(config)
 
     def _set_memory(self, config: SystemConfig) -> None:
         """Hand the C replay the memory data the configuration reads (once per resident and
@@ -251,7 +250,7 @@ class Compiled:
         DIS deals the trees, and the trees' lifetimes over the window, with the reads no
         memory can spare, every line without a cache and the misses no state of a cache
         avoids; the ring and the memories' other stalls only add to a run)."""
-        self._configure(config)         # with the memory data (sent once, as the run's)
+        self._configure(config)
         try:
             return _LIB.replay_work_bound(self.h)
         except InvalidArgument as e:
