@@ -74,3 +74,85 @@ def test_the_explorer_finds_with_a_prefetch_what_one_process_finds(monkeypatch):
     assert len(made) == 1 and len(made[0]) == 1            # the two-worker run's search, its one grid
     for key in ("best", "references", "history", "evaluations"):
         assert got[0][key] == got[1][key], key
+
+
+def test_a_prefetch_called_again_adds_to_its_list():
+    scene = mprt.Scene.spd("balls", 1)
+    a = SceneEvaluator(scene, 24, 24, level=1)
+    a.prefetch([(6, 6, 6)])
+    a.prefetch([(2, 2, 2), (6, 6, 6), (4, 4, 4)])       # joins the list, or starts a thread anew
+    a._prefetch[0].join()                                # the thread ends with its list
+    assert sorted(a._held) == [(2, 2, 2), (4, 4, 4), (6, 6, 6)] and a.traces_made == 3
+    a.stop_prefetch()
+    assert a._prefetch is None and not a._pending
+
+
+def test_the_prefetch_makes_the_evaluator_let_go_of_no_trace():
+    scene = mprt.Scene.spd("balls", 1)
+    visits = SceneEvaluator(scene, 24, 24, level=1).evaluator((4, 4, 4))[0].visits
+    a = SceneEvaluator(scene, 24, 24, level=1, max_visits=2 * visits)     # room for two such traces
+    a.prefetch([(4, 4, 4), (5, 5, 5), (6, 6, 6)])
+    a._prefetch[0].join()
+    assert list(a._held) == [(4, 4, 4)] and a.traces_made == 1            # half the room taken: it stops
+    a.stop_prefetch()
+
+
+def _twice(ev, x):
+    return ev * x
+
+
+def test_the_pool_says_when_a_worker_has_nothing_left_to_take():
+    """``Pool.map_forked``'s ``idle``: told the results so far once a worker is left without a task
+    (at the start where tasks are fewer than workers), the results in order whatever it does."""
+    pool = Pool(mprt.Scene.spd("tetra", 1), 2)
+    seen = []
+    assert pool.map_forked(_twice, 2, [(1,), (2,), (3,)], idle=lambda got: seen.append(got)) == [2, 4, 6]
+    assert [len(g) for g in seen] == [2, 3] and seen[-1] == {0: 2, 1: 4, 2: 6}
+    assert set(seen[0].items()) <= set(seen[-1].items())
+    pool = Pool(mprt.Scene.spd("tetra", 1), 3)
+    seen = []
+    assert pool.map_forked(_twice, 3, [(1,), (2,)], idle=lambda got: seen.append(got)) == [3, 6]
+    assert [len(g) for g in seen] == [0, 1, 2]
+
+
+def test_the_checks_ahead_are_the_search_best_then_each_walk_best():
+    from mprt.explore.evaluate import Result, grid_dims
+    from mprt.explore.explorer import _checks_ahead
+    from mprt.explore.search import Problem
+
+    scene = mprt.Scene.spd("balls", 1)
+    sp = default_space()
+    prob = Problem(sp, lambda pts: [], "time", 800.0)
+    i_sub = sp.names.index("subdivision.n")
+    def point(k):
+        idx = [0] * len(sp.variables)
+        idx[i_sub] = k
+        return sp.point(tuple(idx))
+    tasks = [(sp, "time", 800.0, [], sp.index_of(point(k)), 10, ()) for k in (5, 2, 7)]
+    rows = {2: [(point(1), Result(900.0, 3, 500.0), False), (point(3), Result(800.0, 3, 500.0), False),
+                (point(4), Result(10.0, 3, 500.0), True),          # known by its bound: not a guess
+                (point(6), Result(10.0, 3, 900.0), False)],        # over the budget
+            1: [(point(5), Result(100.0, 3, 500.0), False)]}
+    dims = [grid_dims(scene, point(k).subdivision, sp.shape) for k in (5, 3)]
+    assert _checks_ahead(scene, sp, prob, tasks, rows) == dims           # walk 1's best is the search's
+    assert _checks_ahead(scene, sp, prob, tasks, {}) == dims[:1]
+
+
+def test_the_walks_trace_the_full_resolution_ahead_and_change_no_answer(monkeypatch):
+    """Searching at 32x32 and polishing at 64x64 on two workers, the full-resolution evaluator is
+    told what to trace ahead while the walks leave a core idle; the answer is one worker's."""
+    asked = []
+    orig = SceneEvaluator.prefetch
+
+    def prefetch(self, dims):
+        asked.append((self.width, list(dims)))
+        orig(self, dims)
+    monkeypatch.setattr(SceneEvaluator, "prefetch", prefetch)
+    scene = mprt.Scene.spd("tetra", 1)
+    sp = load_space(SMALL)
+    kw = dict(space=sp, budget=400, level=3, max_evals=16, fraction=2, refine_evals=20)
+    got = [explore(scene, 64, 64, workers=w, **kw) for w in (1, 2)]
+    full = [dims for w, dims in asked if w == 64]
+    assert full and all(full) and all(d in _prefetch_order(scene, sp) for ds in full for d in ds)
+    for key in ("best", "references", "history", "evaluations", "runs"):
+        assert got[0][key] == got[1][key], key

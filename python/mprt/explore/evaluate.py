@@ -359,20 +359,29 @@ class SceneEvaluator:
     def prefetch(self, dims_list) -> None:
         """Make these grids' traces (and their evaluators), in this order, on a thread of this
         process while the caller goes on (one tracing thread; the C tracer and replay let go of
-        the interpreter, so a search replaying on one core traces on the other).  A grid the
-        caller asks for while it is being made is waited for, one not yet begun is made by the
-        caller; a trace is the same whichever thread made it, so nothing a search finds depends
-        on it.  ``stop_prefetch`` ends it: before this process forks (a thread's locks would be
-        copied held)."""
-        self.stop_prefetch()
-        stop = threading.Event()
+        the interpreter, so a search replaying on one core traces on the other).  Called again
+        while that thread runs, the grids join the end of its list.  A grid the caller asks for
+        while it is being made is waited for, one not yet begun is made by the caller; a trace
+        is the same whichever thread made it, so nothing a search finds depends on it.  The
+        prefetch makes no trace once those held reach half of ``max_visits`` (it would make
+        the evaluator let go of traces it holds).  ``stop_prefetch`` ends it: before this
+        process forks (a thread's locks would be copied held)."""
         todo = [tuple(d) for d in dims_list]
+        with self._lock:
+            if self._prefetch is not None and self._prefetch[2]["running"]:
+                self._prefetch[2]["todo"] += todo
+                return
+        self.stop_prefetch()
+        stop, state = threading.Event(), {"todo": todo, "running": True}
 
         def work():
-            for dims in todo:
-                if stop.is_set():
-                    return
+            while True:
                 with self._lock:
+                    full = sum(e.visits for e, _ in self._held.values()) >= self.max_visits // 2
+                    if stop.is_set() or not state["todo"] or full:
+                        state["running"] = False
+                        return
+                    dims = state["todo"].pop(0)
                     if dims in self._held or dims in self._pending:
                         continue
                     self._pending[dims] = done = threading.Event()
@@ -381,13 +390,13 @@ class SceneEvaluator:
                 except Exception:       # (a grid that fails is made again by whoever needs it, failing there)
                     pass
         t = threading.Thread(target=work, name="mprt-prefetch", daemon=True)
-        self._prefetch = (t, stop)
+        self._prefetch = (t, stop, state)
         t.start()
 
     def stop_prefetch(self) -> None:
         """End a prefetch: the trace under way is finished, the rest left (made when asked for)."""
         if self._prefetch is not None:
-            t, stop = self._prefetch
+            t, stop, _ = self._prefetch
             stop.set()
             t.join()
             self._prefetch = None

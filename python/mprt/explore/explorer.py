@@ -54,6 +54,21 @@ def _prefetch_order(scene, space: Space) -> list:
     return [grid_dims(scene, subs[i], space.shape) for i in sorted(range(len(subs)), key=lambda i: (abs(i - m), i))]
 
 
+def _checks_ahead(scene, space: Space, problem, tasks, got) -> list:
+    """The grids the full-resolution checks will likely trace, most likely first, from the polish's
+    walks (``tasks``, ``walk``'s arguments, the search's best's first) and those of them ended
+    (``got``: {index in ``tasks``: rows}): the search's best's, then each ended walk's best.
+    What the walks' idle cores trace ahead; a guess, which changes no result."""
+    def dims(point):
+        return grid_dims(scene, point.subdivision, space.shape)
+    out = [dims(tasks[0][0].point(tasks[0][4]))] if tasks else []
+    for i in sorted(got):
+        run = [(problem.value(r.cycles, r.cost), point) for point, r, bound in got[i] if not bound]
+        if run:
+            out.append(dims(min(run, key=lambda x: x[0])[1]))
+    return list(dict.fromkeys(out))
+
+
 def _polish_bounder(bounder, lv: int):
     """``bounder`` (SceneEvaluator -> level-1 ``bound_points`` or None) for a lattice polish: work
     bounds first (``_work_bounds``), level 1 where they cannot be had."""
@@ -197,6 +212,10 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
     t_search = time.perf_counter()
     cost_of = lambda p: hardware_cost(p.design, unit_costs)  # noqa: E731
     bounder = _bounder(pool, lv, objective, bound)
+    # the full-resolution evaluator, made now: the walks' idle cores trace its checks' grids ahead
+    full = None if fraction == 1 else SceneEvaluator(scene, width, height, level=lv, shape=space.shape,
+                                                     unit_costs=unit_costs, threads=threads, sample=sample,
+                                                     rules=rules, threshold=threshold)
     problem = Problem(space, lambda pts: pool.run(ev, pts, lv), objective,
                       budget if objective != "pareto" else None, progress=progress, cost_of=cost_of,
                       bound_points=bounder(ev))
@@ -219,21 +238,27 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
             # 512x512): given last, the others first, the workers end closer together (the results
             # keep the starts' order, so the answer is the same)
             order = list(range(1, len(tasks))) + [0] if len(tasks) > 2 else list(range(len(tasks)))
-            done = pool.map_forked(_walk_task, ev, [(lv, problem.bound_points is not None, tasks[i]) for i in order])
+            ahead = None if full is None else \
+                lambda got: full.prefetch(_checks_ahead(scene, space, problem, tasks,
+                                                        {order[k]: rows for k, rows in got.items()}))
+            done = pool.map_forked(_walk_task, ev, [(lv, problem.bound_points is not None, tasks[i]) for i in order],
+                                   idle=ahead)
             out = [None] * len(tasks)
             for i, rows in zip(order, done):
                 out[i] = rows
             return out
         polish_bounds = None if problem.bound_points is None else _work_bounds(ev, lv, problem.bound_points)
+        pool.before_fork = lambda: [e.stop_prefetch() for e in (ev, full) if e is not None]
         if starts == "whole" and pool.workers > 1:     # the global phase replays on one core: trace on the other
-            pool.before_fork = ev.stop_prefetch
             ev.prefetch(_prefetch_order(scene, space))
         try:
             res = search(problem, algorithm, polish, max_evals, seed, starts=starts, run_starts=run_starts,
                          run_walks=run_walks, polish_bounds=polish_bounds)
+        except BaseException:
+            pool.before_fork()
+            raise
         finally:
             ev.stop_prefetch()
-            pool.before_fork = None
         best = res.best
     say(f"search  {len(problem.memo)} designs at level {lv}, {low[0]}x{low[1]}"
         f"{_ruled_out(problem)}: best {best.cycles:,.0f} cycles, cost {best.cost:.0f} kGE, "
@@ -245,8 +270,6 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
     per_eval = (time.perf_counter() - t_search) / max(len(problem.memo), 1)   # at the search's resolution
     if fraction > 1:
         per_eval *= width * height / (low[0] * low[1]) * (_sample_fraction(sample, width, height) if sample else 1)
-        full = SceneEvaluator(scene, width, height, level=lv, shape=space.shape, unit_costs=unit_costs,
-                              threads=threads, sample=sample, rules=rules, threshold=threshold)
         if objective == "pareto":
             fp = Problem(space, lambda pts: pool.run(full, pts, lv), "time")
             with phases.step(f"front at {width}x{height}: {len(front)} designs", per_eval * len(front)):
@@ -257,8 +280,11 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
             evaluations += len(fp.memo)
         else:
             scr = Screen(problem, ev, lv, screen) if screen is not None and problem.bound_points is not None else None
-            best, rows, n, ran = _refine(problem, space, full, objective, budget, refine, refine_evals, verify,
-                                         pool, cost_of, phases, per_eval, _polish_bounder(bounder, lv), scr)
+            try:
+                best, rows, n, ran = _refine(problem, space, full, objective, budget, refine, refine_evals, verify,
+                                             pool, cost_of, phases, per_eval, _polish_bounder(bounder, lv), scr)
+            finally:
+                full.stop_prefetch()
             history += [dict(r, resolution=[width, height], level=lv) for r in rows]
             evaluations += n
             runs.update(full=ran, full_bounded=n - ran)
@@ -269,6 +295,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
         ev = full
     history[:0] = [dict(r, phase="search", resolution=list(low), level=lv) for r in problem.history()]
     runs.update(search=problem.runs, search_bounded=len(problem.memo) - problem.runs)
+    pool.before_fork = None
     if best.cycles >= DEADLOCK_CYCLES:
         raise NoLiveDesignError(f"explore: every design evaluated at level {lv} deadlocks "
                                 f"({evaluations} designs): give the FIFOs more room in the space")

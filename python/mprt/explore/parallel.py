@@ -20,7 +20,7 @@ from __future__ import annotations
 
 import multiprocessing
 import os
-from concurrent.futures import ProcessPoolExecutor
+from concurrent.futures import ProcessPoolExecutor, as_completed
 
 _SHARED: dict = {}          # set before the fork: the scene every worker evaluates
 _HELD: dict = {}            # in a worker: SceneEvaluator by its settings
@@ -129,12 +129,17 @@ class Pool:
         ex = self._executor()
         return [f.result() for f in [ex.submit(_call, fn, ev.settings(), a) for a in args_list]]
 
-    def map_forked(self, fn, ev, args_list) -> list:
+    def map_forked(self, fn, ev, args_list, idle=None) -> list:
         """``map``, but on workers forked now from this process that evaluate on ``ev`` itself
         as it stands (its traces made, their costs and memory data computed: copies, not an
         evaluator of their own to build again from its settings); for long tasks on an
         evaluator that has done most of its work (the polish's walks on the search's traces).
-        The workers are shut down after, so the next batch forks its own."""
+        The workers are shut down after, so the next batch forks its own.  ``idle`` (called
+        here, in this process's thread, after the fork): told the results so far ({index:
+        result}) whenever a worker has no task left to take, i.e. once at the start where there
+        are fewer tasks than workers, then at each task's end while fewer are left than
+        workers: this process may use that core meanwhile (``SceneEvaluator.prefetch``); it
+        must not fork, and it changes no result."""
         args_list = list(args_list)
         if self.workers <= 1 or len(args_list) <= 1:
             return [fn(ev, *a) for a in args_list]
@@ -142,7 +147,16 @@ class Pool:
         _SHARED["ev"] = ev
         try:
             ex = self._executor()
-            return [f.result() for f in [ex.submit(_call_forked, fn, a) for a in args_list]]
+            futs = [ex.submit(_call_forked, fn, a) for a in args_list]
+            if idle is not None:
+                where, got = {f: i for i, f in enumerate(futs)}, {}
+                if len(futs) < self.workers:
+                    idle({})
+                for f in as_completed(futs):
+                    got[where[f]] = f.result()
+                    if len(futs) - len(got) < self.workers:
+                        idle(dict(got))
+            return [f.result() for f in futs]
         finally:
             self.close()
 
