@@ -64,9 +64,9 @@ def test_the_explorer_finds_with_a_prefetch_what_one_process_finds(monkeypatch):
     made = []
     orig = SceneEvaluator.prefetch
 
-    def prefetch(self, dims):
+    def prefetch(self, dims, runs=(), level=None):
         made.append(list(dims))
-        orig(self, dims)
+        orig(self, dims, runs, level)
     monkeypatch.setattr(SceneEvaluator, "prefetch", prefetch)
     scene = mprt.Scene.spd("tetra", 1)
     sp = load_space(SMALL)
@@ -115,27 +115,51 @@ def test_the_pool_says_when_a_worker_has_nothing_left_to_take():
     assert [len(g) for g in seen] == [0, 1, 2]
 
 
-def test_the_checks_ahead_are_the_search_best_then_each_walk_best():
+def test_the_checks_ahead_are_the_search_best_then_each_walk_best_then_the_best_known():
     from mprt.explore.evaluate import Result, grid_dims
     from mprt.explore.explorer import _checks_ahead
     from mprt.explore.search import Problem
 
     scene = mprt.Scene.spd("balls", 1)
     sp = default_space()
-    prob = Problem(sp, lambda pts: [], "time", 800.0)
     i_sub = sp.names.index("subdivision.n")
-    def point(k):
+
+    def point(k, fifo=0):
         idx = [0] * len(sp.variables)
-        idx[i_sub] = k
+        idx[i_sub], idx[sp.names.index("fifo")] = k, fifo
         return sp.point(tuple(idx))
-    tasks = [(sp, "time", 800.0, [], sp.index_of(point(k)), 10, ()) for k in (5, 2, 7)]
+    prob = Problem(sp, lambda pts: [], "time", 800.0)
+    prob.add(point(8), Result(700.0, 3, 500.0))
+    prob.add(point(9), Result(50.0, 3, 500.0), True)                 # a bound: no guess
+    prob.add(point(10), Result(950.0, 3, 400.0))
+    tasks = [(sp, "time", 800.0, [], sp.index_of(point(5)), 10, ()) for _ in range(3)]
     rows = {2: [(point(1), Result(900.0, 3, 500.0), False), (point(3), Result(800.0, 3, 500.0), False),
-                (point(4), Result(10.0, 3, 500.0), True),          # known by its bound: not a guess
+                (point(4), Result(10.0, 3, 500.0), True),          # known by its bound
                 (point(6), Result(10.0, 3, 900.0), False)],        # over the budget
-            1: [(point(5), Result(100.0, 3, 500.0), False)]}
-    dims = [grid_dims(scene, point(k).subdivision, sp.shape) for k in (5, 3)]
-    assert _checks_ahead(scene, sp, prob, tasks, rows) == dims           # walk 1's best is the search's
-    assert _checks_ahead(scene, sp, prob, tasks, {}) == dims[:1]
+            1: [(point(5), Result(100.0, 3, 500.0), False), (point(3, 1), Result(600.0, 3, 500.0), False)]}
+    dims, points = _checks_ahead(scene, sp, prob, tasks, 3, rows)
+    want = [point(5), point(3), point(3, 1), point(8)]         # start; walks 1, 2; the best 3 known
+    assert [p.key() for p in points] == [p.key() for p in want]
+    assert dims == list(dict.fromkeys(grid_dims(scene, p.subdivision, sp.shape) for p in want))
+    dims, points = _checks_ahead(scene, sp, prob, tasks, 1, {})
+    assert [p.key() for p in points] == [point(5).key(), point(8).key()]
+
+
+def test_a_prefetched_run_is_the_run_made_on_demand():
+    from mprt.explore.space import Point
+    scene = mprt.Scene.spd("balls", 1)
+    sp = default_space()
+    pts = [Point((6,), sp.point(tuple([0] * len(sp.variables))).design),
+           Point((4,), sp.point(tuple(min(1, v.size - 1) for v in sp.variables)).design)]
+    a = SceneEvaluator(scene, 24, 24, level=3)
+    a.prefetch([], runs=pts)
+    a._prefetch[0].join()
+    assert len(a._ran) == 2 and a.traces_made == 2
+    got = [a.run(p) for p in pts]
+    assert not a._ran                                           # each kept result handed out once
+    b = SceneEvaluator(scene, 24, 24, level=3)
+    assert got == [b.run(p) for p in pts] and got[0] is not a.run(pts[0])
+    a.stop_prefetch()
 
 
 def test_the_walks_trace_the_full_resolution_ahead_and_change_no_answer(monkeypatch):
@@ -144,15 +168,18 @@ def test_the_walks_trace_the_full_resolution_ahead_and_change_no_answer(monkeypa
     asked = []
     orig = SceneEvaluator.prefetch
 
-    def prefetch(self, dims):
-        asked.append((self.width, list(dims)))
-        orig(self, dims)
+    def prefetch(self, dims, runs=(), level=None):
+        asked.append((self.width, list(dims), list(runs)))
+        orig(self, dims, runs, level)
     monkeypatch.setattr(SceneEvaluator, "prefetch", prefetch)
     scene = mprt.Scene.spd("tetra", 1)
     sp = load_space(SMALL)
     kw = dict(space=sp, budget=400, level=3, max_evals=16, fraction=2, refine_evals=20)
     got = [explore(scene, 64, 64, workers=w, **kw) for w in (1, 2)]
-    full = [dims for w, dims in asked if w == 64]
-    assert full and all(full) and all(d in _prefetch_order(scene, sp) for ds in full for d in ds)
+    full = [(dims, runs) for w, dims, runs in asked if w == 64]
+    assert full and all(dims and runs for dims, runs in full)
+    assert all(d in _prefetch_order(scene, sp) for dims, _ in full for d in dims)
+    checks = {(tuple(r["subdivision"]), str(r["design"])) for r in got[1]["history"] if r["phase"] == "full-check"}
+    assert any((p.subdivision, str(p.design.to_dict())) in checks for _, runs in full for p in runs)
     for key in ("best", "references", "history", "evaluations", "runs"):
         assert got[0][key] == got[1][key], key

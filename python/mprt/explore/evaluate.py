@@ -300,7 +300,8 @@ class SceneEvaluator:
         self.traces_made = 0
         self._lock = threading.Lock()     # _held and _pending, shared with a prefetch thread
         self._pending: dict = {}          # dims -> threading.Event: being made, set when done
-        self._prefetch = None             # (thread, stop Event) while prefetching
+        self._prefetch = None             # (thread, stop Event, its state) while prefetching
+        self._ran: dict = {}              # (point key, level) -> Result: the prefetch's runs
 
     def settings(self) -> dict:
         """What makes this evaluator's results (the scene apart): a worker process builds its own
@@ -356,17 +357,22 @@ class SceneEvaluator:
             self.traces_made += 1
             self._held[dims] = (ev, scale)
 
-    def prefetch(self, dims_list) -> None:
+    def prefetch(self, dims_list, runs=(), level: int | None = None) -> None:
         """Make these grids' traces (and their evaluators), in this order, on a thread of this
         process while the caller goes on (one tracing thread; the C tracer and replay let go of
-        the interpreter, so a search replaying on one core traces on the other).  Called again
-        while that thread runs, the grids join the end of its list.  A grid the caller asks for
-        while it is being made is waited for, one not yet begun is made by the caller; a trace
-        is the same whichever thread made it, so nothing a search finds depends on it.  The
-        prefetch makes no trace once those held reach half of ``max_visits`` (it would make
-        the evaluator let go of traces it holds).  ``stop_prefetch`` ends it: before this
-        process forks (a thread's locks would be copied held)."""
-        todo = [tuple(d) for d in dims_list]
+        the interpreter, so a search replaying on one core traces on the other); then run
+        ``runs`` (points, at ``level``: default this evaluator's), each result kept for ``run``
+        to return.  Called again while that thread runs, the work joins the end of its list.
+        A grid the caller asks for while it is being made is waited for, one not yet begun is
+        made by the caller; a trace and a run are the same whichever thread made them, so
+        nothing a search finds depends on it.  The prefetch makes no trace once those held
+        reach half of ``max_visits`` (it would make the evaluator let go of traces it holds).
+        ``stop_prefetch`` ends it: before this process forks (a thread's locks would be copied
+        held), and before the caller runs or bounds points on this evaluator itself (a trace's
+        evaluator runs one design at a time)."""
+        level = self.level if level is None else level
+        todo = [("trace", tuple(d)) for d in dims_list] + \
+               [("run", p, level) for p in runs if isinstance(p.design, Design)]
         with self._lock:
             if self._prefetch is not None and self._prefetch[2]["running"]:
                 self._prefetch[2]["todo"] += todo
@@ -378,20 +384,36 @@ class SceneEvaluator:
             while True:
                 with self._lock:
                     full = sum(e.visits for e, _ in self._held.values()) >= self.max_visits // 2
-                    if stop.is_set() or not state["todo"] or full:
+                    if stop.is_set() or not state["todo"]:
                         state["running"] = False
                         return
-                    dims = state["todo"].pop(0)
-                    if dims in self._held or dims in self._pending:
+                    item = state["todo"].pop(0)
+                    dims = item[1] if item[0] == "trace" else grid_dims(self.scene, item[1].subdivision, self.shape)
+                    if dims in self._pending or (dims not in self._held and full):
                         continue
-                    self._pending[dims] = done = threading.Event()
+                    done = None
+                    if dims not in self._held:
+                        self._pending[dims] = done = threading.Event()
                 try:
-                    self._make(dims, 1, done)
-                except Exception:       # (a grid that fails is made again by whoever needs it, failing there)
+                    if done is not None:
+                        self._make(dims, 1, done)
+                    if item[0] == "run":
+                        self._keep_run(item[1], item[2])
+                except Exception:       # (what fails is made again by whoever needs it, failing there)
                     pass
         t = threading.Thread(target=work, name="mprt-prefetch", daemon=True)
         self._prefetch = (t, stop, state)
         t.start()
+
+    def _keep_run(self, point, level: int) -> None:
+        key = (point.key(), level)
+        with self._lock:
+            if key in self._ran or grid_dims(self.scene, point.subdivision, self.shape) not in self._held:
+                return
+            ev, scale = self._held[grid_dims(self.scene, point.subdivision, self.shape)]
+        r = ev.run(point.design, level, scale)
+        with self._lock:
+            self._ran[key] = r
 
     def stop_prefetch(self) -> None:
         """End a prefetch: the trace under way is finished, the rest left (made when asked for)."""
@@ -405,8 +427,13 @@ class SceneEvaluator:
         return self.evaluator(dims)[0].trace
 
     def run(self, point, level: int | None = None) -> Result:
-        ev, scale = self.evaluator(grid_dims(self.scene, point.subdivision, self.shape))
         level = self.level if level is None else level
+        if self._ran:
+            with self._lock:
+                r = self._ran.pop((point.key(), level), None)   # (each run's own object, as made here)
+            if r is not None:
+                return r
+        ev, scale = self.evaluator(grid_dims(self.scene, point.subdivision, self.shape))
         if not isinstance(point.design, Design):          # a machine configuration
             return ev.run_config(point.design, level, scale)
         return ev.run(point.design, level, scale)

@@ -54,19 +54,25 @@ def _prefetch_order(scene, space: Space) -> list:
     return [grid_dims(scene, subs[i], space.shape) for i in sorted(range(len(subs)), key=lambda i: (abs(i - m), i))]
 
 
-def _checks_ahead(scene, space: Space, problem, tasks, got) -> list:
-    """The grids the full-resolution checks will likely trace, most likely first, from the polish's
+def _checks_ahead(scene, space: Space, problem, tasks, verify: int, got) -> tuple:
+    """The full-resolution checks (``refine``) as far as the polish's walks tell them, from the
     walks (``tasks``, ``walk``'s arguments, the search's best's first) and those of them ended
-    (``got``: {index in ``tasks``: rows}): the search's best's, then each ended walk's best.
-    What the walks' idle cores trace ahead; a guess, which changes no result."""
+    (``got``: {index in ``tasks``: rows}): (grids, designs), most likely first.  The designs:
+    the search's best, each ended walk's best, then the ``verify`` best of the search and those
+    walks; the grids: theirs.  What the walks' idle cores trace and run ahead; a guess, which
+    changes no result."""
     def dims(point):
         return grid_dims(scene, point.subdivision, space.shape)
-    out = [dims(tasks[0][0].point(tasks[0][4]))] if tasks else []
+
+    def best(rows):
+        return sorted(rows, key=lambda x: (problem.value(x[1].cycles, x[1].cost), x[1].cost))
+    points = [tasks[0][0].point(tasks[0][4])] if tasks else []
     for i in sorted(got):
-        run = [(problem.value(r.cycles, r.cost), point) for point, r, bound in got[i] if not bound]
-        if run:
-            out.append(dims(min(run, key=lambda x: x[0])[1]))
-    return list(dict.fromkeys(out))
+        points += [point for point, _ in best([(point, r) for point, r, bound in got[i] if not bound])[:1]]
+    known = [(e.point, e.result) for e in problem.memo.values() if not e.bound]
+    points += [p for p, _ in best(known + [(point, r) for i in got for point, r, bound in got[i] if not bound])[:verify]]
+    points = list({p.key(): p for p in points}.values())          # each once, where it came first
+    return list(dict.fromkeys(dims(p) for p in points)), points
 
 
 def _polish_bounder(bounder, lv: int):
@@ -238,11 +244,14 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
             # 512x512): given last, the others first, the workers end closer together (the results
             # keep the starts' order, so the answer is the same)
             order = list(range(1, len(tasks))) + [0] if len(tasks) > 2 else list(range(len(tasks)))
-            ahead = None if full is None else \
-                lambda got: full.prefetch(_checks_ahead(scene, space, problem, tasks,
-                                                        {order[k]: rows for k, rows in got.items()}))
+            def ahead(got):
+                dims, points = _checks_ahead(scene, space, problem, tasks, verify,
+                                             {order[k]: rows for k, rows in got.items()})
+                # then the references, at the grid of the search's best (the answer's, most often)
+                full.prefetch(dims, points + [Point(points[0].subdivision, make())
+                                              for make in REFERENCE_DESIGNS.values()])
             done = pool.map_forked(_walk_task, ev, [(lv, problem.bound_points is not None, tasks[i]) for i in order],
-                                   idle=ahead)
+                                   idle=None if full is None else ahead)
             out = [None] * len(tasks)
             for i, rows in zip(order, done):
                 out[i] = rows
@@ -280,6 +289,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
             evaluations += len(fp.memo)
         else:
             scr = Screen(problem, ev, lv, screen) if screen is not None and problem.bound_points is not None else None
+            full.stop_prefetch()          # (the refinement runs on it: one design at a time)
             try:
                 best, rows, n, ran = _refine(problem, space, full, objective, budget, refine, refine_evals, verify,
                                              pool, cost_of, phases, per_eval, _polish_bounder(bounder, lv), scr)
