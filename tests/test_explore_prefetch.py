@@ -133,14 +133,17 @@ def test_the_checks_ahead_are_the_search_best_then_each_walk_best_then_the_best_
     prob.add(point(9), Result(50.0, 3, 500.0), True)                 # a bound: no guess
     prob.add(point(10), Result(950.0, 3, 400.0))
     tasks = [(sp, "time", 800.0, [], sp.index_of(point(5)), 10, ()) for _ in range(3)]
-    rows = {2: [(point(1), Result(900.0, 3, 500.0), False), (point(3), Result(800.0, 3, 500.0), False),
+    rows = {2: [(point(1), Result(900.0, 3, 500.0), False), (point(3), Result(300.0, 3, 500.0), False),
                 (point(4), Result(10.0, 3, 500.0), True),          # known by its bound
                 (point(6), Result(10.0, 3, 900.0), False)],        # over the budget
-            1: [(point(5), Result(100.0, 3, 500.0), False), (point(3, 1), Result(600.0, 3, 500.0), False)]}
-    dims, points = _checks_ahead(scene, sp, prob, tasks, 3, rows)
-    want = [point(5), point(3), point(3, 1), point(8)]         # start; walks 1, 2; the best 3 known
+            1: [(point(5), Result(100.0, 3, 500.0), False), (point(3, 1), Result(600.0, 3, 500.0), False)],
+            0: [(point(7), Result(450.0, 3, 500.0), False)]}     # over CHECK_BEHIND x the best: not checked
+    dims, points = _checks_ahead(scene, sp, prob, tasks, 2, rows)
+    want = [point(5), point(3)]             # the start; walk 2's best (walk 1's is the start); the best 2
     assert [p.key() for p in points] == [p.key() for p in want]
     assert dims == list(dict.fromkeys(grid_dims(scene, p.subdivision, sp.shape) for p in want))
+    dims, points = _checks_ahead(scene, sp, prob, tasks, 3, rows)
+    assert [p.key() for p in points] == [p.key() for p in (point(5), point(3), point(7))]
     dims, points = _checks_ahead(scene, sp, prob, tasks, 1, {})
     assert [p.key() for p in points] == [point(5).key(), point(8).key()]
 

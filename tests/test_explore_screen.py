@@ -177,3 +177,24 @@ def test_refine_polishes_a_second_subdivision_only_within_the_screen_margin():
     within the screen's margin of the best: far behind, its walk cannot win and is not made."""
     assert _refined(1.0 / (1 - SCREEN_MARGIN) * 1.5) == {8}
     assert _refined(1.0 / (1 - SCREEN_MARGIN) * 0.9) == {8, 16}
+
+
+def test_each_mapping_best_is_checked_unless_far_behind_the_best():
+    """``refine.first_checks``: the search's ``verify`` best, then each stage mapping's best, but
+    not one whose objective is more than CHECK_BEHIND times the best's (gears' 4x4x1 hedge)."""
+    from mprt.explore.evaluate import Result
+    from mprt.explore.refine import CHECK_BEHIND, first_checks
+    from mprt.explore.space import parse_space
+
+    sp = parse_space('mapping = { choices = ["OS|IC|SC", "OS+SC|IC", "OS|IC+SC", "OS+IC+SC"] }\n'
+                     'pes = { min = 1, max = 2 }\nfifo = 16\n[subdivision]\nn = 8\nshape = "cube"\n'
+                     '[replication]\nOS = 1\nIC = 1\nSC = 1\n[units.OS]\nint = 1\nfp = 1\n[units.IC]\nint = 1\n'
+                     'fp = 1\n[units.SC]\ngeneral = 1\n[cache]\nIC = 0\nSC = 0\n[resident]\nIC = 0\nSC = 0\n')
+    behind = {"OS+IC+SC": 1.0, "OS|IC+SC": 1.5, "OS+SC|IC": CHECK_BEHIND * 0.99, "OS|IC|SC": CHECK_BEHIND * 1.01}
+
+    def run(pts):
+        return [Result(cycles=1000.0 * behind[p.design.mapping] / p.design.pes, level=3, cost=100.0) for p in pts]
+    low = Problem(sp, run, "time", None)
+    exhaustive(low)
+    got = [(e.point.design.mapping, e.point.design.pes) for e in first_checks(low, 2)]
+    assert got == [("OS+IC+SC", 2), ("OS|IC+SC", 2), ("OS+SC|IC", 2)]     # the two best; a mapping within

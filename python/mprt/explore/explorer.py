@@ -1,6 +1,7 @@
 """``explore()``: search a design space for one scene and report the best machine."""
 from __future__ import annotations
 
+import math
 import time
 
 import numpy as np
@@ -10,7 +11,7 @@ from .evaluate import DEADLOCK_CYCLES, SceneEvaluator, grid_dims, machine_config
 from .hwcost import UnitCosts, cost_breakdown, hardware_cost
 from .parallel import Pool
 from .prepass import low_resolution
-from .refine import SCREEN_MARGIN, Screen, refine as _refine
+from .refine import CHECK_BEHIND, SCREEN_MARGIN, Screen, refine as _refine
 from .search import Problem, cost_range, global_start, pareto, search, walk
 from .space import REFERENCE_DESIGNS, Point, Space, default_space
 from ..atomic import replacing
@@ -58,19 +59,22 @@ def _checks_ahead(scene, space: Space, problem, tasks, verify: int, got) -> tupl
     """The full-resolution checks (``refine``) as far as the polish's walks tell them, from the
     walks (``tasks``, ``walk``'s arguments, the search's best's first) and those of them ended
     (``got``: {index in ``tasks``: rows}): (grids, designs), most likely first.  The designs:
-    the search's best, each ended walk's best, then the ``verify`` best of the search and those
-    walks; the grids: theirs.  What the walks' idle cores trace and run ahead; a guess, which
+    the search's best, each ended walk's best (within ``refine.CHECK_BEHIND`` of the best), then
+    the ``verify`` best of the search and those walks; the grids: theirs.  What the walks' idle cores trace and run ahead; a guess, which
     changes no result."""
     def dims(point):
         return grid_dims(scene, point.subdivision, space.shape)
 
     def best(rows):
         return sorted(rows, key=lambda x: (problem.value(x[1].cycles, x[1].cost), x[1].cost))
+    known = best([(e.point, e.result) for e in problem.memo.values() if not e.bound] +
+                 [(point, r) for i in got for point, r, bound in got[i] if not bound])
+    worst = problem.value(known[0][1].cycles, known[0][1].cost) + math.log(CHECK_BEHIND) if known else math.inf
     points = [tasks[0][0].point(tasks[0][4])] if tasks else []
     for i in sorted(got):
-        points += [point for point, _ in best([(point, r) for point, r, bound in got[i] if not bound])[:1]]
-    known = [(e.point, e.result) for e in problem.memo.values() if not e.bound]
-    points += [p for p, _ in best(known + [(point, r) for i in got for point, r, bound in got[i] if not bound])[:verify]]
+        points += [point for point, r in best([(point, r) for point, r, bound in got[i] if not bound])[:1]
+                   if problem.value(r.cycles, r.cost) <= worst]
+    points += [p for p, _ in known[:verify]]
     points = list({p.key(): p for p in points}.values())          # each once, where it came first
     return list(dict.fromkeys(dims(p) for p in points)), points
 

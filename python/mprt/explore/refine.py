@@ -32,6 +32,30 @@ from .search import Problem, compass
 # low-resolution replay against the full-resolution one among polish neighbours, with room
 SCREEN_MARGIN = 0.15
 
+# A stage mapping's best is checked at full resolution (the hedge against the low resolution's
+# ranking) unless its objective at the search's resolution is more than this many times the
+# search's best: measured on the six SPD scenes at 512x512, a check's full-resolution cycles
+# relative to the best's were 0.56 to 1.07 times its relative cycles at 64x64 (the coarse
+# grids gain most), so one four times behind would have to gain twice that; tracing such a
+# check's grid at full resolution (gears' 4x4x1: 3.8 s) was the only thing it cost, its level-1
+# bound there ruling it out each time
+CHECK_BEHIND = 4.0
+
+
+def first_checks(problem: Problem, verify: int) -> list:
+    """The designs the full-resolution phase checks first: the search's ``verify`` best, then
+    each stage mapping's best (the hedge; within CHECK_BEHIND of the best), best first."""
+    ranked = problem.ranked()
+    out = [e for _, e in zip(range(max(verify, 1)), ranked)]
+    by_map: dict = {}
+    for e in problem.memo.values():
+        by_map.setdefault(e.point.design.mapping, []).append(e)
+    worst = problem.f(out[0]) + math.log(CHECK_BEHIND) if out else math.inf
+    for e in sorted((problem.best_of(es) for es in by_map.values()), key=problem.rank):
+        if e.index not in [c.index for c in out] and problem.f(e) <= worst:
+            out.append(e)
+    return out
+
 
 class Screen:
     """Low-resolution cycles at the search's level from the search's memo, and the errors of
@@ -107,8 +131,8 @@ class Screen:
 def refine(problem, space, full, objective, budget, refine, refine_evals, verify, pool, cost_of, phases=None,
            per_eval=None, bounder=lambda sev: None, screen: Screen | None = None):
     """The full-resolution phase, at the search's level: the ``verify`` best designs of the
-    low-resolution search and its best of each stage mapping evaluated at full resolution in
-    one batch; then, from the best design there of each of the ``refine`` best subdivisions,
+    low-resolution search and its best of each stage mapping (``first_checks``: within
+    CHECK_BEHIND of the best) evaluated at full resolution in one batch; then, from the best design there of each of the ``refine`` best subdivisions,
     a lattice polish (``refine_evals`` designs each; a subdivision after the first only if its best
     is within ``SCREEN_MARGIN`` of the best, 1 / (1 - margin) in cycles), its neighbours screened by ``screen``
     (None: by their level-1 bounds alone).  Returns the best, the history rows (phases
@@ -117,14 +141,7 @@ def refine(problem, space, full, objective, budget, refine, refine_evals, verify
     from .explorer import _Silent
 
     lv = full.level
-    ranked = problem.ranked()
-    checks = [e for _, e in zip(range(max(verify, 1)), ranked)]
-    by_map: dict = {}
-    for e in problem.memo.values():
-        by_map.setdefault(e.point.design.mapping, []).append(e)
-    for e in sorted((problem.best_of(es) for es in by_map.values()), key=problem.rank):
-        if e.index not in [c.index for c in checks]:
-            checks.append(e)
+    checks = first_checks(problem, verify)
     phases = phases or _Silent()
     vp = Problem(space, lambda pts: pool.run(full, pts, lv), objective, budget, cost_of=cost_of,
                  bound_points=bounder(full))
