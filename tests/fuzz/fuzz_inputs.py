@@ -19,6 +19,7 @@ OverflowError, RecursionError, MemoryError..., or engines that disagree) is a fi
 ``one_input`` in the normal test suite (no Atheris needed)."""
 from __future__ import annotations
 
+import atexit
 import os
 import sys
 import tempfile
@@ -35,6 +36,13 @@ def _expected():
     return (ConfigError, SpaceError, MprtError)
 
 
+def _remove(path: str) -> None:
+    try:
+        os.remove(path)
+    except OSError:
+        pass
+
+
 def _file(text: bytes) -> str:
     """The input as a file (load_config and load_spec read paths); one per process."""
     path = _STATE.get("path")
@@ -42,6 +50,7 @@ def _file(text: bytes) -> str:
         fd, path = tempfile.mkstemp(prefix="mprt-fuzz-", suffix=".toml")
         os.close(fd)
         _STATE["path"] = path
+        atexit.register(_remove, path)      # (the fuzzer's processes leave nothing in the temporary folder)
     with open(path, "wb") as f:
         f.write(text)
     return path

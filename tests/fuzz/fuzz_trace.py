@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import io
 import json
+import atexit
 import os
 import tempfile
 import zipfile
@@ -213,12 +214,20 @@ def make_file(data: bytes) -> bytes:
     return bytes(f)
 
 
+def _remove(path: str) -> None:
+    try:
+        os.remove(path)
+    except OSError:
+        pass
+
+
 def _path() -> str:
     path = _STATE.get("path")
     if path is None:
         fd, path = tempfile.mkstemp(prefix="mprt-fuzz-", suffix=".npz")
         os.close(fd)
         _STATE["path"] = path
+        atexit.register(_remove, path)      # (the fuzzer's processes leave nothing in the temporary folder)
     return path
 
 
