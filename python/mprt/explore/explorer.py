@@ -120,8 +120,10 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
     ``workers`` (default: one per core; 1: none) evaluate what does not depend
     on each other in parallel (``parallel.Pool``): the ladder's designs, a
     polish neighbourhood, the full-resolution checks, the references and,
-    with ``starts="mapping"``, the global phase's starts.  The answer does not
-    depend on their number.
+    with ``starts="mapping"``, the global phase's starts.  While the polish's
+    walks leave a worker idle, this process traces and runs the likely
+    full-resolution checks and the references ahead on that core
+    (``SceneEvaluator.prefetch``).  The answer does not depend on their number.
 
     Every trace is made under ``rules`` with the cutoff ``threshold`` (None: the library's
     default), as ``mprt render``'s.  ``grid`` (N, or (nx, ny, nz)) fixes the subdivision: N
