@@ -186,3 +186,17 @@ def test_the_walks_trace_the_full_resolution_ahead_and_change_no_answer(monkeypa
     assert any((p.subdivision, str(p.design.to_dict())) in checks for _, runs in full for p in runs)
     for key in ("best", "references", "history", "evaluations", "runs"):
         assert got[0][key] == got[1][key], key
+
+
+def test_a_run_the_simpy_model_would_make_is_not_made_ahead(monkeypatch):
+    import mprt.fidelity.levels as levels
+    from mprt.explore.space import Point
+    scene = mprt.Scene.spd("balls", 1)
+    sp = default_space()
+    p = Point((4,), sp.point(tuple([0] * len(sp.variables))).design)
+    monkeypatch.setattr(levels, "unsupported", lambda cfg: "made up")     # every design to SimPy
+    a = SceneEvaluator(scene, 24, 24, level=3)
+    a.prefetch([(4, 4, 4)], runs=[p])
+    a._prefetch[0].join()
+    assert (4, 4, 4) in a._held and not a._ran                 # the grid traced, the run left
+    a.stop_prefetch()

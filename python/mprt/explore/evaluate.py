@@ -369,10 +369,13 @@ class SceneEvaluator:
         reach half of ``max_visits`` (it would make the evaluator let go of traces it holds).
         ``stop_prefetch`` ends it: before this process forks (a thread's locks would be copied
         held), and before the caller runs or bounds points on this evaluator itself (a trace's
-        evaluator runs one design at a time)."""
+        evaluator runs one design at a time).  A run the SimPy model would make is left to the
+        caller (it holds the interpreter, and the pool runs it on a worker)."""
+        from .parallel import uses_simpy
+
         level = self.level if level is None else level
         todo = [("trace", tuple(d)) for d in dims_list] + \
-               [("run", p, level) for p in runs if isinstance(p.design, Design)]
+               [("run", p, level) for p in runs if isinstance(p.design, Design) and not uses_simpy([p], level)]
         with self._lock:
             if self._prefetch is not None and self._prefetch[2]["running"]:
                 self._prefetch[2]["todo"] += todo
