@@ -96,10 +96,23 @@ def test_the_evaluator_prices_as_it_loads_and_keeps_arrays_for_the_rest():
 
 
 def test_another_cost_model_keeps_its_arrays():
+    """A cost model of another arithmetic (a subclass) is priced by its own arrays; the counted
+    model (the same constants and arithmetic) in C, to the same run, and without its counts."""
+    class Other(CostModel):
+        pass
     trace = mprt.load_trace(GOLDEN[0])
     cfg = builtin("M")
-    assert priced_for(trace, cfg, CostModel.default().counted(trace)) is None
-    assert priced_for(trace, cfg, CostModel.default()) is not None
+    base = CostModel.default()
+    assert priced_for(trace, cfg, Other(base.latency, base.visit_overhead, base.scale, base.info)) is None
+    assert priced_for(trace, cfg, base) is not None
+    counted = base.counted(trace)
+    priced = priced_for(trace, cfg, counted)
+    assert priced is not None and counted._counts is None          # nothing counted to price it in C
+    got = Evaluator(trace, counted).evaluate(cfg, 1, "compiled").result
+    assert counted._counts is None
+    assert same(got, Evaluator(trace, costs=costs_for(trace, cfg)).evaluate(cfg, 1, "compiled").result)
+    assert np.array_equal(counted.visit_costs(trace, cfg.processors()).process,
+                          base.visit_costs(trace, cfg.processors()).process)      # counted when asked
 
 
 def test_a_visit_c_cannot_price_is_a_trace_error():

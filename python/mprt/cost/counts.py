@@ -145,13 +145,24 @@ class KernelCounts:
 
 class CountedCostModel(CostModel):
     """A cost model (the same constants as ``model``) that prices one trace
-    from its kernel counts; any other trace it prices in full."""
+    from its kernel counts; any other trace it prices in full.  Given the trace
+    instead of its counts, it counts them when first asked to price it (a
+    caller whose replays the C pricing serves never pays for them)."""
 
-    def __init__(self, model: CostModel, counts: KernelCounts):
+    def __init__(self, model: CostModel, counts: KernelCounts | None = None, trace=None):
         super().__init__(model.latency, model.visit_overhead, model.scale, model.info)
-        self.counts = counts
+        if (counts is None) == (trace is None):
+            raise ValueError("CountedCostModel: give the trace's counts or the trace")
+        self._counts = counts
+        self.trace = trace if counts is None else counts.trace
+
+    @property
+    def counts(self) -> KernelCounts:
+        if self._counts is None:
+            self._counts = KernelCounts(self.trace)
+        return self._counts
 
     def visit_costs(self, trace, procs, chunk: int = 1 << 20) -> VisitCosts:
-        if trace is self.counts.trace:
+        if trace is self.trace:
             return self.counts.price(self, procs)
         return super().visit_costs(trace, procs, chunk)

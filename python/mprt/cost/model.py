@@ -234,9 +234,9 @@ class CostModel:
         """This model, pricing ``trace`` from its kernel runs counted once
         (``KernelCounts``): ``visit_costs`` on it is then a product per
         stage, the same arrays to the cycle; other traces are priced in full."""
-        from .counts import CountedCostModel, KernelCounts
+        from .counts import CountedCostModel
 
-        return CountedCostModel(self, KernelCounts(trace))
+        return CountedCostModel(self, trace=trace)      # (counted when first asked to price it)
 
     def kernel_counts(self, trace, chunk: int = 1 << 20) -> dict:
         """Runs of each kernel over the whole trace, by stage, with each

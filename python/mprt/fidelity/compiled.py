@@ -302,10 +302,12 @@ def priced_for(trace, config: SystemConfig, cost_model=None):
     where only arrays serve (another cost model, records not in the C layout): ``costs_for``."""
     from ..cost import CostModel
     from ..cost import fast
+    from ..cost.counts import CountedCostModel
 
     if cost_model is None:
         cost_model = CostModel.default()
-    if type(cost_model) is not CostModel or not fast.usable(trace):
+    # (a counted model prices with the same constants and arithmetic: its arrays are the same)
+    if type(cost_model) not in (CostModel, CountedCostModel) or not fast.usable(trace):
         return None
     check_trace(trace)
     return fast.Priced(cost_model, trace, config.processors(), flits=config.ring is not None)
