@@ -9,7 +9,9 @@ sizes depend on the trace alone, so ``KernelCounts(trace)`` counts them once
 ``model.visit_costs(trace, procs)`` gives, for any model and processors.
 A design search that tries hundreds of processor configurations on one trace
 prices each in milliseconds; ``CostModel.counted(trace)`` wraps this as a cost
-model (for ``mprt.fidelity.Evaluator`` and the machine model).
+model (for ``mprt.fidelity.Evaluator`` and the machine model), which counts the
+trace when first asked to price it: the compiled replay prices a counted model's
+visits in C as it loads them (``fidelity.compiled.priced_for``), with no counts.
 
 From the second pricing on, the visits are priced through their classes: a stage's
 visits take few distinct rows of runs and packets (balls at 512x512, a sixteenth of
