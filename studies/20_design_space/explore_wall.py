@@ -70,8 +70,9 @@ def main(argv=None):
     for name, rs in rows.items():
         def col(f):
             return ", ".join(f"{f(x):.1f}" for x in rs)
-        print(f"| {name} | " + " | ".join(col(lambda x, b=b: x[b]) for b in builds) + f" | {col(lambda x: x['trace'])} | "
-              + " | ".join(col(lambda x, b=b: x[b] / x["trace"]) for b in builds) + " |")
+        seconds = " | ".join(col(lambda x, b=b: x[b]) for b in builds)
+        ratios = " | ".join(col(lambda x, b=b: x[b] / x["trace"]) for b in builds)
+        print(f"| {name} | {seconds} | {col(lambda x: x['trace'])} | {ratios} |")
 
 
 if __name__ == "__main__":

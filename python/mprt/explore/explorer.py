@@ -60,8 +60,8 @@ def _checks_ahead(scene, space: Space, problem, tasks, verify: int, got) -> tupl
     walks (``tasks``, ``walk``'s arguments, the search's best's first) and those of them ended
     (``got``: {index in ``tasks``: rows}): (grids, designs), most likely first.  The designs:
     the search's best, each ended walk's best (within ``refine.CHECK_BEHIND`` of the best), then
-    the ``verify`` best of the search and those walks; the grids: theirs.  What the walks' idle cores trace and run ahead; a guess, which
-    changes no result."""
+    the ``verify`` best of the search and those walks; the grids: theirs.  What the walks' idle
+    cores trace and run ahead; a guess, which changes no result."""
     def dims(point):
         return grid_dims(scene, point.subdivision, space.shape)
 
@@ -157,6 +157,8 @@ def explore(scene, width: int = 64, height: int = 64, space: Space | None = None
                         starts, log or (lambda text: None), pool, rules, threshold, grid, phases or _Silent(), bound,
                         screen)
     finally:
+        if pool.before_fork is not None:      # (left set where it failed: ends a prefetch still running)
+            pool.before_fork()
         pool.close()
 
 
@@ -296,11 +298,8 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
         else:
             scr = Screen(problem, ev, lv, screen) if screen is not None and problem.bound_points is not None else None
             full.stop_prefetch()          # (the refinement runs on it: one design at a time)
-            try:
-                best, rows, n, ran = _refine(problem, space, full, objective, budget, refine, refine_evals, verify,
-                                             pool, cost_of, phases, per_eval, _polish_bounder(bounder, lv), scr)
-            finally:
-                full.stop_prefetch()
+            best, rows, n, ran = _refine(problem, space, full, objective, budget, refine, refine_evals, verify,
+                                         pool, cost_of, phases, per_eval, _polish_bounder(bounder, lv), scr)
             history += [dict(r, resolution=[width, height], level=lv) for r in rows]
             evaluations += n
             runs.update(full=ran, full_bounded=n - ran)

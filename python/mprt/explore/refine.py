@@ -132,10 +132,11 @@ def refine(problem, space, full, objective, budget, refine, refine_evals, verify
            per_eval=None, bounder=lambda sev: None, screen: Screen | None = None):
     """The full-resolution phase, at the search's level: the ``verify`` best designs of the
     low-resolution search and its best of each stage mapping (``first_checks``: within
-    CHECK_BEHIND of the best) evaluated at full resolution in one batch; then, from the best design there of each of the ``refine`` best subdivisions,
-    a lattice polish (``refine_evals`` designs each; a subdivision after the first only if its best
-    is within ``SCREEN_MARGIN`` of the best, 1 / (1 - margin) in cycles), its neighbours screened by ``screen``
-    (None: by their level-1 bounds alone).  Returns the best, the history rows (phases
+    CHECK_BEHIND of the best) evaluated at full resolution in one batch; then, from the best
+    design there of each of the ``refine`` best subdivisions, a lattice polish
+    (``refine_evals`` designs each; a subdivision after the first only if its best is within
+    ``SCREEN_MARGIN`` of the best, 1 / (1 - margin) in cycles), its neighbours screened by
+    ``screen`` (None: by their level-1 bounds alone).  Returns the best, the history rows (phases
     ``full-check`` and ``full``), the designs evaluated and those of them run at the level
     (the rest known by their bounds, ``bounder``)."""
     from .explorer import _Silent
