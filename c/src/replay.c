@@ -76,14 +76,9 @@ INLINE void start(mprt_replay *r, int i, int64_t j)
     proc *p = &r->procs[i];
     int64_t d;
     if (j >= 0) {
-        if (r->wide) {
-            d = r->vi[j].dur;
-            p->next = r->vi[j].next;
-        } else {
-            uint64_t w = r->vp[j];
-            d = (int64_t)((w >> 10) & (((uint64_t)1 << PACK_DUR_BITS) - 1));
-            p->next = (int64_t)((w >> 34) << 10 | (w & 1023));
-        }
+        vinfo v = r->wide ? r->vi[j] : unpack_visit(r->vp[j]);
+        d = v.dur;
+        p->next = v.next;
         PREFETCH(v_addr(r, j + 4));
         if (r->mem_on && r->mem_key[j] != -1) {      /* level 3: the data it reads (replay_memory.c) */
             int64_t s = mprt__replay_stall(r, i, j);

@@ -126,6 +126,15 @@ typedef struct {
 #define PACK_DUR_BITS 24
 #define PACK_KID_LIMIT ((int64_t)1 << 29)
 
+/* A packed visit unpacked. */
+INLINE vinfo unpack_visit(uint64_t w)
+{
+    vinfo v;
+    v.dur = (int64_t)((w >> 10) & (((uint64_t)1 << PACK_DUR_BITS) - 1));
+    v.next = (int64_t)((w >> 34) << 10 | (w & 1023));
+    return v;
+}
+
 struct mprt_replay {
     mprt_replay_config cfg;
     char errmsg[1024];

@@ -136,15 +136,9 @@ static int chains(mprt_replay *r, int64_t *out, int64_t *ex, int64_t *fl, int ri
             int64_t at = stack[--n], j = stack[--n], nx;
             int sub = 0;                /* a ray begins on OS */
             for (;; j++) {              /* the ray's visits: the next one is j + 1 */
-                int64_t d;
-                if (r->wide) {
-                    d = r->vi[j].dur;
-                    nx = r->vi[j].next;
-                } else {
-                    uint64_t w = r->vp[j];
-                    d = (int64_t)((w >> 10) & (((uint64_t)1 << PACK_DUR_BITS) - 1));
-                    nx = (int64_t)((w >> 34) << 10 | (w & 1023));
-                }
+                vinfo v = r->wide ? r->vi[j] : unpack_visit(r->vp[j]);
+                int64_t d = v.dur;
+                nx = v.next;
                 at += d;
                 if (ex) ex[3 * t + sub] += d;   /* (by the subtask running it, as the run does) */
                 if (reads) {

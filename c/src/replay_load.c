@@ -92,11 +92,7 @@ static int widen(mprt_replay *r, size_t n)
 {
     size_t j;
     if (RESERVE(r, vi, cap_vi, r->nv + 1)) return -1;
-    for (j = 0; j < n; j++) {
-        uint64_t w = r->vp[j];
-        r->vi[j].dur = (int64_t)(w >> 10 & (((uint64_t)1 << PACK_DUR_BITS) - 1));
-        r->vi[j].next = (int64_t)((w >> 34) << 10 | (w & 1023));
-    }
+    for (j = 0; j < n; j++) r->vi[j] = unpack_visit(r->vp[j]);
     r->wide = 1;
     return 0;
 }

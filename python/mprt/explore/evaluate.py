@@ -411,10 +411,10 @@ class SceneEvaluator:
     def _keep_run(self, point, level: int) -> None:
         key = (point.key(), level)
         with self._lock:
-            if key in self._ran or grid_dims(self.scene, point.subdivision, self.shape) not in self._held:
+            held = self._held.get(grid_dims(self.scene, point.subdivision, self.shape))
+            if key in self._ran or held is None:
                 return
-            ev, scale = self._held[grid_dims(self.scene, point.subdivision, self.shape)]
-        r = ev.run(point.design, level, scale)
+        r = held[0].run(point.design, level, held[1])
         with self._lock:
             self._ran[key] = r
 
