@@ -32,6 +32,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 import os
 import sys
 from fractions import Fraction
@@ -474,12 +475,25 @@ def run_settings(scene=None, grid=None, desc: dict | None = None, how: str | Non
     return s
 
 
-def write_json(path, data: dict) -> None:
-    """Write ``data`` as indented JSON to a path (checked with check_output first) or an open
-    text file."""
+def json_safe(data):
+    """``data`` with every infinite or NaN number made None, so that it is JSON as the standard
+    has it (``null``; Python's own ``Infinity`` and ``NaN`` are no JSON, and strict parsers
+    refuse them): e.g. a ladder's worst error where a design deadlocked at one level only."""
+    if isinstance(data, float):
+        return data if math.isfinite(data) else None
+    if isinstance(data, dict):
+        return {k: json_safe(v) for k, v in data.items()}
+    if isinstance(data, (list, tuple)):
+        return [json_safe(v) for v in data]
+    return data
+
+
+def write_json(path, data: dict, indent: int = 2) -> None:
+    """Write ``data`` as indented, standard JSON (``json_safe``) to a path (checked with
+    check_output first) or an open text file."""
     if hasattr(path, "write"):
-        json.dump(data, path, indent=2)
+        json.dump(json_safe(data), path, indent=indent, allow_nan=False)
         path.write("\n")
         return
     with open_replacing(path) as f:
-        write_json(f, data)
+        write_json(f, data, indent)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import base64
 import html
 import io
+import math
 import shlex
 import sys
 import time
@@ -103,6 +104,15 @@ def reproduce(argv, settings: dict) -> str:
 
 # -- explore ----------------------------------------------------------------------------------
 
+def _finite(x) -> float:
+    """An error as a bar's height: 0 where it has no finite value (None in a report's JSON)."""
+    return x if x is not None and math.isfinite(x) else 0.0
+
+
+def _err_pct(x) -> str:
+    return f"{100 * x:.2f}" if x is not None and math.isfinite(x) else "none (a deadlock at one level only)"
+
+
 def ladder_png(ladder: list) -> bytes:
     """The fidelity ladder: seconds per design against the error of each level, side by side."""
     plt = _plt()
@@ -113,15 +123,27 @@ def ladder_png(ladder: list) -> bytes:
     ax[0].set(yscale="log", ylabel="ms per design", title="speed")
     ax[0].set_xticks(list(x), names, fontsize=8)
     w = 0.38
-    ax[1].bar([i - w / 2 for i in x], [100 * r["error_median"] for r in ladder], w, label="median", color="tab:green")
-    ax[1].bar([i + w / 2 for i in x], [100 * r["error_worst"] for r in ladder], w, label="worst", color="tab:red")
-    ax[1].set(ylabel="% off the top level", title="error")
+    for dx, key, label, colour in ((-w / 2, "error_median", "median", "tab:green"),
+                                   (w / 2, "error_worst", "worst", "tab:red")):
+        ax[1].bar([i + dx for i in x], [100 * _finite(r[key]) for r in ladder], w, label=label, color=colour)
+        for i, r in zip(x, ladder):     # no finite error (a design deadlocked at one level only): no bar
+            if _finite(r[key]) != r[key]:
+                ax[1].annotate("deadlock", (i + dx, 0), rotation=90, ha="center", va="bottom", fontsize=7)
+    ax[1].set(ylabel="% off the top level", title="error (deadlock: at one level only, no figure)")
     ax[1].set_xticks(list(x), names, fontsize=8)
     ax[1].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))
     fig.tight_layout()
     data = figure_png(fig)
     plt.close(fig)
     return data
+
+
+PAPER = "the paper's 3MPPE"
+
+
+def _versus(ref: dict, best: dict, title: str) -> str:
+    """The best's speed-up over a reference, or that the reference deadlocks (no cycles to compare)."""
+    return f"{title} deadlocks" if ref["cycles"] is None else f"{ref['cycles'] / best['cycles']:.2f}x {title}"
 
 
 def explore_html(rep: dict, argv, plot_path) -> str:
@@ -132,20 +154,22 @@ def explore_html(rep: dict, argv, plot_path) -> str:
     answer = (f'<p class="answer{"" if feasible else " warn"}">Best design for {esc(rep["scene"])} at '
               f'{rep["width"]}x{rep["height"]}{esc(budget)}: <b>{esc(b["described"])}</b>, subdivision '
               f'{esc("x".join(map(str, b["subdivision"])))}, {num(b["cycles"])} cycles at level {lv["verify"]}, '
-              f'{num(b["cost"])} kGE, {b["speedup_over_S"]:.2f}x model S, '
-              f'{refs["3mppe"]["cycles"] / b["cycles"]:.2f}x the paper\'s 3MPPE'
+              f'{num(b["cost"])} kGE, {esc(_versus(refs["S"], b, "model S"))}, '
+              f'{esc(_versus(refs["3mppe"], b, PAPER))}'
               + ("" if feasible else " (over the budget: no design in the space meets it)") + ".</p>")
     util = ", ".join(f"{k} {v:.0%}" for k, v in b["utilisation"].items())
     answer += f"<p>Bottleneck {esc(b['bottleneck'])}; utilisation {esc(util)}.</p>"
     ref_rows = [("best", num(b["cycles"]), num(b["cost"]), "1.00", util)]
     for name, title in (("3mppe", "paper 3MPPE"), ("M", "model M"), ("S", "model S")):
         r = refs[name]
-        ref_rows.append((title, num(r["cycles"]), num(r["cost"]), f"{r['cycles'] / b['cycles']:.2f}",
+        dead = r["cycles"] is None
+        ref_rows.append((title, "deadlocks" if dead else num(r["cycles"]), num(r["cost"]),
+                         "-" if dead else f"{r['cycles'] / b['cycles']:.2f}",
                          ", ".join(f"{k} {v:.0%}" for k, v in r["utilisation"].items())))
     refs_html = table(("machine", "cycles", "cost (kGE)", "x best's time", "utilisation"), ref_rows)
     ladder = lv.get("ladder") or []
     lad_rows = [(r["level"], ", ".join(r.get("engines", [])), f"{1e3 * r['seconds_per_design']:.3g}",
-                 f"{100 * r['error_median']:.2f}", f"{100 * r['error_worst']:.2f}") for r in ladder]
+                 _err_pct(r["error_median"]), _err_pct(r["error_worst"])) for r in ladder]
     lad_html = (f"<p>The search ran at level {lv['search']} and the answer was verified at level {lv['verify']}"
                 + (f" (the ladder's choice within {100 * rep['tolerance']:g}%)" if lv.get("asked") == "auto" else "")
                 + ".</p>" + table(("level", "engines", "ms per design", "median error %", "worst error %"), lad_rows)

@@ -10,13 +10,11 @@ Each parser's ``func`` is its ``run_*`` function, which returns the exit status.
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
 
 from .. import options as opt
-from ..atomic import open_replacing
 from ..progress import Phases, clock_step, eta_text
 
 
@@ -350,8 +348,7 @@ def run_explore(a) -> int:
     mark_feasible(rep)
     print_report(rep)
     if a.json:
-        with open_replacing(a.json) as f:
-            json.dump(rep, f, indent=1)
+        opt.write_json(a.json, rep, indent=1)
         print(f"wrote   {a.json}")
     if a.plot:
         plot(rep, a.plot)
@@ -415,11 +412,16 @@ def print_report(rep: dict) -> None:
     print(f"level   {lv['search']}: search, full-resolution polish and references"
           + (f" (the ladder's choice within {100 * rep['tolerance']:g}%)" if lv["asked"] == "auto" else ""))
     print(f"best    {b['described']}" + ("" if rep.get("feasible", True) else "  (OVER THE BUDGET)"))
+    over_s = "model S deadlocks" if b["speedup_over_S"] is None else f"{b['speedup_over_S']:.2f}x model S"
     print(f"        subdivision {'x'.join(map(str, b['subdivision']))}; {b['cycles']:,.0f} cycles; "
-          f"cost {b['cost']:.0f} kGE; {b['speedup_over_S']:.2f}x model S; bottleneck {b['bottleneck']}")
+          f"cost {b['cost']:.0f} kGE; {over_s}; bottleneck {b['bottleneck']}")
     print("        utilisation " + ", ".join(f"{k} {v:.0%}" for k, v in b["utilisation"].items()))
     for name, title in (("3mppe", "paper 3MPPE"), ("M", "model M"), ("S", "model S")):
         r = refs[name]
+        if r["cycles"] is None:
+            print(f"        {title:12s} {'deadlocks':>14s}        cost {r['cost']:5.0f} kGE (at level {lv['verify']}, "
+                  f"even with one ray tree in flight: its FIFOs cannot hold this scene's largest ray tree)")
+            continue
         print(f"        {title:12s} {r['cycles']:14,.0f} cycles, cost {r['cost']:5.0f} kGE, "
               + ", ".join(f"{k} {v:.0%}" for k, v in r["utilisation"].items()))
     if "front" in rep:
@@ -456,12 +458,13 @@ def run_prepass(a) -> int:
     best = r["subdivision"]
     for c in r["candidates"]:
         mark = "  <- best" if c["subdivision"] == best else ""
-        checked = f" {c['sampled_cycles']:16,.0f} sampled" if "sampled_cycles" in c else ""
-        print(f"  {'x'.join(map(str, c['subdivision'])):>12s} {c['predicted_cycles']:16,.0f}{checked}{mark}")
+        checked = "" if "sampled_cycles" not in c else (f" {'deadlocks':>16s} sampled" if c["sampled_deadlock"]
+                                                        else f" {c['sampled_cycles']:16,.0f} sampled")
+        pred = f"{'deadlocks':>16s}" if c["deadlock"] else f"{c['predicted_cycles']:16,.0f}"
+        print(f"  {'x'.join(map(str, c['subdivision'])):>12s} {pred}{checked}{mark}")
     print(f"best    subdivision {'x'.join(map(str, best))}")
     if a.json:
-        with open_replacing(a.json) as f:
-            json.dump(r, f, indent=1)
+        opt.write_json(a.json, r, indent=1)
         print(f"wrote   {a.json}")
     return 0
 

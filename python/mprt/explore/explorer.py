@@ -12,6 +12,7 @@ from .hwcost import UnitCosts, cost_breakdown, hardware_cost
 from .parallel import Pool
 from .prepass import low_resolution
 from .refine import CHECK_BEHIND, SCREEN_MARGIN, Screen, refine as _refine
+from .problem import front_of
 from .search import Problem, cost_range, global_start, pareto, search, walk
 from .space import REFERENCE_DESIGNS, Point, Space, default_space
 from ..atomic import replacing
@@ -241,7 +242,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
         sweep = np.geomspace(lo * 1.05, hi, budgets)
         res = pareto(problem, sweep, algorithm, polish, max(max_evals // budgets, 20), seed)
         front = res.front
-        best = min(front, key=lambda e: (e.cycles * e.cost, e.serial))        # the knee: least time x cost
+        best = _knee(front, lv, res.evaluations)
     else:
         def run_walks(tasks):
             # the walks report nothing until they end: say what runs meanwhile
@@ -291,8 +292,8 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
             fp = Problem(space, lambda pts: pool.run(full, pts, lv), "time")
             with phases.step(f"front at {width}x{height}: {len(front)} designs", per_eval * len(front)):
                 fp.evaluate_many([e.index for e in front])
-            front = [fp.memo[space.canonical(e.index)] for e in front]
-            best = min(front, key=lambda e: (e.cycles * e.cost, e.serial))
+            front = front_of([fp.memo[space.canonical(e.index)] for e in front])     # (less any that deadlock here)
+            best = _knee(front, lv, len(fp.memo))
             history += [dict(r, phase="full", resolution=[width, height], level=lv) for r in fp.history()]
             evaluations += len(fp.memo)
         else:
@@ -323,7 +324,9 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
                      per_eval * len(made) if fraction > 1 else None):
         got = pool.run(ev, [Point(best.point.subdivision, d) for d in made.values()], lv)
     for (name, d), r in zip(made.items(), got):
-        refs[name] = {"cycles": r.cycles, "cost": r.cost, "utilisation": r.utilisation, "design": d.to_dict()}
+        dead = r.bottleneck == "deadlock"   # (even with one ray tree in flight: its cycles are no count)
+        refs[name] = {"cycles": None if dead else r.cycles, "cost": r.cost, "utilisation": r.utilisation,
+                      "deadlock": dead, "design": d.to_dict()}
     b = best.result
     report = {
         "scene": scene.name,
@@ -333,7 +336,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
         "best": {"subdivision": dims, "design": best.point.design.to_dict(), "cycles": best.cycles,
                  "cost": best.cost, "cost_breakdown": cost_breakdown(best.point.design, unit_costs),
                  "utilisation": b.utilisation, "loads": b.loads, "bottleneck": b.bottleneck,
-                 "speedup_over_S": refs["S"]["cycles"] / best.cycles if best.cycles else None,
+                 "speedup_over_S": refs["S"]["cycles"] / best.cycles if best.cycles and refs["S"]["cycles"] else None,
                  "described": best.point.design.describe()},
         "references": refs,
         "evaluations": evaluations,
@@ -483,6 +486,14 @@ class NoLiveDesignError(MprtError, RuntimeError):
     """No design the explorer evaluated runs to the end at its level."""
 
 
+def _knee(front, level, evaluations):
+    """The front's knee (least time x cost); an error where every design deadlocked (no front)."""
+    if not front:
+        raise NoLiveDesignError(f"explore: every design evaluated at level {level} deadlocks "
+                                f"({evaluations} designs): give the FIFOs more room in the space")
+    return min(front, key=lambda e: (e.cycles * e.cost, e.serial))
+
+
 def settings(scene, width, height, threads, rules: str = "paper", threshold=None, grid=None) -> dict:
     """What made a report: the scene and its content hash, the image, the rules and cutoff of
     its traces, the subdivision when it was fixed (``grid``: None when searched), the version."""
@@ -519,9 +530,9 @@ def plot(report: dict, path) -> None:
     W, H = report["width"], report["height"]
     # search-phase cycles scaled to the full resolution (the prepass's prediction)
     scale = np.array([W * H / (r["resolution"][0] * r["resolution"][1]) for r in h])
-    cyc = np.array([r["cycles"] for r in h]) * scale
-    feas = np.array([r["feasible"] for r in h])
-    live = np.array([r["cycles"] < DEADLOCK_CYCLES for r in h])
+    live = np.array([r["cycles"] is not None for r in h], bool)      # (a design that deadlocked has none)
+    cyc = np.array([r["cycles"] if r["cycles"] is not None else np.nan for r in h], float) * scale
+    feas = np.array([r["feasible"] for r in h], bool)
     feas &= live
     full = np.array([r["phase"].startswith("full") for r in h])
     ver = np.array([r["phase"].startswith("verify") for r in h])
@@ -553,8 +564,10 @@ def plot(report: dict, path) -> None:
         ax[1].step([c for c, _ in fr], [y for _, y in fr], where="post", c="tab:red", marker="o", ms=3,
                    label="Pareto front")
     for (name, r), mk in zip(report["references"].items(), ("s", "^", "v")):
-        ax[1].scatter([r["cost"]], [r["cycles"]], marker=mk, s=40, edgecolors="k", zorder=4,
-                      label=(f"model {name}" if name != "3mppe" else "paper 3MPPE") + f" (level {lv['verify']})")
+        dead = r["cycles"] is None          # deadlocks at this level: a legend entry, no point
+        ax[1].scatter([] if dead else [r["cost"]], [] if dead else [r["cycles"]], marker=mk, s=40, edgecolors="k",
+                      zorder=4, label=(f"model {name}" if name != "3mppe" else "paper 3MPPE") + f" (level {lv['verify']})"
+                      + (": deadlocks, not drawn" if dead else ""))
     ax[1].scatter([report["best"]["cost"]], [report["best"]["cycles"]], marker="*", s=220, c="gold",
                   edgecolors="k", label=f"answer (level {lv['verify']})", zorder=5)
     if report.get("budget"):
@@ -570,7 +583,8 @@ def plot(report: dict, path) -> None:
     colours = ["tab:red"] * len(bu) + ["tab:gray"] * len(pu)
     ax[2].bar(range(len(vals)), vals, color=colours)
     ax[2].set_xticks(range(len(vals)), names, rotation=30, ha="right", fontsize=8)
-    ax[2].set(ylim=(0, 1.05), ylabel="utilisation", title="answer (red) and the paper's 3MPPE (grey)")
+    ax[2].set(ylim=(0, 1.05), ylabel="utilisation", title="answer (red) and the paper's 3MPPE (grey)"
+              + ("\n(the 3MPPE deadlocks: no bars of its own)" if report["references"]["3mppe"]["cycles"] is None else ""))
     fig.suptitle(f"{report['scene']} {report['width']}x{report['height']}: objective {report['objective']}, "
                  f"{report['evaluations']} evaluations, "
                  f"level {lv['search']}")

@@ -30,8 +30,9 @@ import time
 
 import numpy as np
 
+from ..errors import MprtError
 from ..machine.config import builtin
-from .evaluate import TraceEvaluator, grid_dims, machine_config
+from .evaluate import DEADLOCK_CYCLES, TraceEvaluator, grid_dims, machine_config
 from .hwcost import UnitCosts
 from .space import Design
 
@@ -40,6 +41,22 @@ FIXED_RULES = ("pbrt", "density8", "paper-best")
 
 LOW_FLOOR = 32      # the low resolution's floor per axis (the frame's own size where smaller)
 MIN_RUNGS = 4       # the walk up the ladder tries at least this many rungs
+
+
+class PrepassDeadlockError(MprtError, RuntimeError):
+    """The machine deadlocks on every candidate subdivision the prepass tried: no choice to make."""
+
+
+def _dead(cycles: float) -> bool:
+    return cycles >= DEADLOCK_CYCLES       # (the evaluator's stand-in for a run that deadlocked)
+
+
+def _name(cfg) -> str:
+    return getattr(cfg, "source", None) or cfg.name
+
+
+def _grids(dims) -> str:
+    return ", ".join("x".join(map(str, d)) for d in dims)
 
 
 def low_resolution(width: int, height: int, fraction: int) -> tuple[int, int]:
@@ -143,7 +160,13 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
             _golden(f, ladder[max(i - 1, 0)], ladder[min(i + 1, len(ladder) - 1)], ratio)
 
     cands = sorted(f.seen.items(), key=lambda kv: kv[0])
-    best = min(cands, key=lambda kv: (kv[1], kv[0]))
+    live = [kv for kv in cands if not _dead(kv[1])]
+    if not live:
+        raise PrepassDeadlockError(
+            f"machine {_name(f.design)} deadlocks at level {level} on every subdivision tried at {w}x{h} "
+            f"({_grids(d for d, _ in cands)}): its FIFOs cannot hold this scene's ray trees with its DIS window; "
+            f"give the FIFOs more room or a smaller window (--config)")
+    best = min(live, key=lambda kv: (kv[1], kv[0]))
     checked = {}
     if check > 0 and check_sample is None:
         tiles = -(-width // 16) * -(-height // 16)
@@ -153,16 +176,27 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         from .space import Point
         full = SceneEvaluator(scene, width, height, level=level, shape="cube", unit_costs=f.unit_costs,
                               threads=threads, sample=check_sample, rules=rules, threshold=threshold)
-        for dims, _ in sorted(cands, key=lambda kv: (kv[1], kv[0]))[:check]:
+        for dims, _ in sorted(live, key=lambda kv: (kv[1], kv[0]))[:check]:
             checked[dims] = full.run(Point(dims, f.design)).cycles
             full._held.clear()
-        best = min(checked.items(), key=lambda kv: (kv[1], kv[0]))
+        ran = [kv for kv in checked.items() if not _dead(kv[1])]
+        if not ran:
+            raise PrepassDeadlockError(
+                f"machine {_name(f.design)} deadlocks at level {level} at {width}x{height} (on "
+                f"{check_sample}) on each of the {len(checked)} best subdivisions of {w}x{h} "
+                f"({_grids(checked)}): its FIFOs cannot hold this scene's ray trees with its DIS window; "
+                f"give the FIFOs more room or a smaller window (--config)")
+        best = min(ran, key=lambda kv: (kv[1], kv[0]))
         best = (best[0], f.seen[best[0]])
     from .explorer import settings
     return {"subdivision": list(best[0]), "predicted_cycles": best[1] * scale,
             "settings": settings(scene, width, height, threads, rules, threshold),
-            "candidates": [dict({"subdivision": list(d), "predicted_cycles": c * scale},
-                                **({"sampled_cycles": checked[d]} if d in checked else {})) for d, c in cands],
+            # (a subdivision where the machine deadlocks: no cycles, "deadlock" true)
+            "candidates": [dict({"subdivision": list(d), "predicted_cycles": None if _dead(c) else c * scale,
+                                 "deadlock": _dead(c)},
+                                **({"sampled_cycles": None if _dead(checked[d]) else checked[d],
+                                    "sampled_deadlock": _dead(checked[d])} if d in checked else {}))
+                           for d, c in cands],
             "check_sample": check_sample if check > 0 else None,
             "low_resolution": [w, h], "full_resolution": [width, height], "machine": f.design.name,
             "level": level, "ladder": ladder_rows, "refine": refine if not candidates else None,

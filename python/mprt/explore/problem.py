@@ -26,6 +26,22 @@ class Evaluation:
     bound: bool = False         # cycles are a lower bound (``Problem.bound_points``'s): not run at the level
 
 
+def deadlocked(e: Evaluation) -> bool:
+    """The evaluation's design deadlocked (its cycles are the evaluator's stand-in, no count)."""
+    return getattr(e.result, "bottleneck", "") == "deadlock"
+
+
+def front_of(evals) -> list[Evaluation]:
+    """The evaluations no other beats in both cycles and cost, cheapest first (a design that
+    deadlocked is on no front)."""
+    out, low = [], math.inf
+    for e in sorted((e for e in evals if not deadlocked(e)), key=lambda e: (e.cost, e.cycles, e.index)):
+        if e.cycles < low:
+            out.append(e)
+            low = e.cycles
+    return out
+
+
 class Problem:
     """A space, an evaluator and an objective; memoises evaluations.
 
@@ -211,23 +227,23 @@ class Problem:
         return np.array([idx[i] + 0.5 for i in self.free], dtype=float)
 
     def history(self) -> list[dict]:
+        """A row per evaluation, in order.  A design that deadlocked has no cycles and, within the
+        budget, no objective (None: the search's stand-in for them is no figure of the design's),
+        and ``deadlock`` true; ``best_objective`` is None until a design has run."""
         rows, best = [], math.inf
         for n, k in enumerate(self.order, 1):
             e = self.memo[k]
             v = self.f(e)
-            if not e.bound:
+            dead = deadlocked(e)
+            if not e.bound and not dead:
                 best = min(best, v)
             rows.append({"evaluation": n, "subdivision": list(e.point.subdivision), "design": e.point.design.to_dict(),
-                         "cycles": e.cycles, "cost": e.cost, "objective": v, "best_objective": best,
-                         "feasible": v < INFEASIBLE, "bound": e.bound})
+                         "cycles": None if dead else e.cycles, "cost": e.cost,
+                         "objective": None if dead and v < INFEASIBLE else v,
+                         "best_objective": best if best < math.inf else None,
+                         "feasible": v < INFEASIBLE, "bound": e.bound, "deadlock": dead})
         return rows
 
     def front(self) -> list[Evaluation]:
-        """The designs no other evaluated design beats in both cycles and cost."""
-        pts = sorted(self.memo.values(), key=lambda e: (e.cost, e.cycles, e.index))
-        out, best_cycles = [], math.inf
-        for e in pts:
-            if e.cycles < best_cycles:
-                out.append(e)
-                best_cycles = e.cycles
-        return out
+        """The designs no other evaluated design beats in both cycles and cost (``front_of``)."""
+        return front_of(self.memo.values())

@@ -6,14 +6,15 @@ The spec file::
     res = "32x32"
     subdivisions = [4, 8, [6, 6, 2]]     # n, or [nx, ny, nz]
     shape = "proportional"               # how one n becomes a grid: cube | proportional
-    level = 1                            # fidelity level (0 analytical, 1 compiled, 2-3 SimPy)
+    level = 1                            # fidelity level (0 analytical, 1-3 the compiled replay)
     batch = 64                           # designs per task
     [designs]
     paper = "3mppe"                      # a reference: 3mppe, M, S
     wide = { mapping = "OS|IC|SC", pes = 2 }   # or a design's fields (the rest as the 3MPPE)
 
-writes DIR/sweep.csv (one row per scene, subdivision and design) and
-DIR/sweep.png (cycles against subdivision).
+writes DIR/sweep.csv (one row per scene, subdivision and design; a design that
+deadlocks there, even with one ray tree in flight, has bottleneck ``deadlock`` and
+no cycles) and DIR/sweep.png (cycles against subdivision).
 """
 from __future__ import annotations
 
@@ -21,6 +22,8 @@ import argparse
 import csv
 import os
 import time
+
+import numpy as np
 
 from .distributed import DiskCache, cache_key, client, map_cached
 from .space import REFERENCE_DESIGNS, SHAPES, Design, SpaceError
@@ -131,7 +134,8 @@ def run_sweep(spec: dict, out_dir, scheduler=None, workers=None, progress=None) 
     for (sc, sub, dims, part), res in zip(where, results):
         for name, r in zip(part, res):
             row = {"scene": sc, "subdivision": "x".join(map(str, dims)), "n": sub[0] if len(sub) == 1 else "",
-                   "design": name, "cycles": r["cycles"], "cost": r["cost"], "bottleneck": r["bottleneck"],
+                   "design": name, "cycles": "" if r["bottleneck"] == "deadlock" else r["cycles"],   # (no count)
+                   "cost": r["cost"], "bottleneck": r["bottleneck"],
                    "level": r["level"], "costs": r["costs"]}
             for p, u in r["utilisation"].items():
                 row[f"util_{p}"] = round(u, 6)
@@ -157,7 +161,8 @@ def _plot(rows, spec, path):
     fig, axes = plt.subplots(1, len(scenes), figsize=(4.5 * len(scenes), 3.6), squeeze=False)
     for ax, sc in zip(axes[0], scenes):
         for name in spec["designs"]:
-            pts = [(i, r["cycles"]) for i, r in enumerate(x for x in rows if x["scene"] == sc and x["design"] == name)]
+            pts = [(i, r["cycles"] if r["cycles"] != "" else np.nan)       # a deadlock: a gap in the line
+                   for i, r in enumerate(x for x in rows if x["scene"] == sc and x["design"] == name)]
             labels = [r["subdivision"] for r in rows if r["scene"] == sc and r["design"] == name]
             ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o", label=name)
             ax.set_xticks(range(len(labels)), labels, rotation=30, fontsize=7)

@@ -9,7 +9,6 @@ returns the exit status (2 for an invalid configuration).
 from __future__ import annotations
 
 import argparse
-import json
 import os
 import sys
 import time
@@ -18,7 +17,6 @@ from .. import memory_estimate
 from .. import options as opt
 from .config import BUILTIN, resolve
 from .errors import ConfigError, DeadlockError
-from ..atomic import open_replacing
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -189,8 +187,7 @@ def run(a, load=None, replay=None, plan=None) -> int:
     out["replay_seconds"] = res.wall_seconds
     out["settings"] = a.run_settings
     if a.json:
-        with open_replacing(a.json) as f:
-            json.dump(out, f, indent=2)
+        opt.write_json(a.json, out)
         print(f"wrote   {a.json}")
     title = f"{settings['scene']} grid {settings['grid']}: model {cfg.name}, {res.cycles:,} cycles"
     if a.plot:
