@@ -59,7 +59,7 @@ def test_ctrl_c_is_one_line_and_status_130(monkeypatch, capsys, tmp_path):
     def interrupted(_args):
         raise KeyboardInterrupt
     parser = cli.build_parser()
-    monkeypatch.setattr(cli, "build_parser", lambda: parser)
+    monkeypatch.setattr(cli, "build_parser", lambda *a, **k: parser)
     for action in parser._subparsers._group_actions[0].choices.values():
         action.set_defaults(func=interrupted)
     assert cli.main(["render", "tetra:1", "--res", "8x8", "-o", str(tmp_path / "x.png")]) == 130

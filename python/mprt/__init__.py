@@ -18,8 +18,6 @@ and the command line.
 """
 from __future__ import annotations
 
-from importlib.metadata import PackageNotFoundError, version as _dist_version
-
 from . import tracing
 from ._lowlevel import EXT_VERSION, KINDS, Kind, Outcome, RayKind, Rules, Stage
 from .errors import InvalidArgument, MprtError, SceneParseError, SceneStateError, TraceError, WorkLimitError
@@ -29,14 +27,15 @@ from .trace import Trace, load_trace
 
 __version__ = EXT_VERSION
 
-try:  # the compiled extension must match the installed package
-    _pkg = _dist_version("mprt")
-except PackageNotFoundError:  # running from a source tree without metadata
-    _pkg = __version__
-if _pkg != __version__:
+# The package's version, as pyproject.toml has it (tests/test_setup.py checks that they agree).
+# The compiled extension must be of the same: Python sources updated over an extension built
+# before them are refused here (compared with this constant rather than the installed package's
+# metadata, whose reading, importlib.metadata, cost every command 40-80 ms).
+PACKAGE_VERSION = "0.1.0"
+if PACKAGE_VERSION != __version__:
     raise ImportError(
-        f"mprt: the compiled extension is version {__version__} but the package is {_pkg}; "
-        "rebuild with 'pip install -e .'"
+        f"mprt: the compiled extension is version {__version__} but the package is {PACKAGE_VERSION}; "
+        "rebuild with 'pip install -e .' (make install)"
     )
 
 __all__ = [

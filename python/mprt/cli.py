@@ -26,7 +26,6 @@ from tqdm import tqdm
 from . import options, tracefile
 from .errors import MprtError
 from .grid import render_desc, write_png
-from .fidelity.cli import add_parser as add_simulate
 from .options import UsageError
 from .scene import SPD_SCENES
 from .trace import load_trace
@@ -340,13 +339,42 @@ def cmd_stats(a) -> int:
 
 
 # -- the parser ---------------------------------------------------------------------------------
-def build_parser(explore: bool = True) -> argparse.ArgumentParser:
-    """The ``mprt`` parser; without ``explore`` (``mprt simulate``, which does not need them) the
-    explorer's commands are left out, and with them the explorer's imports (tens of ms)."""
+COMMANDS = ("scene", "render", "trace", "stats", "simulate", "explore", "prepass", "sweep")
+EXPLORE_COMMANDS = ("explore", "prepass", "sweep")
+
+
+def build_parser(explore: bool = True, only: str | None = None) -> argparse.ArgumentParser:
+    """The ``mprt`` parser.  ``only``: just that command's parser (what ``main`` builds for a
+    command line naming one), without the other commands' imports: the machine model's and the
+    fidelity ladder's for ``simulate`` (about 70 ms), the explorer's for ``explore``, ``prepass``
+    and ``sweep`` (tens of ms).  Without ``explore`` the explorer's commands are left out."""
     p = argparse.ArgumentParser(prog="mprt", description="3MPRT ray-tracing machine explorer", epilog=EPILOG)
     p.add_argument("--version", action="version", version=f"mprt {options.version()}")
     sub = p.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
+    _add_commands(sub, lambda name: only is None or only == name, explore)
+    return p
 
+
+def _add_commands(sub, want, explore: bool) -> None:
+    if want("scene"):
+        _add_scene(sub)
+    if want("render"):
+        _add_render(sub)
+    if want("trace"):
+        _add_trace(sub)
+    if want("stats"):
+        _add_stats(sub)
+    if want("simulate"):
+        from .fidelity.cli import add_parser as add_simulate
+
+        add_simulate(sub)
+    if explore and any(want(c) for c in EXPLORE_COMMANDS):
+        from .explore.cli import add_parsers as add_explore
+
+        add_explore(sub)
+
+
+def _add_scene(sub) -> None:
     s = sub.add_parser("scene", help="write an SPD scene as NFF", epilog=EPILOG,
                        description="Write an SPD scene as NFF text.")
     s.add_argument("name", metavar="NAME[:SIZE]", help=f"SPD scene: {', '.join(SPD_SCENES)}, with an optional size")
@@ -358,6 +386,8 @@ def build_parser(explore: bool = True) -> argparse.ArgumentParser:
     s.add_argument("-o", "--output", metavar="OUT.nff", help="NFF file to write (default: stdout)")
     s.set_defaults(func=cmd_scene)
 
+
+def _add_render(sub) -> None:
     r = sub.add_parser("render", help="render a scene to PNG and print its statistics", epilog=EPILOG,
                        description="Render a scene, print its counters, and write the image and a JSON record.")
     options.add_scene_argument(r)
@@ -369,6 +399,8 @@ def build_parser(explore: bool = True) -> argparse.ArgumentParser:
     options.add_json(r, "--stats")
     r.set_defaults(func=cmd_render)
 
+
+def _add_trace(sub) -> None:
     t = sub.add_parser("trace", help="record every stage visit of every ray (a per-ray cost trace)", epilog=EPILOG,
                        description="Trace a scene, recording every stage visit of every ray, to an .npz file "
                                    "(streamed to disk: bounded memory).  Before a run of many tiles, the file's size "
@@ -391,6 +423,8 @@ def build_parser(explore: bool = True) -> argparse.ArgumentParser:
                    help=options.OUTPUT_HELP["npz"] + " (required)")
     t.set_defaults(func=cmd_trace)
 
+
+def _add_stats(sub) -> None:
     st = sub.add_parser("stats", help="the paper's statistics of a trace", epilog=EPILOG,
                         description="Print the paper's statistics of a trace (bounded memory, any size).")
     st.add_argument("trace", metavar="TRACE.npz", nargs="?", help="a trace written by mprt trace")
@@ -399,17 +433,11 @@ def build_parser(explore: bool = True) -> argparse.ArgumentParser:
                     help=options.OUTPUT_HELP["json"] + "; --json alone (or -) prints it to stdout instead of the "
                          "table, as before (default: none)")
     st.set_defaults(func=cmd_stats)
-    add_simulate(sub)
-    if explore:
-        from .explore.cli import add_parsers as add_explore
-
-        add_explore(sub)
-    return p
 
 
 def main(argv=None) -> int:
     argv = sys.argv[1:] if argv is None else [str(v) for v in argv]
-    parser = build_parser(explore=False) if argv[:1] == ["simulate"] else build_parser()
+    parser = build_parser(only=argv[0] if argv[:1] and argv[0] in COMMANDS else None)
     args = parser.parse_args(argv)
     args.argv = argv
     try:
