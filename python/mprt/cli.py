@@ -21,7 +21,6 @@ import zlib
 
 import numpy as np
 
-from tqdm import tqdm
 
 from . import options, tracefile
 from .errors import MprtError
@@ -110,6 +109,8 @@ def _render(grid, kw: dict, desc: dict, show: bool, force: bool):
     worker = threading.Thread(target=work, daemon=True)
     start = time.perf_counter()
     worker.start()
+    from tqdm import tqdm          # (here: importing it costs tens of ms, paid only where a bar is shown)
+
     with tqdm(total=max(round(estimate, 1), 0.1), unit="s", desc="render (time estimated)", leave=False,
               bar_format="{desc}: {percentage:3.0f}% |{bar}| {n:.1f}/{total:.1f} s", file=sys.stderr) as bar:
         while worker.is_alive():

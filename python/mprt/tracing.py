@@ -23,7 +23,6 @@ from concurrent.futures import ThreadPoolExecutor
 from dataclasses import dataclass
 
 import numpy as np
-from tqdm import tqdm
 
 from . import tracefile, tracevalid, tracewriter
 from ._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Rules
@@ -410,6 +409,8 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
             writer = tracewriter.TraceWriter(path, depth=CHUNKS - 1)
         records = _Records(nsamples, writer)
         if progress:
+            from tqdm import tqdm      # (here: importing it costs tens of ms, paid only where a bar is shown)
+
             bar = tqdm(total=len(sel), unit="tile", desc="trace", leave=False)
         _run_tiles(grid, desc, sel.astype(np.intc), records, samples, bar)
         meta, arrays, members = static.result()
