@@ -26,6 +26,9 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from _common import command_env  # noqa: E402
+
 SCENES = ("balls", "gears", "mount", "rings", "tetra", "tree")
 
 
@@ -48,7 +51,8 @@ def in_process(scene: str, res: int, repeat: int, threads: int) -> dict:
 def run_worker(python: str, scene: str, res: int, repeat: int, threads: int) -> dict:
     cmd = [python, os.path.abspath(__file__), "--worker", scene, "--res", str(res), "--repeat", str(repeat),
            "--threads", str(threads)]
-    return json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True).stdout.splitlines()[-1])
+    return json.loads(subprocess.run(cmd, check=True, capture_output=True, text=True,
+                                     env=command_env()).stdout.splitlines()[-1])
 
 
 def whole_command(python: str, what: str, scene: str, res: int, threads: int, out_dir: str):
@@ -59,7 +63,7 @@ def whole_command(python: str, what: str, scene: str, res: int, threads: int, ou
     cmd = [python, "-m", "mprt", what, scene, "--res", f"{res}x{res}", "--threads", str(threads), "-o", path]
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t = time.perf_counter()
-    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL)
+    subprocess.run(cmd, check=True, stdout=subprocess.DEVNULL, env=command_env())
     wall = time.perf_counter() - t
     after = resource.getrusage(resource.RUSAGE_CHILDREN)
     os.unlink(path)

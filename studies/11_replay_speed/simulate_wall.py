@@ -19,6 +19,9 @@ import sys
 import tempfile
 import time
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from _common import command_env  # noqa: E402
+
 CASES = ("level 1=", "level 3=--model 3mppe --level 3 --pes 2")
 
 
@@ -29,7 +32,7 @@ def run(mprt: str, trace: str, extra: list) -> tuple:
         before = resource.getrusage(resource.RUSAGE_CHILDREN)
         t0 = time.perf_counter()
         p = subprocess.run([mprt, "simulate", trace, "--engine", "compiled", *extra, "--json", out],
-                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True)
+                           stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=command_env())
         wall = time.perf_counter() - t0
         after = resource.getrusage(resource.RUSAGE_CHILDREN)
         if p.returncode:

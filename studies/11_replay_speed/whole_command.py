@@ -89,7 +89,10 @@ def _child(trace: str, engine: str, model: str, level: str) -> None:
 
 
 def measure(trace, engine, model, level, pythonpath) -> dict:
-    env = dict(os.environ, PYTHONPATH=pythonpath)
+    sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+    from _common import command_env    # (here, not at the top: the child measured imports nothing of it)
+
+    env = command_env(pythonpath)
     before = resource.getrusage(resource.RUSAGE_CHILDREN)
     t0 = time.perf_counter()
     p = subprocess.run([sys.executable, os.path.abspath(__file__), "--child", trace, "--engines", engine,

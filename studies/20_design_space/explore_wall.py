@@ -18,11 +18,12 @@ import time
 
 import mprt
 
+sys.path.insert(0, os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+from _common import command_env  # noqa: E402
+
 
 def _explore(scene, res, budget, out, path=None):
-    env = dict(os.environ)
-    if path:
-        env["PYTHONPATH"] = path
+    env = command_env(path)
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-m", "mprt", "explore", scene, "--res", f"{res}x{res}", "--budget", str(budget),
                     "--threads", "2", "--json", out], check=True, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
@@ -35,7 +36,8 @@ def _explore(scene, res, budget, out, path=None):
 def _trace(scene, res, grid, out):
     t0 = time.perf_counter()
     subprocess.run([sys.executable, "-m", "mprt", "trace", scene, "--grid", ",".join(map(str, grid)),
-                    "--res", f"{res}x{res}", "--threads", "2", "-o", out], check=True, stdout=subprocess.DEVNULL)
+                    "--res", f"{res}x{res}", "--threads", "2", "-o", out], check=True, stdout=subprocess.DEVNULL,
+                   env=command_env())
     return time.perf_counter() - t0
 
 
