@@ -56,7 +56,7 @@ def command_env(pythonpath: str | None = None) -> dict:
     user's installation has it (PYTHONDONTWRITEBYTECODE removed; the cache under
     PYTHONPYCACHEPREFIX, a folder in the temporary directory unless one is set, so no tree
     gets __pycache__ folders) and ``pythonpath`` (another build's) first on the path.  Where
-    bytecode is not cached every command compiles the modules it imports first: 0.1-0.9 s here,
+    bytecode is not cached every command compiles the modules it imports first (80-170 ms here),
     which a best-of-N over fresh processes would otherwise count every time."""
     import tempfile
 
