@@ -167,6 +167,7 @@ def test_sweep_rows_of_a_deadlocked_design_have_no_cycles(scene, tmp_path):
     spec.write_text(f'scenes = ["{scene}"]\nres = "16x16"\nsubdivisions = [2]\nlevel = 1\n'
                     '[designs]\npaper = "3mppe"\nsingle = "S"\n')
     assert main(["sweep", str(spec), "--out", str(tmp_path / "sw"), "--workers", "0"]) == 0
-    rows = {r["design"]: r for r in csv.DictReader(open(tmp_path / "sw" / "sweep.csv"))}
+    with open(tmp_path / "sw" / "sweep.csv") as f:
+        rows = {r["design"]: r for r in csv.DictReader(f)}
     assert rows["paper"]["bottleneck"] == "deadlock" and rows["paper"]["cycles"] == ""
     assert rows["single"]["bottleneck"] != "deadlock" and float(rows["single"]["cycles"]) > 0
