@@ -419,8 +419,9 @@ def print_report(rep: dict) -> None:
     for name, title in (("3mppe", "paper 3MPPE"), ("M", "model M"), ("S", "model S")):
         r = refs[name]
         if r["cycles"] is None:
+            held = "FIFOs and ring" if lv["verify"] >= 2 else "FIFOs"
             print(f"        {title:12s} {'deadlocks':>14s}        cost {r['cost']:5.0f} kGE (at level {lv['verify']}, "
-                  f"even with one ray tree in flight: its FIFOs cannot hold this scene's largest ray tree)")
+                  f"even with one ray tree in flight: its {held} cannot hold this scene's largest ray tree)")
             continue
         print(f"        {title:12s} {r['cycles']:14,.0f} cycles, cost {r['cost']:5.0f} kGE, "
               + ", ".join(f"{k} {v:.0%}" for k, v in r["utilisation"].items()))
