@@ -196,8 +196,30 @@ def test_malformed_traces_fail_as_in_simpy():
         replay(good, "M", costs=costs([3, 0]))
     with pytest.raises(ValueError, match=r"costs.process has shape \(1,\)"):
         replay(good, "M", costs=costs([3]))
-    with pytest.raises(ConfigError, match="pes: 3 PEs but the trace has only 2 primary rays"):
-        replay(good, builtin("M").replace(pes=3), costs=c)
+    # (more PEs than primary rays was refused here: now the PEs that get none idle, test below);
+    # a trace without primary rays is refused by both, with the same message
+    empty = head(good, 0)
+    with pytest.raises(ConfigError) as a:
+        simulate(empty, "M")
+    with pytest.raises(ConfigError) as b:
+        replay(empty, "M")
+    assert str(a.value) == str(b.value) == "the trace has no primary rays: nothing to replay"
+
+
+def test_pes_without_a_primary_ray_idle_as_in_simpy():
+    # more PEs than primary rays, every DIS, the ideal network, the ring and the memories, with
+    # an event log: the same result to the figure, the spare PEs idle
+    from test_fidelity_memory import check
+
+    t = mprt.load_trace(GOLDEN[0])
+    for trees in (1, 2, 3):
+        small = head(t, trees)
+        for name in ("M", "3mppe"):
+            for dis in ("blocks", "interleaved", "dynamic"):
+                cfg = builtin(name).replace(pes=trees + 2, dis=dis)
+                res = check(small, cfg, record=True)
+                assert [p["primaries"] for p in res.pes].count(0) >= 2
+                assert all(p["rays"] == 0 and p["end"] == 0 for p in res.pes if p["primaries"] == 0)
 
 
 def test_the_compiled_engine_accepts_every_machine_the_simpy_model_models():

@@ -197,10 +197,12 @@ def test_dynamic_dis_feeds_the_faster_pe():
     assert res.cycles == 100
 
 
-def test_more_pes_than_primary_rays_is_refused():
+def test_more_pes_than_primary_rays_leave_the_others_idle():
     tr = hand_trace([(-1, PRIMARY)], [(0, OS, LEFT, 0)])
-    with pytest.raises(mprt.machine.ConfigError, match="pes: 2 PEs but the trace has only 1 primary"):
-        simulate(tr, M(pes=2), costs=costs([1]))
+    for dis in ("blocks", "interleaved", "dynamic"):
+        res = simulate(tr, M(pes=3, dis=dis), costs=costs([5]))
+        assert res.cycles == 5 and [p["primaries"] for p in res.pes] in ([1, 0, 0], [0, 0, 1], [0, 1, 0])
+        assert sum(p["end"] for p in res.pes) == 5 and sum(p["rays"] for p in res.pes) == 1
 
 
 def test_zero_length_visit_is_refused():

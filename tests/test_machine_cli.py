@@ -54,11 +54,25 @@ def test_invalid_configuration_exit_2(tmp_path, capsys):
     assert "bad.toml: stage[0].receive_fifo: a FIFO holds at least 1 packet, not 0" in err
 
 
-def test_more_pes_than_pixels_exit_2(capsys):
-    assert main(["simulate", TRACE, "--pes", "1000"]) == 2
-    assert "pes: 1000 PEs but the trace has only" in capsys.readouterr().err
-    assert main(["simulate", "tetra:1", "--res", "4x4", "--pes", "17"]) == 2
-    assert "pes: 17 PEs but only 16 pixels" in capsys.readouterr().err
+def test_more_pes_than_pixels_leave_pes_idle(tmp_path, capsys):
+    from mprt.cli import main as mprt_main
+
+    # (refused before, exit 2): the PEs that get no primary ray stay idle, on either engine
+    for source, extra in ((TRACE, []), ("tetra:1", ["--res", "4x4"])):
+        got = {}
+        for pes in ("1", "17"):
+            for engine in ("compiled", "simpy"):
+                out = tmp_path / f"{pes}{engine}.json"
+                assert mprt_main(["simulate", source, *extra, "--pes", pes, "--engine", engine,
+                                  "--json", str(out)]) == 0
+                got[pes, engine] = json.loads(out.read_text())
+        capsys.readouterr()
+        r = got["17", "compiled"]
+        assert r["cycles"] == got["17", "simpy"]["cycles"] and r["pes"] == got["17", "simpy"]["pes"]
+        assert len(r["pes"]) == 17
+        idle = [p for p in r["pes"] if p["primaries"] == 0]
+        assert idle and all(p["rays"] == 0 and p["end"] == 0 for p in idle)
+        assert sum(p["primaries"] for p in r["pes"]) == sum(p["primaries"] for p in got["1", "compiled"]["pes"])
 
 
 def test_tracing_options_with_a_trace_file_exit_2(capsys):

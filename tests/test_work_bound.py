@@ -209,12 +209,23 @@ def test_the_bound_on_the_golden_traces(traces, name):
 
 
 def test_the_bound_refuses_what_the_run_refuses(traces):
+    # SC making each primary ray in 2^61 cycles: more than 2^62 in all, refused by both
     t = head(traces[NAMES[0]], 3)
-    cfg = builtin("3mppe").replace(pes=4, source="bound.toml")
-    c = Compiled(t, CM.visit_costs(t, cfg.processors()))
+    cfg = builtin("3mppe").replace(pes=2, source="bound.toml")
+    vc = CM.visit_costs(t, cfg.processors())
+    vc.inject_process = 1 << 61
+    c = Compiled(t, vc)
     with pytest.raises(ConfigError) as bound_err:
         c.work_bound(cfg)
     with pytest.raises(ConfigError) as run_err:
         c.result(cfg)
     assert str(bound_err.value) == str(run_err.value)
-    assert "bound.toml: " in str(bound_err.value) and "pes: 4 PEs" in str(bound_err.value)
+    assert "bound.toml: " in str(bound_err.value) and "gen_cycles" in str(bound_err.value)
+
+
+def test_the_bound_holds_with_more_pes_than_primary_rays(traces):
+    # (refused by both before): the spare PEs idle, and the bound is still one
+    t = head(traces[NAMES[0]], 3)
+    cfg = builtin("3mppe").replace(pes=5)
+    c = Compiled(t, CM.visit_costs(t, cfg.processors()))
+    assert 0 < c.work_bound(cfg) <= c.result(cfg).cycles

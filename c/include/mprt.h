@@ -679,7 +679,7 @@ int mprt_replay_run(mprt_replay *r, int64_t *log, size_t log_cap);
  * SC visit made after it; on a ring (packet sizes set) each step between
  * stages adds its packet's least time (the header's hops, then its other
  * flits, a flit time each).  Nothing is run; the last run's figures stay.
- * A configuration the run would refuse for its figures (more PEs than
+ * A configuration the run would refuse for its figures (a trace without
  * primary rays, cycles beyond 2^62) fails as the run does. OUT: cycles. */
 int mprt_replay_work_bound(mprt_replay *r, int64_t *cycles);
 

@@ -135,14 +135,13 @@ static int build(mprt_replay *r)
     return MPRT_OK;
 }
 
-/* What a run of the loaded trace on the configuration set is refused for, its figures: more
- * PEs than primary rays, the visits' cycles and the primaries' making beyond 2^62. */
+/* What a run of the loaded trace on the configuration set is refused for, its figures: a trace
+ * without primary rays, the visits' cycles and the primaries' making beyond 2^62.  (More PEs
+ * than primary rays is run: the PEs that get none stay idle, as in the SimPy model.) */
 int mprt__replay_check_figures(mprt_replay *r)
 {
     int64_t g = r->cfg.gen_cycles;
-    if (r->cfg.pes > r->ntrees)
-        return fail(r, MPRT_ERR_INVALID_ARG, "pes: %d PEs but the trace has only %lld primary rays (one per pixel "
-                    "sample)", r->cfg.pes, (long long)r->ntrees);
+    if (r->ntrees == 0) return fail(r, MPRT_ERR_INVALID_ARG, "the trace has no primary rays: nothing to replay");
     if (g > 0 && r->ntrees > (INT64_MAX / 2 - r->total) / g)
         return fail(r, MPRT_ERR_INVALID_ARG, "gen_cycles: with the visits' cycles, more than 2^62 cycles in all");
     return MPRT_OK;

@@ -242,8 +242,8 @@ static void test_work_bound(void)
     CHECK(bound(r, &s) == 37);
     m.gen_cycles = 20;                      /* SC makes the four primaries: 5 + 80 */
     CHECK(bound(r, &m) == 85 && cycles(&h, &m, NULL, 0) >= 85);
-    m.pes = 5;                              /* more PEs than primaries: refused as the run refuses */
-    CHECK(bound(r, &m) == -1 && strstr(mprt_replay_errmsg(r), "pes: 5 PEs"));
+    m.pes = 5;                              /* more PEs than primaries (one idles): a bound all the same */
+    CHECK(bound(r, &m) > 0 && bound(r, &m) <= cycles(&h, &m, NULL, 0));
     CHECK(mprt_replay_work_bound(r, NULL) == MPRT_ERR_INVALID_ARG);
     CHECK(mprt_replay_work_bound(NULL, &b) == MPRT_ERR_INVALID_ARG);
     mprt_replay_destroy(r);
@@ -419,7 +419,6 @@ static void test_bad_traces(void)
 {
     hand h;
     mprt_replay *r;
-    mprt_replay_config c = model_m();
     int i;
     for (i = 0; i < 6; i++) {
         h = parent_and_children();
@@ -442,13 +441,41 @@ static void test_bad_traces(void)
             mprt_replay_destroy(r);
         }
     }
-    /* more PEs than primary rays */
-    h = parent_and_children();
-    c.pes = 2;
+}
+
+/* More PEs than primary rays: the PEs without a tree stay idle, under every DIS. */
+static void test_idle_pes(void)
+{
+    static const int dis[] = {MPRT_DIS_DYNAMIC, MPRT_DIS_BLOCKS, MPRT_DIS_INTERLEAVED};
+    hand h = parent_and_children();
+    mprt_replay_config c = model_m();
+    mprt_replay *r;
+    mprt_replay_info one, many;
+    mprt_replay_pe pe[3];
+    int d, p;
     r = loaded(&h, &c);
-    CHECK(mprt_replay_run(r, NULL, 0) == MPRT_ERR_INVALID_ARG);
-    CHECK(strstr(mprt_replay_errmsg(r), "pes: 2 PEs but the trace has only 1 primary rays") != NULL);
+    CHECK(mprt_replay_run(r, NULL, 0) == MPRT_OK && mprt_replay_get_info(r, &one) == MPRT_OK);
     mprt_replay_destroy(r);
+    for (d = 0; d < 3; d++) {
+        int busy = 0;
+        c = model_m();
+        c.pes = 3;
+        c.dis = dis[d];
+        r = loaded(&h, &c);
+        CHECK_MSG(mprt_replay_run(r, NULL, 0) == MPRT_OK, "dis %d: %s", dis[d], mprt_replay_errmsg(r));
+        CHECK(mprt_replay_get_info(r, &many) == MPRT_OK && many.cycles == one.cycles);
+        CHECK(mprt_replay_get_pes(r, pe, 3) == MPRT_OK);
+        for (p = 0; p < 3; p++) {
+            if (pe[p].admitted) {
+                busy++;
+                CHECK(pe[p].admitted == 1 && pe[p].retired == 3 && pe[p].end == one.cycles);
+            } else {
+                CHECK(pe[p].retired == 0 && pe[p].end == 0 && pe[p].max_live == 0 && pe[p].visits[0] == 0);
+            }
+        }
+        CHECK_MSG(busy == 1, "dis %d: %d PEs ran the one tree", dis[d], busy);
+        mprt_replay_destroy(r);
+    }
 }
 
 static void test_runs_repeat_exactly(void)
@@ -480,6 +507,7 @@ int main(void)
     RUN(test_deadlock);
     RUN(test_bad_configurations);
     RUN(test_bad_traces);
+    RUN(test_idle_pes);
     RUN(test_runs_repeat_exactly);
     RUN(test_busy_record);
     RUN(test_work_bound);

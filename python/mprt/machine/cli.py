@@ -140,9 +140,6 @@ def run(a, load=None, replay=None, plan=None) -> int:
         if a.threshold is not None:
             opt.check_render_options(argparse.Namespace(threshold=a.threshold, rules=a.rules or "paper"))
         cfg = resolve(a.model, a.config, a.pes)
-        if a.res and not a.source.endswith(".npz") and cfg.pes > a.res[0] * a.res[1]:
-            raise ConfigError(f"{cfg.source + ': ' if cfg.source else ''}pes: {cfg.pes} PEs but only "
-                              f"{a.res[0] * a.res[1]} pixels")
         t0 = time.perf_counter()
         level = getattr(a, "level", None)
         print(f"simulate {a.source}: {'read the trace' if a.source.endswith('.npz') else 'trace the scene'}, then "

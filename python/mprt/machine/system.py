@@ -52,10 +52,9 @@ class System:
         ip, isend, iflits = self.replay.costs.inject
         self.gen_process, self.gen_send = ip, isend
         self.gen_cycles, self.gen_flits = ip + isend, iflits
-        if config.pes > n_trees:
+        if n_trees == 0:        # (more PEs than primary rays run: those that get none stay idle)
             where = f"{config.source}: " if config.source else ""
-            raise ConfigError(f"{where}pes: {config.pes} PEs but the trace has only {n_trees} primary rays "
-                              "(one per pixel sample)")
+            raise ConfigError(f"{where}the trace has no primary rays: nothing to replay")
         self.tree_pe = np.full(n_trees, -1, dtype=np.int32)
         orders = dis_orders(n_trees, config.pes, config.dis)
         self.pes = []
