@@ -168,7 +168,7 @@ def test_simulate_parses_as_before_without_the_explorer():
     def sim(p):
         return p._subparsers._group_actions[0].choices["simulate"]
 
-    whole, lean = cli.build_parser(), cli.build_parser(explore=False)
+    whole, lean = cli.build_parser(), cli.build_parser(only="simulate")
     assert "explore" in whole._subparsers._group_actions[0].choices
     assert "explore" not in lean._subparsers._group_actions[0].choices
     assert sim(whole).format_help() == sim(lean).format_help()

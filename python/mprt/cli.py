@@ -344,35 +344,31 @@ COMMANDS = ("scene", "render", "trace", "stats", "simulate", "explore", "prepass
 EXPLORE_COMMANDS = ("explore", "prepass", "sweep")
 
 
-def build_parser(explore: bool = True, only: str | None = None) -> argparse.ArgumentParser:
+def build_parser(only: str | None = None) -> argparse.ArgumentParser:
     """The ``mprt`` parser.  ``only``: just that command's parser (what ``main`` builds for a
     command line naming one), without the other commands' imports: the machine model's and the
     fidelity ladder's for ``simulate`` (about 70 ms), the explorer's for ``explore``, ``prepass``
-    and ``sweep`` (tens of ms).  Without ``explore`` the explorer's commands are left out."""
+    and ``sweep`` (tens of ms, one parser for the three)."""
     p = argparse.ArgumentParser(prog="mprt", description="3MPRT ray-tracing machine explorer", epilog=EPILOG)
     p.add_argument("--version", action="version", version=f"mprt {options.version()}")
     sub = p.add_subparsers(dest="cmd", required=True, metavar="COMMAND")
-    _add_commands(sub, lambda name: only is None or only == name, explore)
+    for names, add in ((("scene",), _add_scene), (("render",), _add_render), (("trace",), _add_trace),
+                       (("stats",), _add_stats), (("simulate",), _add_simulate), (EXPLORE_COMMANDS, _add_explore)):
+        if only is None or only in names:
+            add(sub)
     return p
 
 
-def _add_commands(sub, want, explore: bool) -> None:
-    if want("scene"):
-        _add_scene(sub)
-    if want("render"):
-        _add_render(sub)
-    if want("trace"):
-        _add_trace(sub)
-    if want("stats"):
-        _add_stats(sub)
-    if want("simulate"):
-        from .fidelity.cli import add_parser as add_simulate
+def _add_simulate(sub) -> None:
+    from .fidelity.cli import add_parser
 
-        add_simulate(sub)
-    if explore and any(want(c) for c in EXPLORE_COMMANDS):
-        from .explore.cli import add_parsers as add_explore
+    add_parser(sub)
 
-        add_explore(sub)
+
+def _add_explore(sub) -> None:
+    from .explore.cli import add_parsers
+
+    add_parsers(sub)
 
 
 def _add_scene(sub) -> None:

@@ -104,13 +104,14 @@ def reproduce(argv, settings: dict) -> str:
 
 # -- explore ----------------------------------------------------------------------------------
 
-def _finite(x) -> float:
-    """An error as a bar's height: 0 where it has no finite value (None in a report's JSON)."""
-    return x if x is not None and math.isfinite(x) else 0.0
+def _finite(x) -> bool:
+    """An error with a value (not None, as a report's JSON has it, nor infinite: a design that
+    deadlocked at one level only)."""
+    return x is not None and math.isfinite(x)
 
 
 def _err_pct(x) -> str:
-    return f"{100 * x:.2f}" if x is not None and math.isfinite(x) else "none (a deadlock at one level only)"
+    return f"{100 * x:.2f}" if _finite(x) else "none (a deadlock at one level only)"
 
 
 def ladder_png(ladder: list) -> bytes:
@@ -125,9 +126,10 @@ def ladder_png(ladder: list) -> bytes:
     w = 0.38
     for dx, key, label, colour in ((-w / 2, "error_median", "median", "tab:green"),
                                    (w / 2, "error_worst", "worst", "tab:red")):
-        ax[1].bar([i + dx for i in x], [100 * _finite(r[key]) for r in ladder], w, label=label, color=colour)
+        ax[1].bar([i + dx for i in x], [100 * r[key] if _finite(r[key]) else 0.0 for r in ladder], w, label=label,
+                  color=colour)
         for i, r in zip(x, ladder):     # no finite error (a design deadlocked at one level only): no bar
-            if _finite(r[key]) != r[key]:
+            if not _finite(r[key]):
                 ax[1].annotate("deadlock", (i + dx, 0), rotation=90, ha="center", va="bottom", fontsize=7)
     ax[1].set(ylabel="% off the top level", title="error (deadlock: at one level only, no figure)")
     ax[1].set_xticks(list(x), names, fontsize=8)

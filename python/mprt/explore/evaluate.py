@@ -54,6 +54,12 @@ class Result:
     engine: str = ""
     costs: str = "mprt.cost"                          # which cost model priced the visits
 
+    @property
+    def deadlocked(self) -> bool:
+        """The design deadlocked, even with one ray tree in flight: ``cycles`` is DEADLOCK_CYCLES,
+        the stand-in that ranks it last, not a count (reports give it none)."""
+        return self.bottleneck == "deadlock"
+
     def to_dict(self) -> dict:
         return {"cycles": self.cycles, "level": self.level, "cost": self.cost, "loads": self.loads,
                 "utilisation": self.utilisation, "bottleneck": self.bottleneck, "engine": self.engine,

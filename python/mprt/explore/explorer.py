@@ -313,8 +313,7 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
     runs.update(search=problem.runs, search_bounded=len(problem.memo) - problem.runs)
     pool.before_fork = None
     if best.cycles >= DEADLOCK_CYCLES:
-        raise NoLiveDesignError(f"explore: every design evaluated at level {lv} deadlocks "
-                                f"({evaluations} designs): give the FIFOs more room in the space")
+        raise NoLiveDesignError.at(lv, evaluations)
     for i, r in enumerate(history, 1):
         r["evaluation"] = i
     dims = list(grid_dims(scene, best.point.subdivision, space.shape))
@@ -324,9 +323,8 @@ def _explore(scene, width, height, space, objective, budget, level, tolerance, a
                      per_eval * len(made) if fraction > 1 else None):
         got = pool.run(ev, [Point(best.point.subdivision, d) for d in made.values()], lv)
     for (name, d), r in zip(made.items(), got):
-        dead = r.bottleneck == "deadlock"   # (even with one ray tree in flight: its cycles are no count)
-        refs[name] = {"cycles": None if dead else r.cycles, "cost": r.cost, "utilisation": r.utilisation,
-                      "deadlock": dead, "design": d.to_dict()}
+        refs[name] = {"cycles": None if r.deadlocked else r.cycles, "cost": r.cost, "utilisation": r.utilisation,
+                      "deadlock": r.deadlocked, "design": d.to_dict()}
     b = best.result
     report = {
         "scene": scene.name,
@@ -485,12 +483,16 @@ def _screened(scr, low) -> str:
 class NoLiveDesignError(MprtError, RuntimeError):
     """No design the explorer evaluated runs to the end at its level."""
 
+    @classmethod
+    def at(cls, level, evaluations) -> "NoLiveDesignError":
+        return cls(f"explore: every design evaluated at level {level} deadlocks ({evaluations} designs): "
+                   "give the FIFOs more room in the space")
+
 
 def _knee(front, level, evaluations):
     """The front's knee (least time x cost); an error where every design deadlocked (no front)."""
     if not front:
-        raise NoLiveDesignError(f"explore: every design evaluated at level {level} deadlocks "
-                                f"({evaluations} designs): give the FIFOs more room in the space")
+        raise NoLiveDesignError.at(level, evaluations)
     return min(front, key=lambda e: (e.cycles * e.cost, e.serial))
 
 

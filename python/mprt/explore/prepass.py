@@ -47,6 +47,10 @@ class PrepassDeadlockError(MprtError, RuntimeError):
     """The machine deadlocks on every candidate subdivision the prepass tried: no choice to make."""
 
 
+_WHY = ("its FIFOs cannot hold this scene's ray trees with its DIS window; give the FIFOs more room or a "
+        "smaller window (--config)")
+
+
 def _dead(cycles: float) -> bool:
     return cycles >= DEADLOCK_CYCLES       # (the evaluator's stand-in for a run that deadlocked)
 
@@ -164,8 +168,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
     if not live:
         raise PrepassDeadlockError(
             f"machine {_name(f.design)} deadlocks at level {level} on every subdivision tried at {w}x{h} "
-            f"({_grids(d for d, _ in cands)}): its FIFOs cannot hold this scene's ray trees with its DIS window; "
-            f"give the FIFOs more room or a smaller window (--config)")
+            f"({_grids(d for d, _ in cands)}): {_WHY}")
     best = min(live, key=lambda kv: (kv[1], kv[0]))
     checked = {}
     if check > 0 and check_sample is None:
@@ -184,8 +187,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
             raise PrepassDeadlockError(
                 f"machine {_name(f.design)} deadlocks at level {level} at {width}x{height} (on "
                 f"{check_sample}) on each of the {len(checked)} best subdivisions of {w}x{h} "
-                f"({_grids(checked)}): its FIFOs cannot hold this scene's ray trees with its DIS window; "
-                f"give the FIFOs more room or a smaller window (--config)")
+                f"({_grids(checked)}): {_WHY}")
         best = min(ran, key=lambda kv: (kv[1], kv[0]))
         best = (best[0], f.seen[best[0]])
     from .explorer import settings

@@ -27,8 +27,8 @@ class Evaluation:
 
 
 def deadlocked(e: Evaluation) -> bool:
-    """The evaluation's design deadlocked (its cycles are the evaluator's stand-in, no count)."""
-    return getattr(e.result, "bottleneck", "") == "deadlock"
+    """The evaluation's design deadlocked (``evaluate.Result.deadlocked``)."""
+    return bool(getattr(e.result, "deadlocked", False))
 
 
 def front_of(evals) -> list[Evaluation]:
