@@ -13,7 +13,7 @@ import pytest
 
 import mprt
 from mprt import tracefile, tracewriter
-from mprt._lowlevel import binding
+from mprt._lowlevel import RAY_DTYPE, VISIT_DTYPE, binding
 
 
 @functools.cache
@@ -88,6 +88,82 @@ def test_appender_writes_what_it_is_given_after_what_was_there(tmp_path, monkeyp
         for p in pieces:
             a.write(p)
         body = b"".join(pieces)
+        assert a.close() == start + len(body)
+        assert a.crc == zlib.crc32(body) and a.size == len(body)
+    finally:
+        os.close(plain)
+        if direct is not None:
+            os.close(direct)
+    assert path.read_bytes() == head + body
+
+
+def _random_records(rng, n: int):
+    """n random rays (a third of them primary: parent -1) and 3n random visits, as raw bytes."""
+    rays = np.frombuffer(rng.bytes(n * RAY_DTYPE.itemsize), RAY_DTYPE).copy()
+    rays["id"] = rng.integers(0, 1 << 40, n)
+    rays["parent"] = np.where(rng.random(n) < 1 / 3, -1, rng.integers(0, 1 << 40, n))
+    visits = np.frombuffer(rng.bytes(3 * n * VISIT_DTYPE.itemsize), VISIT_DTYPE).copy()
+    visits["ray"] = rng.integers(0, 1 << 40, 3 * n)
+    return rays, visits
+
+
+def _shifted(a: np.ndarray, offset: int) -> np.ndarray:
+    """Records renumbered the plain way: ids, parents that are not negative, visits' rays."""
+    out = a.copy()
+    if a.dtype == VISIT_DTYPE:
+        out["ray"] += offset
+    else:
+        out["id"] += offset
+        out["parent"] = np.where(out["parent"] >= 0, out["parent"] + offset, out["parent"])
+    return out
+
+
+@pytest.mark.parametrize("n", [0, 1, 255, 256, 257, 1000])
+@pytest.mark.parametrize("at", [0, 3, 8])
+def test_records_shift_renumbers_copies_and_checksums(n, at):
+    """Records copied to any byte offset with their ray numbers moved on: the plain renumbering's
+    bytes, nothing else touched, negative parents kept; the CRC is zlib's of the bytes written."""
+    rng = np.random.default_rng(n + at)
+    lib = binding()
+    for a in _random_records(rng, n):
+        offset = int(rng.integers(1, 1 << 30))
+        want = tracefile.as_bytes(_shifted(a, offset)).tobytes()
+        dst = bytearray(rng.bytes(at + len(want) + 5))
+        guard = bytes(dst)
+        assert lib.records_shift(a, memoryview(dst)[at:], offset, 7) == zlib.crc32(want, 7)
+        assert bytes(dst) == guard[:at] + want + guard[at + len(want):]
+        assert lib.records_shift(a, memoryview(dst)[at:], 0) is None     # offset 0: a plain copy
+        assert bytes(dst[at:at + len(want)]) == tracefile.as_bytes(a).tobytes()
+    with pytest.raises(mprt.InvalidArgument, match="dst holds"):
+        lib.records_shift(_random_records(rng, 4)[0], bytearray(10), 1)
+    with pytest.raises(mprt.InvalidArgument, match="trace records"):
+        lib.records_shift(np.zeros(4), bytearray(64), 1)
+
+
+@pytest.mark.parametrize("start", [0, 188, 4095])
+@pytest.mark.parametrize("how", ["direct", "page cache"])
+def test_appender_writes_records_renumbered(tmp_path, start, how):
+    """Records appended renumbered, in pieces of every size, after plain bytes and between them,
+    through a buffer that is not a whole number of records: the file holds exactly the bytes
+    before start, then each piece as given or renumbered; the CRC is theirs."""
+    path = tmp_path / "a.bin"
+    rng = np.random.default_rng(start)
+    head = rng.bytes(start)
+    path.write_bytes(head)
+    plain = os.open(path, os.O_RDWR)
+    direct = tracewriter.direct_fd(path) if how == "direct" else None
+    try:
+        a = tracewriter.Appender(plain, direct, start, tracewriter.aligned_buffer(2 * tracewriter.ALIGN))
+        body = []
+        for k in rng.integers(0, 400, size=10):
+            rays, visits = _random_records(rng, int(k))
+            offset = int(rng.integers(1, 1 << 30))
+            a.write_records(visits, offset)
+            a.write(b"x" * int(k % 7))
+            a.write_records(rays, offset)
+            body += [tracefile.as_bytes(_shifted(visits, offset)).tobytes(), b"x" * int(k % 7),
+                     tracefile.as_bytes(_shifted(rays, offset)).tobytes()]
+        body = b"".join(body)
         assert a.close() == start + len(body)
         assert a.crc == zlib.crc32(body) and a.size == len(body)
     finally:

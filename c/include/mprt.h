@@ -478,6 +478,15 @@ int mprt_image_write_png(const char *path, int width, int height, const float *r
  * has them (x86-64 PCLMULQDQ); a portable loop elsewhere; the same value. */
 uint32_t mprt_crc32_copy(void *dst, const void *src, size_t n, uint32_t crc);
 
+/* Copy n trace records from src to dst (not overlapping; either at any byte
+ * offset), their ray numbers moved on by offset on the way: visits (visits
+ * not 0) their ray, rays their id and their parent unless it is negative (a
+ * primary ray's -1).  This is how records numbered from 0 for a group of
+ * tiles join a trace after offset rays.  With crc_out not NULL, *crc_out is
+ * the CRC-32 of the bytes written, continuing from its value (as
+ * mprt_crc32_copy); the same pass, over bytes still in cache. */
+void mprt_trace_records_shift(int visits, void *dst, const void *src, size_t n, int64_t offset, uint32_t *crc_out);
+
 /* ---- Visit costs -----------------------------------------------------------
  * What every visit of a trace costs on given processors, in one pass (the
  * cost model's arithmetic, python/mprt/cost/model.py; the tables come from

@@ -50,3 +50,41 @@ void mprt__counters_add(mprt_counters *counters, const mprt_counters *more)
     counters->sc_visits += more->sc_visits;
     counters->tir += more->tir;
 }
+
+/* Records copied a block at a time, then their ray numbers patched in the copy and
+ * its CRC taken while the block is still in cache (mprt_trace_records_shift). */
+#define SHIFT_BLOCK 256
+
+static void shift_field(unsigned char *rec, size_t at, int64_t offset, int keep_negative)
+{
+    int64_t v;
+    memcpy(&v, rec + at, sizeof v);
+    if (!(keep_negative && v < 0)) v += offset;
+    memcpy(rec + at, &v, sizeof v);
+}
+
+void mprt_trace_records_shift(int visits, void *dst, const void *src, size_t n, int64_t offset, uint32_t *crc_out)
+{
+    size_t size = visits ? sizeof(mprt_trace_visit) : sizeof(mprt_trace_ray);
+    unsigned char *d = dst;
+    const unsigned char *s = src;
+    while (n) {
+        size_t k = n < SHIFT_BLOCK ? n : SHIFT_BLOCK, i;
+        memcpy(d, s, k * size);
+        if (offset) {
+            for (i = 0; i < k; i++) {
+                unsigned char *rec = d + i * size;
+                if (visits) {
+                    shift_field(rec, offsetof(mprt_trace_visit, ray), offset, 0);
+                } else {
+                    shift_field(rec, offsetof(mprt_trace_ray, id), offset, 0);
+                    shift_field(rec, offsetof(mprt_trace_ray, parent), offset, 1);
+                }
+            }
+        }
+        if (crc_out) *crc_out = mprt_crc32_copy(NULL, d, k * size, *crc_out);
+        d += k * size;
+        s += k * size;
+        n -= k;
+    }
+}

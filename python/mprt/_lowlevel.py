@@ -759,6 +759,23 @@ class Binding:
         return int(self.lib.mprt_crc32_copy(d, s, len(s), int(crc) & 0xFFFFFFFF))
 
 
+    def records_shift(self, src: np.ndarray, dst, offset: int, crc: int | None = None) -> int | None:
+        """Copy the trace records src (a contiguous RAY_DTYPE or VISIT_DTYPE array) to the start of
+        dst (a writable bytes-like object or array at least as long), their ray numbers moved on by
+        offset (rays: id and parent unless negative; visits: ray), letting other threads run.
+        With crc (zlib's running value) given, returns the CRC-32 of the bytes written, on from it."""
+        if src.dtype not in (RAY_DTYPE, VISIT_DTYPE) or not src.flags.c_contiguous:
+            raise InvalidArgument(f"records_shift: a contiguous array of trace records, not {src.dtype}")
+        ffi = self.ffi
+        s = ffi.from_buffer("char[]", src)
+        d = ffi.from_buffer("char[]", dst, require_writable=True)
+        if len(d) < len(s):
+            raise InvalidArgument(f"records_shift: dst holds {len(d)} bytes, src {len(s)}")
+        out = ffi.NULL if crc is None else ffi.new("uint32_t *", int(crc) & 0xFFFFFFFF)
+        self.lib.mprt_trace_records_shift(int(src.dtype == VISIT_DTYPE), d, s, len(src), int(offset), out)
+        return None if crc is None else int(out[0])
+
+
 _BINDINGS = {"double": Binding(_mprt, "double"), "single": Binding(_mprt32, "single")}
 PRECISIONS = tuple(_BINDINGS)
 EXT_VERSION = _BINDINGS["double"].version

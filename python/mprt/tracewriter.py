@@ -23,6 +23,7 @@ import tempfile
 import zipfile
 import zlib
 from collections import deque
+from concurrent import futures
 from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
@@ -129,6 +130,24 @@ class Appender:
             self.n += k
             mv = mv[k:]
             if self.n == self.cap:
+                self._blocks()
+
+    def write_records(self, records: np.ndarray, offset: int) -> None:
+        """Append trace records (a contiguous RAY_DTYPE or VISIT_DTYPE array) with their ray
+        numbers moved on by offset (``Binding.records_shift``): copied, renumbered and
+        checksummed in one pass."""
+        size = records.dtype.itemsize
+        self.size += records.nbytes
+        i = 0
+        while i < len(records):
+            k = min(len(records) - i, (self.cap - self.n) // size)
+            if k == 0:            # less than a record's room left: write the whole blocks first
+                self._blocks()
+                continue
+            self.crc = _CRC.records_shift(records[i:i + k], self.view[self.n:self.n + k * size], offset, self.crc)
+            self.n += k * size
+            i += k
+            if self.cap - self.n < size:
                 self._blocks()
 
     def _blocks(self) -> None:
@@ -274,9 +293,11 @@ class TraceWriter:
             self.fds.append(fd)
         return fd
 
-    def _write(self, rays: np.ndarray, visits: np.ndarray) -> None:
+    def _write(self, rays: np.ndarray, visits: np.ndarray, offset: int) -> None:
         for f, a in ((self.rays, rays), (self.visits, visits)):
-            if len(a):
+            if len(a) and offset:
+                f.write_records(a, offset)
+            elif len(a):
                 f.write(as_bytes(a))       # crc32 and the writes let other threads run
 
     def _wait(self, left: int = 0) -> None:
@@ -284,14 +305,21 @@ class TraceWriter:
         while len(self.pending) > left:
             self.pending.popleft().result()
 
-    def write(self, rays: np.ndarray, visits: np.ndarray) -> None:
-        """Append records (contiguous RAY_DTYPE and VISIT_DTYPE arrays), written in the background,
-        in order: the caller leaves the arrays alone until ``depth`` more calls of write, or
-        finish or abort, have returned (the writes in flight are at most ``depth``)."""
+    def write(self, rays: np.ndarray, visits: np.ndarray, offset: int = 0) -> None:
+        """Append records (contiguous RAY_DTYPE and VISIT_DTYPE arrays), their ray numbers moved
+        on by offset as they are copied (records numbered from 0 for a group of tiles), written
+        in the background, in order: the caller leaves the arrays alone until ``depth`` more
+        calls of write, or ``settle``, finish or abort, have returned (the writes in flight
+        are at most ``depth``)."""
         self._wait(self.depth - 1)
         self.count["rays"] += len(rays)
         self.count["visits"] += len(visits)
-        self.pending.append(self.pool.submit(self._write, rays, visits))
+        self.pending.append(self.pool.submit(self._write, rays, visits, offset))
+
+    def settle(self) -> None:
+        """Wait until no write is in flight, keeping their errors for ``finish`` to raise: the
+        arrays handed to write are the caller's again."""
+        futures.wait(list(self.pending))
 
     def _complete(self, info, appender: Appender, dtype, count: int) -> int:
         """Put a streamed member's count, sizes and CRC in place (its .npy header and local zip

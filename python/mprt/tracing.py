@@ -25,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import tracefile, tracevalid, tracewriter
-from ._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Rules
+from ._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Rules, binding
 from .errors import InvalidArgument
 from .grid import CONVENTIONS, Grid, render_desc
 from .trace import OUTCOMES, RAY_KINDS, STAGES, Trace, load_trace
@@ -148,6 +148,7 @@ TILES_PER_CALL = 64
 
 
 _POOL_LOCK = threading.Lock()   # traces may run at once on several Python threads
+_COPY = binding()               # the library's record copy (renumbering on the way)
 
 
 def release_buffers() -> None:
@@ -187,12 +188,18 @@ def _reserve(rays: int, visits: int) -> dict:
 class _Records:
     """Where a trace's records go: straight into the trace's arrays in memory, or (``writer``, a
     tracewriter.TraceWriter) into a ring of ``CHUNKS`` reused chunks: each time one fills, the
-    writer writes it to the file in the background while the next ones fill."""
+    writer writes it to the file in the background while the next ones fill.  With ``direct``
+    (records made on threads, in buffer sets of their own: see ``add``) a writer takes them
+    from those sets, no chunk between."""
 
-    def __init__(self, samples: int, writer=None):
+    def __init__(self, samples: int, writer=None, direct: bool = False):
         self.writer = writer
+        self.direct = bool(writer and direct)
+        self.held: deque = deque()             # direct: buffer sets the writer may still read
         with _POOL_LOCK:   # taken (referred to here) before another trace looks for idle arrays
-            if writer:   # the ring: parts of one pooled pair (pages a trace before may have touched)
+            if self.direct:
+                self.arrays = {"rays": np.empty(0, RAY_DTYPE), "visits": np.empty(0, VISIT_DTYPE)}
+            elif writer:   # the ring: parts of one pooled pair (pages a trace before may have touched)
                 whole = _reserve(CHUNKS * CHUNK_RAYS, CHUNKS * CHUNK_VISITS)
                 self.chunks = [{k: whole[k][i * size:(i + 1) * size]
                                 for k, size in (("rays", CHUNK_RAYS), ("visits", CHUNK_VISITS))}
@@ -226,25 +233,45 @@ class _Records:
                 tracefile.as_bytes(bigger[:n])[:] = tracefile.as_bytes(a[:n])
                 self.arrays[key] = bigger
 
-    def add(self, rays: np.ndarray, visits: np.ndarray) -> None:
-        """Append records numbered from 0 (one thread's tiles), renumbered to follow the others."""
+    @property
+    def holds(self) -> int:
+        """The buffer sets ``add`` may keep at a time (held for the writer)."""
+        return self.writer.depth if self.direct else 0
+
+    def add(self, rays: np.ndarray, visits: np.ndarray, owner=None) -> list:
+        """Append records numbered from 0 (one thread's tiles, in buffer set ``owner``),
+        renumbered to follow the others as they are copied (in C, other threads running).
+        Returns the buffer sets free again: ``owner`` at once, or with ``direct`` the sets the
+        writer has let go (it reads them in the background; ``settle`` frees the rest)."""
+        offset = self.first_ray + self.n["rays"]
+        if self.direct:
+            self.writer.write(rays, visits, offset)
+            self.first_ray += len(rays)
+            self.held.append(owner)
+            return [self.held.popleft() for _ in range(len(self.held) - self.holds)]
         if len(self.arrays["rays"]) - self.n["rays"] < len(rays) or \
                 len(self.arrays["visits"]) - self.n["visits"] < len(visits):
             self.make_room(len(rays), len(visits))
-        offset = self.first_ray + self.n["rays"]
+            offset = self.first_ray + self.n["rays"]
         r, v = self.room()
-        r, v = r[:len(rays)], v[:len(visits)]
-        tracefile.as_bytes(r)[:] = tracefile.as_bytes(rays)   # byte views: one memcpy
-        tracefile.as_bytes(v)[:] = tracefile.as_bytes(visits)
-        if offset:
-            r["id"] += offset
-            np.add(r["parent"], offset, out=r["parent"], where=r["parent"] >= 0)
-            v["ray"] += offset
+        _COPY.records_shift(rays, r, offset)
+        _COPY.records_shift(visits, v, offset)
         self.commit(len(rays), len(visits))
+        return [owner]
+
+    def settle(self) -> list:
+        """Wait for the writer to let go of the buffer sets it holds: returns them."""
+        if self.held:
+            self.writer.settle()
+        out = list(self.held)
+        self.held.clear()
+        return out
 
     def flush(self) -> None:
         """Hand the chunk to the writer and go on in the next one (whose write the writer has
-        finished: it has CHUNKS - 1 writes in flight at most)."""
+        finished: it has CHUNKS - 1 writes in flight at most); with ``direct``, nothing to do."""
+        if self.direct:
+            return
         self.writer.write(self.arrays["rays"][:self.n["rays"]], self.arrays["visits"][:self.n["visits"]])
         self.first_ray += self.n["rays"]
         self.n = {"rays": 0, "visits": 0}
@@ -299,16 +326,17 @@ def _run_tiles(grid, desc, tiles: np.ndarray, records: _Records, samples: np.nda
     size = max(1, min(TILES_PER_CALL // 4, len(tiles) // (8 * threads)))
     groups = [tiles[i:i + size] for i in range(0, len(tiles), size)]
     ts = desc["tile"]
-    sets = _take_buffer_sets(window, size * ts * ts)
+    sets = _take_buffer_sets(window + records.holds, size * ts * ts)
     try:
-        _run_groups(grid, desc, groups, records, samples, bar, threads, list(sets))
-    finally:   # the workers are done (the pool waits for them): the sets are free again
+        _run_groups(grid, desc, groups, records, samples, bar, threads, list(sets), window)
+    finally:   # the workers are done (the pool waits for them), the writer too: the sets are free
+        records.settle()
         _give_back(sets)
 
 
-def _run_groups(grid, desc, groups, records, samples, bar, threads, free):
-    """The groups on threads, a window of len(free) in flight, handed to records in order."""
-    window = len(free)
+def _run_groups(grid, desc, groups, records, samples, bar, threads, free, window):
+    """The groups on threads, a window of them in flight, handed to records in order (buffer
+    sets from ``free``: the window's, and those records may hold)."""
     with ThreadPoolExecutor(max_workers=threads) as pool:
         pending = deque()
         todo = iter(groups)
@@ -324,8 +352,7 @@ def _run_groups(grid, desc, groups, records, samples, bar, threads, free):
         while pending:
             fut, b, n = pending.popleft()
             nr, nv = fut.result()
-            records.add(b["rays"][:nr], b["visits"][:nv])
-            free.append(b)
+            free.extend(records.add(b["rays"][:nr], b["visits"][:nv], b))
             submit()
             if bar:
                 bar.update(n)
@@ -407,7 +434,7 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
     try:
         if path:
             writer = tracewriter.TraceWriter(path, depth=CHUNKS - 1)
-        records = _Records(nsamples, writer)
+        records = _Records(nsamples, writer, direct=desc["threads"] > 1)
         if progress:
             from tqdm import tqdm      # (here: importing it costs tens of ms, paid only where a bar is shown)
 
