@@ -110,7 +110,8 @@ asan:
 # memories alone and together) with the C library
 # under ASan and UBSan: the extension built into build/asan-py beside a copy of the package
 # (--capture=sys: a sanitizer's report, written to the descriptor, is seen when it stops the run);
-# and test_lifetimes.py, the C objects' destruction in the orders Python may collect them.
+# test_lifetimes.py, the C objects' destruction in the orders Python may collect them; and the
+# trace writer's tests (records copied and renumbered at any byte offset, on threads).
 asan-py: $(VENV)/.installed
 	rm -rf build/asan-py && mkdir -p build/asan-py && cp -r python/mprt build/asan-py/ && rm -f build/asan-py/mprt/*.so
 	ln -s ../../c build/asan-py/c      # (cffi compiles in its tmpdir, with paths relative to the root)
@@ -123,7 +124,7 @@ asan-py: $(VENV)/.installed
 	    PYTHONPATH=../build/asan-py ../$(PY) -m pytest -q --capture=sys -p no:cacheprovider test_fidelity_full.py \
 	    test_fidelity_memory.py test_fidelity_ring.py test_fidelity.py test_compiled_priced.py test_recordcheck.py \
 	    test_lifetimes.py test_compiled_threads.py test_simulate_fused.py test_tracecheck_split.py \
-	    test_work_bound.py
+	    test_work_bound.py test_trace_write.py test_trace_buffers.py
 
 # The fuzz target over NFF parse, write, grids, renders and intersection
 # (tests/fuzz/fuzz_nff.c), replayed on its seed corpus and on every input

@@ -228,3 +228,46 @@ def test_release_since_lets_go_of_the_second_half_only(tmp_path, monkeypatch):
     first = half.ctypes.data - half.ctypes.data % page
     end = min(half.ctypes.data + page + pages._AROUND, base + n)
     assert calls == [(first, end - first), (base, end - base)]
+
+
+def test_kept_pages_are_not_let_go_in_any_thread(tmp_path, monkeypatch):
+    """Within pages.kept() no release lets pages go, from this thread or another; after the
+    block (nested blocks included) they are let go again."""
+    import threading
+
+    from mprt import pages
+
+    path = tmp_path / "m.bin"
+    path.write_bytes(bytes(8 * pages.mmap.PAGESIZE))
+    m = np.memmap(path, dtype=np.uint8, mode="r")
+    calls = []
+    monkeypatch.setattr(pages, "_madvise", lambda start, length, advice: calls.append(start))
+    with pages.kept():
+        with pages.kept():
+            pages.release(m[:100])
+        t = threading.Thread(target=pages.release, args=(m[:100],))
+        t.start()
+        t.join()
+        assert calls == []
+    pages.release(m[:100])
+    assert calls == [m.ctypes.data]
+
+
+def test_simulate_keeps_a_trace_files_pages_for_the_compiled_replay_only(tmp_path, monkeypatch):
+    """mprt simulate of a trace file: its checksums and check let no page go when the compiled
+    replay loads the whole file next (every pass's releases happen within pages.kept), and let
+    them go for SimPy, which reads it a window at a time."""
+    import mprt
+    from mprt import cli, pages
+
+    path = tmp_path / "t.npz"
+    mprt.Scene.spd("balls", 1).grid(4).trace(16, 16, path=path)
+    seen = []
+    real = pages.release
+    monkeypatch.setattr(pages, "release", lambda *a, **k: (seen.append(pages._KEPT[0] > 0), real(*a, **k))[1])
+    for mod in ("tracefile", "recordcheck", "tracevalid", "tracecheck"):
+        monkeypatch.setattr(f"mprt.{mod}.release", pages.release, raising=False)
+    for engine, want in (("compiled", True), ("simpy", False)):
+        seen.clear()
+        assert cli.main(["simulate", str(path), "--model", "M", "--engine", engine]) == 0
+        assert seen and set(seen) == {want}, (engine, seen)

@@ -1,11 +1,14 @@
 """Reading large arrays in bounded memory: ``release`` lets the kernel drop the pages of a
-memory-mapped array once processed, ``chunks`` walks an array a copy of a chunk at a time.
+memory-mapped array once processed (except within ``kept()``), ``chunks`` walks an array a copy
+of a chunk at a time.
 Used by the trace file format, its validation, its invariant check and its statistics.
 ``sparse_zeros`` makes a large zeroed array of which few entries will be written."""
 from __future__ import annotations
 
+import contextlib
 import ctypes
 import mmap
+import threading
 
 import numpy as np
 
@@ -18,6 +21,23 @@ except (AttributeError, OSError):   # no madvise: pages simply stay until the ke
 
 
 _AROUND = 1 << 21   # the kernel may map pages beyond a fault (fault-around, large folios): up to 2 MiB
+_KEPT = [0]         # kept() blocks open, in any thread: release lets nothing go while one is
+_KEPT_LOCK = threading.Lock()
+
+
+@contextlib.contextmanager
+def kept():
+    """Within the block (in every thread) ``release`` lets no page go: for a reader whose next
+    step touches every page again at once, such as the compiled replay's loading of a trace file
+    after its checksums and check (the loading maps the whole file anyway, so dropping the pages
+    between the passes bounds nothing and only costs the faults of mapping them again)."""
+    with _KEPT_LOCK:
+        _KEPT[0] += 1
+    try:
+        yield
+    finally:
+        with _KEPT_LOCK:
+            _KEPT[0] -= 1
 
 
 def release(a: np.ndarray, since: np.ndarray | None = None) -> None:
@@ -28,7 +48,7 @@ def release(a: np.ndarray, since: np.ndarray | None = None) -> None:
     look-ups behind) keeps memory bounded.  ``since`` (a slice of the same map, at or before
     ``a``): the pages from its start only (a reader of the map's second half, beside one of its
     first).  Anything but a read-only memory map is left alone."""
-    if _madvise is None or not isinstance(a, np.memmap) or a.mode != "r" or a.nbytes == 0 \
+    if _KEPT[0] or _madvise is None or not isinstance(a, np.memmap) or a.mode != "r" or a.nbytes == 0 \
             or not a.flags.c_contiguous:
         return
     root = a

@@ -26,12 +26,14 @@ Wire into the main parser with ``add_parser(subparsers)`` in place of
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 import time
 
 import numpy as np
 
+from .. import pages
 from ..errors import InvalidArgument
 from ..machine import cli as machine_cli
 from ..machine.errors import ConfigError
@@ -136,13 +138,23 @@ def _warm_cost_model(a):
     return t
 
 
+def _pages_for(a):
+    """How a trace file's pages are read for the run: kept mapped between the checksums, the
+    check and the loading when the compiled replay loads the whole file next (it maps every page
+    anyway: letting them go between the passes would only cost faulting them in again), else
+    let go after each pass (``pages.release``: SimPy reads the trace a window at a time)."""
+    plan = _plan(a, a.machine_config) if a.source.endswith(".npz") else None
+    return pages.kept() if plan is not None and plan[1] == "compiled" else contextlib.nullcontext()
+
+
 def _load(a):
     """The trace to replay: a sample of the tiles when --sample is given."""
     if a.sample is None:
         a.sampled_trace = None
         warm = _warm_cost_model(a)
         try:
-            return machine_cli._load_source(a)
+            with _pages_for(a):
+                return machine_cli._load_source(a)
         finally:
             if warm is not None:
                 warm.join()
