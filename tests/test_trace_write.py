@@ -215,20 +215,32 @@ def test_streamed_trace_is_the_file_as_a_reader_loads_it(tmp_path):
     assert streamed.stats() == loaded.stats()
 
 
-def test_a_failed_write_raises_and_leaves_nothing(tmp_path, monkeypatch):
-    """A write that fails (the disk full) is the trace's error; the path is left as it was and
-    no scratch file stays beside it."""
+@pytest.mark.parametrize("threads", [1, 2])
+@pytest.mark.parametrize("after", [0, 3])
+def test_a_failed_write_raises_and_leaves_nothing(tmp_path, monkeypatch, threads, after):
+    """A write that fails (the disk full), at once or after a few writes, is the trace's error on
+    one thread or several (where the writer takes the records from the threads' buffers); the
+    path is left as it was, no scratch file stays beside it, and the next trace is whole."""
     path = tmp_path / "t.npz"
     path.write_bytes(b"before")
+    real, calls = tracewriter._pwrite_all, []
 
     def full(fd, data, offset):
-        raise OSError(errno.ENOSPC, "No space left on device")
-    monkeypatch.setattr(tracewriter, "_pwrite_all", full)
-    monkeypatch.setattr(tracewriter, "BUFFER_BYTES", tracewriter.ALIGN)
-    with pytest.raises(OSError, match="No space left"):
-        grid().trace(24, 20, tile=4, path=path)
+        calls.append(offset)
+        if len(calls) > after:
+            raise OSError(errno.ENOSPC, "No space left on device")
+        real(fd, data, offset)
+    with monkeypatch.context() as m:
+        m.setattr(tracewriter, "_pwrite_all", full)
+        m.setattr(tracewriter, "BUFFER_BYTES", tracewriter.ALIGN)
+        with pytest.raises(OSError, match="No space left"):
+            grid().trace(24, 20, tile=4, path=path, threads=threads)
     assert path.read_bytes() == b"before"
     assert os.listdir(tmp_path) == ["t.npz"]
+    _, ref = grid().trace(24, 20, tile=4)
+    _, again = grid().trace(24, 20, tile=4, path=tmp_path / "u.npz", threads=threads)
+    assert mprt.load_trace(tmp_path / "u.npz", verify=True).stats() == ref.stats()
+    assert tracefile.as_bytes(np.asarray(again.visits)).tobytes() == tracefile.as_bytes(ref.visits).tobytes()
 
 
 def test_streamed_members_equal_those_the_whole_trace_writer_makes(tmp_path):
