@@ -758,7 +758,6 @@ class Binding:
                 raise InvalidArgument(f"crc32_copy: dst holds {len(d)} bytes, src {len(s)}")
         return int(self.lib.mprt_crc32_copy(d, s, len(s), int(crc) & 0xFFFFFFFF))
 
-
     def records_shift(self, src: np.ndarray, dst, offset: int, crc: int | None = None) -> int | None:
         """Copy the trace records src (a contiguous RAY_DTYPE or VISIT_DTYPE array) to the start of
         dst (a writable bytes-like object or array at least as long), their ray numbers moved on by
