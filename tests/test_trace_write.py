@@ -74,7 +74,19 @@ def _refuse_direct(monkeypatch, direct_fds):
 def test_appender_writes_what_it_is_given_after_what_was_there(tmp_path, monkeypatch, start, how):
     """Pieces of every size appended from any offset: the file holds the bytes before start
     unchanged, then the pieces, nothing more; the CRC is theirs."""
-    path = tmp_path / "a.bin"
+    def fill(a, rng) -> bytes:
+        pieces = [rng.bytes(int(k)) for k in rng.integers(0, 9000, size=12)] + [b"", rng.bytes(1)]
+        for p in pieces:
+            a.write(p)
+        return b"".join(pieces)
+    _check_appended(tmp_path / "a.bin", start, how, monkeypatch, 3, fill)
+
+
+def _check_appended(path, start: int, how: str, monkeypatch, blocks: int, fill) -> None:
+    """An appender of a buffer of ``blocks`` blocks from ``start`` of a file of random bytes,
+    written (``how``: direct, page cache, or direct refused) with what ``fill(appender, rng)``
+    appends, which it returns: the file holds the bytes before start, then those, nothing more;
+    the appender's CRC and size are theirs."""
     rng = np.random.default_rng(start)
     head = rng.bytes(start)
     path.write_bytes(head)
@@ -83,11 +95,8 @@ def test_appender_writes_what_it_is_given_after_what_was_there(tmp_path, monkeyp
     if how == "refused":
         _refuse_direct(monkeypatch, {direct})
     try:
-        a = tracewriter.Appender(plain, direct, start, tracewriter.aligned_buffer(3 * tracewriter.ALIGN))
-        pieces = [rng.bytes(int(k)) for k in rng.integers(0, 9000, size=12)] + [b"", rng.bytes(1)]
-        for p in pieces:
-            a.write(p)
-        body = b"".join(pieces)
+        a = tracewriter.Appender(plain, direct, start, tracewriter.aligned_buffer(blocks * tracewriter.ALIGN))
+        body = fill(a, rng)
         assert a.close() == start + len(body)
         assert a.crc == zlib.crc32(body) and a.size == len(body)
     finally:
@@ -142,18 +151,11 @@ def test_records_shift_renumbers_copies_and_checksums(n, at):
 
 @pytest.mark.parametrize("start", [0, 188, 4095])
 @pytest.mark.parametrize("how", ["direct", "page cache"])
-def test_appender_writes_records_renumbered(tmp_path, start, how):
+def test_appender_writes_records_renumbered(tmp_path, monkeypatch, start, how):
     """Records appended renumbered, in pieces of every size, after plain bytes and between them,
     through a buffer that is not a whole number of records: the file holds exactly the bytes
     before start, then each piece as given or renumbered; the CRC is theirs."""
-    path = tmp_path / "a.bin"
-    rng = np.random.default_rng(start)
-    head = rng.bytes(start)
-    path.write_bytes(head)
-    plain = os.open(path, os.O_RDWR)
-    direct = tracewriter.direct_fd(path) if how == "direct" else None
-    try:
-        a = tracewriter.Appender(plain, direct, start, tracewriter.aligned_buffer(2 * tracewriter.ALIGN))
+    def fill(a, rng) -> bytes:
         body = []
         for k in rng.integers(0, 400, size=10):
             rays, visits = _random_records(rng, int(k))
@@ -163,14 +165,8 @@ def test_appender_writes_records_renumbered(tmp_path, start, how):
             a.write_records(rays, offset)
             body += [tracefile.as_bytes(_shifted(visits, offset)).tobytes(), b"x" * int(k % 7),
                      tracefile.as_bytes(_shifted(rays, offset)).tobytes()]
-        body = b"".join(body)
-        assert a.close() == start + len(body)
-        assert a.crc == zlib.crc32(body) and a.size == len(body)
-    finally:
-        os.close(plain)
-        if direct is not None:
-            os.close(direct)
-    assert path.read_bytes() == head + body
+        return b"".join(body)
+    _check_appended(tmp_path / "a.bin", start, how, monkeypatch, 2, fill)
 
 
 def test_trace_file_is_the_same_bytes_by_any_write_path(tmp_path, monkeypatch):
