@@ -150,7 +150,7 @@ def test_records_shift_renumbers_copies_and_checksums(n, at):
 
 
 @pytest.mark.parametrize("start", [0, 188, 4095])
-@pytest.mark.parametrize("how", ["direct", "page cache"])
+@pytest.mark.parametrize("how", ["direct", "page cache", "refused"])
 def test_appender_writes_records_renumbered(tmp_path, monkeypatch, start, how):
     """Records appended renumbered, in pieces of every size, after plain bytes and between them,
     through a buffer that is not a whole number of records: the file holds exactly the bytes
