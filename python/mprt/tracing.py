@@ -6,8 +6,9 @@ a list, or a random, stratified or regular sample) and traced on one thread stra
 the trace's arrays (kept for the next trace, so their pages are touched once
 per process) or into a chunk written to the trace file while tracing (bounded
 memory); on more threads, groups of tiles go through a bounded window of
-reused buffers and are renumbered in tile order, so the result is the same
-bits for any thread count.
+reused buffers and are renumbered in tile order as they are copied into the
+trace's arrays, or into the file by its writer, so the result is the same bits
+for any thread count.
 
 This module also gives ``Grid`` its ``trace`` method (a thin call of
 ``trace``), so that the grid layer below does not depend on tracing.
@@ -303,8 +304,9 @@ def _run_tiles(grid, desc, tiles: np.ndarray, records: _Records, samples: np.nda
 
     On one thread the library writes each record once, in place, into the trace's arrays (or
     the chunk streamed to disk), numbered as it goes.  On more, groups of tiles are traced into
-    reused buffer sets, a bounded window of them in flight, and copied over in tile order, so
-    the records are the same bits for any thread count."""
+    reused buffer sets, a bounded window of them in flight, and copied over in tile order (to a
+    file, by the writer, from the sets themselves), so the records are the same bits for any
+    thread count."""
     threads = desc["threads"]
     if threads == 1:
         i = 0
