@@ -21,7 +21,6 @@ import zlib
 
 import numpy as np
 
-
 from . import options, tracefile
 from .errors import MprtError
 from .grid import render_desc, write_png

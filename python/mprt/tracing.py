@@ -244,16 +244,15 @@ class _Records:
         renumbered to follow the others as they are copied (in C, other threads running).
         Returns the buffer sets free again: ``owner`` at once, or with ``direct`` the sets the
         writer has let go (it reads them in the background; ``settle`` frees the rest)."""
-        offset = self.first_ray + self.n["rays"]
         if self.direct:
-            self.writer.write(rays, visits, offset)
+            self.writer.write(rays, visits, self.first_ray)
             self.first_ray += len(rays)
             self.held.append(owner)
             return [self.held.popleft() for _ in range(len(self.held) - self.holds)]
         if len(self.arrays["rays"]) - self.n["rays"] < len(rays) or \
                 len(self.arrays["visits"]) - self.n["visits"] < len(visits):
             self.make_room(len(rays), len(visits))
-            offset = self.first_ray + self.n["rays"]
+        offset = self.first_ray + self.n["rays"]
         r, v = self.room()
         _COPY.records_shift(rays, r, offset)
         _COPY.records_shift(visits, v, offset)

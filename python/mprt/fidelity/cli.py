@@ -111,25 +111,34 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     return s
 
 
-def _warm_cost_model(a):
-    """A thread making the cost model's table for the run's processors (the kernels' list
-    schedules: about 0.1 s of Python, memoised by ``cost.model``) while the trace file's records
-    are read and checked in C, which lets go of the interpreter; None where there is nothing to
-    make.  Its errors are left for the run to meet where it meets them."""
+def _file_plan(a):
+    """``_plan`` of the run of a trace file (no trace needed), or None: a scene to trace, no
+    configuration, or one the run will name a fault of."""
+    if not a.source.endswith(".npz") or getattr(a, "machine_config", None) is None:
+        return None
+    try:
+        return _plan(a, a.machine_config)
+    except Exception:       # (the run names it)
+        return None
+
+
+def _warm_cost_model(plan):
+    """A thread making the cost model's table for the processors of ``plan`` (``_file_plan``;
+    the kernels' list schedules: about 0.1 s of Python, memoised by ``cost.model``) while the
+    trace file's records are read and checked in C, which lets go of the interpreter; None where
+    there is nothing to make.  Its errors are left for the run to meet where it meets them."""
     import threading
 
-    if not a.source.endswith(".npz") or getattr(a, "machine_config", None) is None:
+    if plan is None:
         return None
 
     def warm():
         try:
             from ..cost import CostModel
 
-            p = _plan(a, a.machine_config)
-            if p is not None:
-                model, procs = CostModel.default(), p[0].processors()
-                model.cost_table(procs)
-                model.injection(procs)
+            model, procs = CostModel.default(), plan[0].processors()
+            model.cost_table(procs)
+            model.injection(procs)
         except Exception:       # (the run names it)
             pass
 
@@ -138,12 +147,12 @@ def _warm_cost_model(a):
     return t
 
 
-def _pages_for(a):
-    """How a trace file's pages are read for the run: kept mapped between the checksums, the
-    check and the loading when the compiled replay loads the whole file next (it maps every page
-    anyway: letting them go between the passes would only cost faulting them in again), else
-    let go after each pass (``pages.release``: SimPy reads the trace a window at a time)."""
-    plan = _plan(a, a.machine_config) if a.source.endswith(".npz") else None
+def _pages_for(plan):
+    """How a trace file's pages are read for the run of ``plan`` (``_file_plan``): kept mapped
+    between the checksums, the check and the loading when the compiled replay loads the whole
+    file next (it maps every page anyway: letting them go between the passes would only cost
+    faulting them in again), else let go after each pass (``pages.release``: SimPy reads the
+    trace a window at a time)."""
     return pages.kept() if plan is not None and plan[1] == "compiled" else contextlib.nullcontext()
 
 
@@ -151,9 +160,10 @@ def _load(a):
     """The trace to replay: a sample of the tiles when --sample is given."""
     if a.sample is None:
         a.sampled_trace = None
-        warm = _warm_cost_model(a)
+        plan = _file_plan(a)
+        warm = _warm_cost_model(plan)
         try:
-            with _pages_for(a):
+            with _pages_for(plan):
                 return machine_cli._load_source(a)
         finally:
             if warm is not None:
