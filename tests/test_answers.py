@@ -11,7 +11,7 @@ import pytest
 from mprt import cli
 from mprt.explore import cli as explore_cli
 from mprt.explore.hwcost import UnitCosts, cheapest_design, hardware_cost
-from mprt.explore.space import default_space, load_space, parse_space
+from mprt.explore.space import default_space, parse_space
 
 SMALL = Path(__file__).parent / "data" / "explore" / "small_space.toml"
 

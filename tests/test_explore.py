@@ -6,7 +6,7 @@ import pytest
 
 import mprt
 from mprt.explore import (Design, SpaceError, UnitCosts, default_space, hardware_cost, load_space, model_m,
-                          model_s, paper_3mppe, parse_space)
+                          model_s, paper_3mppe)
 from mprt.explore.evaluate import TraceEvaluator, machine_config, machine_fields
 from mprt.explore.search import Problem, exhaustive, search
 

@@ -3,7 +3,6 @@ exit 2 with one line of figures, what cannot fit the memory available (MPRT_MEMO
 a run that fits is not refused; --engine auto falls back to SimPy where the compiled replay
 refuses the caches (more than 2^28 entries) and SimPy's estimate fits (issue 19)."""
 import os
-import shutil
 import zipfile
 
 import numpy as np

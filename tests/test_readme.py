@@ -18,8 +18,6 @@ import subprocess
 import sys
 import tomllib
 
-import pytest
-
 from mprt import cli
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -29,7 +29,7 @@ from . import tracefile, tracevalid, tracewriter
 from ._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Rules, binding
 from .errors import InvalidArgument
 from .grid import CONVENTIONS, Grid, render_desc
-from .trace import OUTCOMES, RAY_KINDS, STAGES, Trace, load_trace
+from .trace import OUTCOMES, RAY_KINDS, STAGES, Trace
 
 
 # ---- sample specifications: one grammar for every --sample (trace, simulate, explore) -------------

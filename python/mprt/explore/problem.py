@@ -9,7 +9,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .space import Space
+from .space import Point, Space
 
 OBJECTIVES = ("time", "time*cost", "pareto")
 INFEASIBLE = 1e3                # objective floor of a design over the budget (log-cycles are < 60)

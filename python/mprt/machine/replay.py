@@ -155,7 +155,7 @@ class Replay:
         # primary's first (each ray's visits are contiguous; within a tree the
         # rays need not be in id order)
         tv = np.full(len(prim) + 1, self.n_visits, dtype=np.int64)
-        prev_tree, prev_ray = -1, -1
+        prev_tree = -1
         kinds = rays["kind"]
         for a in range(0, self.n_visits, SCAN):
             vr = np.asarray(visits[a:a + SCAN]["ray"]).astype(np.int64)
@@ -170,7 +170,7 @@ class Replay:
             if np.any(vr[starts] != prim[tree[starts]]):
                 _fail("a tree's first visit is not its primary ray's")
             tv[tree[starts]] = starts + a
-            prev_tree, prev_ray = int(tree[-1]), int(vr[-1])
+            prev_tree = int(tree[-1])
         if prev_tree != len(prim) - 1:
             _fail("some primary rays have no visits")
         del kinds
