@@ -5,6 +5,7 @@ import functools
 import json
 import os
 import re
+import shutil
 import tracemalloc
 
 import numpy as np
@@ -76,6 +77,22 @@ def test_trace_estimates_its_size_first_and_offers_compression(tmp_path, capsys)
     assert np.array_equal(a.visits, b.visits) and np.array_equal(a.rays, b.rays)
     assert [p.name for p in tmp_path.iterdir()] == ["p.npz", "c.npz"] or \
         sorted(p.name for p in tmp_path.iterdir()) == ["c.npz", "p.npz"]   # no temporary file left
+
+
+def test_a_trace_larger_than_the_free_space_is_refused_with_what_would_fit(tmp_path, capsys, monkeypatch):
+    """Before tracing, a trace the output's file system has no room for is refused (exit 2, no
+    file left). Without --compress the message offers it with its size; with --compress (which
+    streams the trace uncompressed beside the output first) it says what that needs and does not
+    offer --compress again."""
+    args = ["trace", "mount:2", "--grid", "8", "--res", "64x64", "--tile", "4"]
+    real = shutil.disk_usage
+    monkeypatch.setattr(shutil, "disk_usage", lambda p: real(p)._replace(free=200_000))
+    code, _, err = mprt_main(capsys, *args, "-o", tmp_path / "p.npz")
+    assert code == 2 and "has 200 kB free" in err and "or --compress (about " in err, err
+    code, _, err = mprt_main(capsys, *args, "--compress", "-o", tmp_path / "c.npz")
+    assert code == 2 and "has 200 kB free" in err and "streamed beside the output first" in err, err
+    assert "or --compress" not in err, err
+    assert list(tmp_path.iterdir()) == []
 
 
 def test_bytes_per_visit_only_where_the_records_dominate(tmp_path, capsys):
