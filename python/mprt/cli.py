@@ -233,9 +233,9 @@ def cmd_trace(a) -> int:
             say(est_c)
             need = est + (est_c if a.compress else 0)
             if need > free:
-                how = ("with --compress, about {} streamed beside the output first, then {} deflated into it; "
-                       "use --sample or a smaller --res".format(_size(est), _size(est_c)) if a.compress
-                       else "use --sample, a smaller --res or --compress (about {})".format(_size(est_c)))
+                how = (f"with --compress, about {_size(est)} streamed beside the output first, then "
+                       f"{_size(est_c)} deflated into it; use --sample or a smaller --res" if a.compress
+                       else f"use --sample, a smaller --res or --compress (about {_size(est_c)})")
                 raise UsageError(f"-o {a.output}: the trace needs about {_size(need)} but {d} has {_size(free)} "
                                  f"free ({how})")
         else:

@@ -164,7 +164,7 @@ def _plot(rows, spec, path):
             pts = [(i, r["cycles"] if r["cycles"] != "" else np.nan)       # a deadlock: a gap in the line
                    for i, r in enumerate(x for x in rows if x["scene"] == sc and x["design"] == name)]
             labels = [r["subdivision"] for r in rows if r["scene"] == sc and r["design"] == name]
-            dead = sum(1 for _, c in pts if c != c)      # (NaN: it deadlocked there, no point)
+            dead = int(np.isnan([c for _, c in pts]).sum())      # (NaN: it deadlocked there, no point)
             ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o",
                     label=name + (f" (deadlocks at {dead} of {len(pts)})" if dead else ""))
             ax.set_xticks(range(len(labels)), labels, rotation=30, fontsize=7)
