@@ -38,8 +38,10 @@
  * Unknown entities.  A line whose first token is no entity above fails with
  * "NAME:LINE: unknown entity 'fp'".  With MPRT_NFF_SKIP_UNKNOWN it is
  * skipped, with the lines after it that start with a number (the entity's
- * data), and one note names each skipped entity with its count and first
- * line.
+ * data), and one note per skipped entity gives its count and its first
+ * lines; for a material line (a name starting with 'f', as "fp"), also the
+ * material the surfaces after each skip take instead: the last 'f' before
+ * it (or, before any, the scene's material, white diffuse by default).
  *
  * The writer is in nff_write.c. */
 #include "nff.h"
@@ -47,6 +49,7 @@
 #include <errno.h>
 #include <limits.h>
 #include <locale.h>
+#include <stdarg.h>
 #include <stdio.h>
 #include <stdlib.h>
 #include <string.h>
@@ -148,28 +151,42 @@ static int nff_fill(nff_reader *r)
     return MPRT_OK;
 }
 
+/* What a skipping read keeps of each unknown entity besides its count: the
+ * lines of its first few skips, and the 'f' line in effect at each (0: none
+ * in this file yet), so the note can say which material the surfaces after
+ * a skipped material line take. */
+#define NFF_LINES_SHOWN 4
+typedef struct {
+    long line[NFF_UNKNOWN][NFF_LINES_SHOWN];
+    long fill[NFF_UNKNOWN][NFF_LINES_SHOWN];
+    long last_fill;          /* the line of the last 'f' read (0: none yet) */
+} nff_skips;
+
 /* An entity the reader does not know, under MPRT_NFF_SKIP_UNKNOWN: counted
- * by name; its number lines are skipped by the caller. */
-static void nff_skip_unknown(nff_reader *r)
+ * by name, with its first lines; its number lines are skipped by the caller. */
+static void nff_skip_unknown(nff_reader *r, nff_skips *sk)
 {
     char shown[160];
     int i;
     mprt__nff_show(r->tok[0], shown, sizeof shown);
     r->in_unknown = 1;
-    for (i = 0; i < r->nunknown; i++) {
-        if (strcmp(r->unknown[i].name, shown) == 0) {
-            r->unknown[i].count++;
+    for (i = 0; i < r->nunknown; i++)
+        if (strcmp(r->unknown[i].name, shown) == 0) break;
+    if (i == r->nunknown) {
+        if (r->nunknown == NFF_UNKNOWN || strlen(shown) >= sizeof r->unknown[0].name) {
+            r->unknown_more++;
             return;
         }
+        strcpy(r->unknown[i].name, shown);
+        r->unknown[i].count = 0;
+        r->unknown[i].first = r->line;
+        r->nunknown++;
     }
-    if (r->nunknown == NFF_UNKNOWN || strlen(shown) >= sizeof r->unknown[0].name) {
-        r->unknown_more++;
-        return;
+    if (r->unknown[i].count < NFF_LINES_SHOWN) {
+        sk->line[i][r->unknown[i].count] = r->line;
+        sk->fill[i][r->unknown[i].count] = sk->last_fill;
     }
-    strcpy(r->unknown[r->nunknown].name, shown);
-    r->unknown[r->nunknown].count = 1;
-    r->unknown[r->nunknown].first = r->line;
-    r->nunknown++;
+    r->unknown[i].count++;
 }
 
 /* The token starts like a number (a data line of a skipped entity). */
@@ -178,11 +195,63 @@ static int nff_numberlike(nff_token t)
     return t.n > 0 && (strchr("0123456789+-.", t.s[0]) != NULL);
 }
 
-/* The notes of a read that succeeded: Ks + T over 1, entities skipped. */
-static void nff_notes(nff_reader *r)
+/* Append to out (cap bytes, used so far) what fits, keeping it terminated. */
+static void nff_append(char *out, size_t cap, size_t *used, const char *fmt, ...)
+#if defined(__GNUC__)
+    __attribute__((format(printf, 4, 5)))
+#endif
+    ;
+static void nff_append(char *out, size_t cap, size_t *used, const char *fmt, ...)
 {
-    char list[600];
+    va_list ap;
+    int n;
+    if (*used >= cap) return;
+    va_start(ap, fmt);
+    n = vsnprintf(out + *used, cap - *used, fmt, ap);
+    va_end(ap);
+    if (n > 0) *used = (size_t)n >= cap - *used ? cap - 1 : *used + (size_t)n;
+}
+
+/* The note of one skipped entity: its count and first lines; for a material
+ * line (a name starting with 'f', as NFF's own 'f'), the material the
+ * surfaces after each skip take instead: the last 'f' before it, or the
+ * scene's material before this file (white diffuse, Kd 1, by default). */
+static void nff_skip_note(nff_reader *r, const nff_skips *sk, int i, int had_material)
+{
+    char text[400];
     size_t used = 0;
+    long count = r->unknown[i].count;
+    int shown = count < NFF_LINES_SHOWN ? (int)count : NFF_LINES_SHOWN, j, material;
+    material = r->unknown[i].name[0] == 'f' && r->unknown[i].name[1] != '\0';
+    nff_append(text, sizeof text, &used, "%s: %ld '%s' %sline%s skipped (line%s ", r->name, count,
+               r->unknown[i].name, material ? "material " : "", count == 1 ? "" : "s", count == 1 ? "" : "s");
+    for (j = 0; j < shown; j++) nff_append(text, sizeof text, &used, "%s%ld", j ? ", " : "", sk->line[i][j]);
+    if (count > shown) nff_append(text, sizeof text, &used, " and %ld more", count - shown);
+    nff_append(text, sizeof text, &used, "), with the number lines after %s", count == 1 ? "it" : "each");
+    if (material) {
+        /* the shown lines grouped by the 'f' in effect (the same 'f' runs together) */
+        int several = count > 1;
+        nff_append(text, sizeof text, &used, ": the surfaces after %s take the last 'f' material before %s: ",
+                   several ? "them" : "it", several ? "them" : "it");
+        for (j = 0; j < shown; j++) {
+            long f = sk->fill[i][j];
+            int first = j == 0 || sk->fill[i][j - 1] != f, last = j + 1 == shown || sk->fill[i][j + 1] != f;
+            if (first) {
+                if (j) nff_append(text, sizeof text, &used, "; ");
+                if (f) nff_append(text, sizeof text, &used, "the 'f' of line %ld", f);
+                else if (had_material) nff_append(text, sizeof text, &used, "the material set before this file");
+                else nff_append(text, sizeof text, &used, "the default white diffuse material (no 'f' before)");
+                if (several) nff_append(text, sizeof text, &used, " for line%s ", last ? "" : "s");
+            }
+            if (several) nff_append(text, sizeof text, &used, "%s%ld", first ? "" : ", ", sk->line[i][j]);
+        }
+    }
+    mprt__scene_note(r->scene, "%s", text);
+}
+
+/* The notes of a read that succeeded: Ks + T over 1, each entity skipped. */
+static void nff_notes(nff_reader *r, const nff_skips *sk, int had_material)
+{
     int i;
     if (r->over_one)
         mprt__scene_note(r->scene,
@@ -191,18 +260,10 @@ static void nff_notes(nff_reader *r)
                          "their parent, and the ray budget of a sample (max_rays) bounds the work",
                          r->name, r->over_line, r->over_ks, r->over_t, r->over_ks + r->over_t, r->over_one,
                          r->over_one == 1 ? "" : "s");
-    if (!r->nunknown && !r->unknown_more) return;
-    list[0] = '\0';
-    for (i = 0; i < r->nunknown && used < sizeof list; i++) {
-        int n = snprintf(list + used, sizeof list - used, "%s'%s' %ld time%s (first at line %ld)", i ? ", " : "",
-                         r->unknown[i].name, r->unknown[i].count, r->unknown[i].count == 1 ? "" : "s",
-                         r->unknown[i].first);
-        if (n < 0) break;
-        used += (size_t)n;
-    }
-    if (r->unknown_more && used < sizeof list)
-        snprintf(list + used, sizeof list - used, " and %ld more of other entities", r->unknown_more);
-    mprt__scene_note(r->scene, "%s: unknown entities skipped: %s", r->name, list);
+    for (i = 0; i < r->nunknown; i++) nff_skip_note(r, sk, i, had_material);
+    if (r->unknown_more)
+        mprt__scene_note(r->scene, "%s: %ld more lines of other unknown entities skipped, with their number lines",
+                         r->name, r->unknown_more);
 }
 
 /* Open cone frustum, or a cylinder when the radii are equal, between a base
@@ -368,12 +429,15 @@ int mprt_scene_parse_nff(mprt_scene *scene, const char *text, size_t len, const 
 int mprt_scene_parse_nff_ex(mprt_scene *scene, const char *text, size_t len, const char *name, unsigned flags)
 {
     nff_reader r;
+    nff_skips skips;
     mprt__scene_saved saved;
     char shown[160];
-    int st = MPRT_OK;
+    int st = MPRT_OK, had_material;
     if (!scene || (!text && len)) return MPRT_ERR_INVALID_ARG;
     if (mprt__scene_check_unshared(scene, "parse_nff") != MPRT_OK) return MPRT_ERR_STATE;
     memset(&r, 0, sizeof r);
+    memset(&skips, 0, sizeof skips);
+    had_material = scene->material >= 0; /* (what surfaces before the first 'f' take) */
     r.scene = scene;
     r.name = name ? name : "<string>";
     r.p = text ? text : "";
@@ -391,15 +455,18 @@ int mprt_scene_parse_nff_ex(mprt_scene *scene, const char *text, size_t len, con
         else if (nff_is(k, "s")) st = nff_sphere(&r);
         else if (nff_is(k, "p")) st = nff_polygon(&r, 0);
         else if (nff_is(k, "c")) st = nff_cone(&r);
-        else if (nff_is(k, "f")) st = nff_fill(&r);
+        else if (nff_is(k, "f")) {
+            st = nff_fill(&r);
+            skips.last_fill = r.line;
+        }
         else if (nff_is(k, "pp")) st = nff_polygon(&r, 1);
         else if (nff_is(k, "l")) st = nff_light(&r);
         else if (nff_is(k, "b")) st = nff_background(&r);
         else if (nff_is(k, "v")) st = nff_view(&r);
-        else if ((flags & MPRT_NFF_SKIP_UNKNOWN) && !nff_numberlike(k)) nff_skip_unknown(&r);
+        else if ((flags & MPRT_NFF_SKIP_UNKNOWN) && !nff_numberlike(k)) nff_skip_unknown(&r, &skips);
         else st = nff_fail(&r, r.line, "unknown entity '%s'", mprt__nff_show(k, shown, sizeof shown));
     }
-    if (st == MPRT_OK) nff_notes(&r);
+    if (st == MPRT_OK) nff_notes(&r, &skips, had_material);
     if (st != MPRT_OK) mprt__scene_rollback(scene, &saved);
     free(r.verts);
     free(r.norms);

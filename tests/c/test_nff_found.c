@@ -141,8 +141,11 @@ static void test_skip_unknown_reads_without_them_and_counts_each(void)
     const char *notes = mprt_scene_notes(s);
     CHECK_MSG(st == MPRT_OK, "%s", mprt_scene_errmsg(s));
     CHECK(s->nprims == 2 && s->nlights == 1 && s->nmaterials == 1);
-    CHECK_MSG(strstr(notes, "t.nff: unknown entities skipped: 'Q' 3 times (first at line 1), 'fp' 2 times "
-                            "(first at line 3), 'Z' 1 time (first at line 7)\n"),
+    CHECK_MSG(strstr(notes, "t.nff: 3 'Q' lines skipped (lines 1, 10, 11), with the number lines after each\n"
+                            "t.nff: 2 'fp' material lines skipped (lines 3, 9), with the number lines after each: "
+                            "the surfaces after them take the last 'f' material before them: the default white "
+                            "diffuse material (no 'f' before) for line 3; the 'f' of line 6 for line 9\n"
+                            "t.nff: 1 'Z' line skipped (line 7), with the number lines after it\n"),
               "notes '%s'", notes);
     /* the same scene as the file without those lines */
     mprt_scene_create(&plain);
@@ -176,8 +179,31 @@ static void test_many_distinct_unknown_entities_are_counted_past_the_names(void)
     for (i = 0; i < 12; i++) used += (size_t)snprintf(text + used, sizeof text - used, "x%d 1\nx%d 2\n", i, i);
     s = parse_flags(text, MPRT_NFF_SKIP_UNKNOWN, &st);
     CHECK(st == MPRT_OK);
-    CHECK_MSG(strstr(mprt_scene_notes(s), "'x7' 2 times (first at line 15) and 8 more of other entities\n"), "'%s'",
-              mprt_scene_notes(s));
+    CHECK_MSG(strstr(mprt_scene_notes(s), "t.nff: 2 'x7' lines skipped (lines 15, 16), with the number lines after "
+                                          "each\nt.nff: 8 more lines of other unknown entities skipped, with their "
+                                          "number lines\n"), "'%s'", mprt_scene_notes(s));
+    mprt_scene_destroy(s);
+}
+
+/* A skipped material line ('fp') says which material the surfaces after it
+ * take: the last 'f' before each (grouped), or the one the scene had before
+ * the file; past four lines, the rest are counted. */
+static void test_a_skipped_material_line_says_what_its_surfaces_take(void)
+{
+    int st;
+    mprt_scene *s = parse_flags("f 1 1 1 1 0 0 0 1\nfp 1\nfp 2\nf 1 0 0 1 0 0 0 1\nfp 1\nfp 1\nfp 1\nfp 1\n"
+                                "s 0 0 0 1\n", MPRT_NFF_SKIP_UNKNOWN, &st);
+    CHECK(st == MPRT_OK);
+    CHECK_MSG(strcmp(mprt_scene_notes(s), "t.nff: 6 'fp' material lines skipped (lines 2, 3, 5, 6 and 2 more), with "
+                                          "the number lines after each: the surfaces after them take the last 'f' "
+                                          "material before them: the 'f' of line 1 for lines 2, 3; the 'f' of line 4 "
+                                          "for lines 5, 6\n") == 0, "'%s'", mprt_scene_notes(s));
+    /* a second file read into the scene: before its first 'f', the scene's material */
+    CHECK(mprt_scene_parse_nff_ex(s, "fp 1\ns 3 0 0 1\n", 15, "u.nff", MPRT_NFF_SKIP_UNKNOWN) == MPRT_OK);
+    CHECK_MSG(strstr(mprt_scene_notes(s), "u.nff: 1 'fp' material line skipped (line 1), with the number lines after "
+                                          "it: the surfaces after it take the last 'f' material before it: the "
+                                          "material set before this file\n"), "'%s'", mprt_scene_notes(s));
+    CHECK(s->prims[1].material == 1); /* as the note says */
     mprt_scene_destroy(s);
 }
 
@@ -188,5 +214,6 @@ int main(void)
     RUN(test_an_unknown_entity_is_an_error_naming_it);
     RUN(test_skip_unknown_reads_without_them_and_counts_each);
     RUN(test_many_distinct_unknown_entities_are_counted_past_the_names);
+    RUN(test_a_skipped_material_line_says_what_its_surfaces_take);
     return CHECK_DONE();
 }
