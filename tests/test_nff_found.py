@@ -55,21 +55,24 @@ def test_glass_over_one_is_read_with_one_note():
 
 def test_the_classic_glass_renders_the_same_bits_for_any_thread_count():
     """SPD rules: the render ends with secondary rays, the same image and counts for 1, 2 and 3
-    threads; paper rules: each thread count stops at the same sample, or all finish alike."""
+    threads; paper rules (depth 5 for this scene since issue 36: Scene.default_max_depth): all
+    thread counts finish alike; to depth 64, each stops at the same sample."""
     grid = mprt.Scene.from_text(GLASS, "glass.nff").grid((5, 5, 3))
     img, c = grid.render(24, 24, rules="spd", threads=1)
     assert c["reflect_rays"] > 100 and c["refract_rays"] > 100
     for threads in (2, 3):
         img2, c2 = grid.render(24, 24, rules="spd", threads=threads)
         assert img2.tobytes() == img.tobytes() and c2 == c
-    outcomes = set()
-    for threads in (1, 2):
-        try:
-            img, c = grid.render(24, 24, rules="paper", threads=threads)
-            outcomes.add((img.tobytes(), tuple(sorted(c.items()))))
-        except mprt.WorkLimitError as e:
-            outcomes.add(str(e))
-    assert len(outcomes) == 1
+    for depth in (0, 64):
+        outcomes = set()
+        for threads in (1, 2):
+            try:
+                img, c = grid.render(24, 24, rules="paper", threads=threads, max_depth=depth)
+                outcomes.add((img.tobytes(), repr(sorted(c.items()))))
+            except mprt.WorkLimitError as e:
+                outcomes.add(str(e))
+        assert len(outcomes) == 1
+        assert isinstance(outcomes.pop(), str) == (depth == 64)
 
 
 def test_unknown_entity_is_an_error_naming_it(tmp_path, capsys):
@@ -86,8 +89,9 @@ def test_unknown_entity_is_an_error_naming_it(tmp_path, capsys):
 
 
 def test_skip_unknown_reads_without_them_and_warns_with_counts(tmp_path, capsys):
-    """--skip-unknown: the same scene as the file without those lines, and one warning listing
-    each entity with its count (and one for the glass)."""
+    """--skip-unknown: the same scene as the file without those lines, and one warning for each
+    entity with its count and lines (issue 36: the 'fp' material line's says which material its
+    surfaces take), and one for the glass (saying its trees stop at depth 5)."""
     f = tmp_path / "ext.nff"
     f.write_text(GLASS + EXTENSIONS)
     scene = mprt.Scene.from_nff(f, skip_unknown=True)
@@ -96,12 +100,16 @@ def test_skip_unknown_reads_without_them_and_warns_with_counts(tmp_path, capsys)
                                "-o", tmp_path / "x.png")
     assert code == 0, err
     warnings = [ln for ln in err.splitlines() if ln.startswith("mprt: warning: ")]
-    assert len(warnings) == 2
+    assert len(warnings) == 4
     assert warnings[0].endswith("(2 such materials in the file): read as written; a hit's reflection and "
                                 "refraction rays may then carry more light in all than their parent, and "
-                                "the ray budget of a sample (max_rays) bounds the work")
-    assert warnings[1].endswith("ext.nff: unknown entities skipped: 'Q' 2 times (first at line 22), "
-                                "'fp' 1 time (first at line 23), 'Z' 1 time (first at line 26)")
+                                "the ray budget of a sample (--max-rays) bounds the work; as the contribution "
+                                "cutoff cannot end the ray trees of such a surface, they stop at depth 5 (SPD's; "
+                                "classic NFF renderers limit depth) unless --max-depth is given")
+    assert warnings[1].endswith("ext.nff: 2 'Q' lines skipped (lines 22, 27), with the number lines after each")
+    assert warnings[2].endswith("ext.nff: 1 'fp' material line skipped (line 23), with the number lines after it: "
+                                "the surfaces after it take the last 'f' material before it: the 'f' of line 20")
+    assert warnings[3].endswith("ext.nff: 1 'Z' line skipped (line 26), with the number lines after it")
     assert "4 primitives" in out
 
 

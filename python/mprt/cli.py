@@ -145,7 +145,7 @@ def cmd_render(a) -> int:
         options.write_json(a.json, {
             **counters,
             "scene_stats": {"primitives": info["prims"], "by_kind": info["count"], "lights": info["lights"],
-                            "dropped": info["dropped"]},
+                            "dropped": info["dropped"], "ks_t_over_1": scene.over_one()},
             "grid_stats": gs,
             "settings": options.run_settings(scene, grid, desc, how, argv=a.argv),
             "seconds": times,

@@ -14,7 +14,7 @@ from typing import Sequence
 import numpy as np
 
 from ._lowlevel import RULES, binding
-from .errors import InvalidArgument
+from .errors import InvalidArgument, WorkLimitError
 from .scene import Scene
 from .atomic import replacing
 
@@ -80,6 +80,7 @@ class Grid:
         self._ll = scene._ll
         self._h = self._ll.grid_create(scene._h, dims, max_bytes, LISTINGS[listing])
         self._stats = self._lists = None
+        self._depth = None      # the scene's default_max_depth (the scene cannot change now)
         scene._add_grid(self)
 
     def stats(self) -> dict:
@@ -101,11 +102,27 @@ class Grid:
         return self._lists
 
     # -- a render's description, samples and tiles -------------------------------------------
+    def _scene_depth(self, desc: dict) -> dict:
+        """``desc`` with max_depth 0 made the scene's ``default_max_depth`` where it has one (a
+        material with Ks + T over 1: depth 5); otherwise unchanged (0: the rules' default)."""
+        if desc.get("max_depth", 0):
+            return desc
+        if self._depth is None:
+            self._depth = self.scene.default_max_depth()
+        return dict(desc, max_depth=self._depth) if self._depth else desc
+
     def resolve(self, desc: dict) -> dict:
         """Every field of the render description, with the library's defaults filled in for this
-        grid's scene (width/height 0: the view's resolution; max_depth 0: the rules' default;
+        grid's scene (width/height 0: the view's resolution; max_depth 0: the rules' default, or
+        ``Scene.default_max_depth`` where the scene has one, 5 when a surface's Ks + T is over 1;
         threads 0: 1), validated as a render would."""
-        return self._ll.grid_resolve_desc(self._h, desc)
+        return self._ll.grid_resolve_desc(self._h, self._scene_depth(desc))
+
+    def _over_budget(self, e: WorkLimitError, desc: dict) -> WorkLimitError:
+        """The library's error of a sample over the ray budget with the command line's options
+        that change it (the threshold only under the rules with a cutoff)."""
+        opts = ("--threshold, " if desc.get("rules", RULES["paper"]) != RULES["spd"] else "") + "--max-rays, --max-depth"
+        return WorkLimitError(f"{e} (mprt's options: {opts})")
 
     def tiling(self, desc: dict):
         """(samples_w, samples_h, tiles_x, tiles_y): the sample grid of a render (pixel centres
@@ -133,7 +150,11 @@ class Grid:
         (``RAY_DTYPE`` and ``VISIT_DTYPE`` arrays) and its sample colours into ``samples``.
         Returns (nrays, nvisits, fitted); when fitted is False the records did not fit and
         nothing was written: nrays and nvisits are the sizes needed."""
-        return self._ll.grid_trace_tile(self._h, desc, tile, samples, rays, visits)
+        desc = self._scene_depth(desc)
+        try:
+            return self._ll.grid_trace_tile(self._h, desc, tile, samples, rays, visits)
+        except WorkLimitError as e:
+            raise self._over_budget(e, desc) from None
 
     def trace_tiles(self, desc: dict, tiles: np.ndarray, samples: np.ndarray, first_ray: int, rays: np.ndarray,
                     visits: np.ndarray):
@@ -142,7 +163,11 @@ class Grid:
         each tile's sample colours into ``samples``, the whole sample image ((samples_h, samples_w,
         3) float64).  Stops before a tile that would not fit.  Returns (tiles traced, nrays,
         nvisits); (0, nrays, nvisits) when not even the first tile fits: the sizes it needs."""
-        return self._ll.grid_trace_tiles(self._h, desc, tiles, samples, first_ray, rays, visits)
+        desc = self._scene_depth(desc)
+        try:
+            return self._ll.grid_trace_tiles(self._h, desc, tiles, samples, first_ray, rays, visits)
+        except WorkLimitError as e:
+            raise self._over_budget(e, desc) from None
 
     # -- rendering and intersection ----------------------------------------------------------
     def render(self, width: int = 0, height: int = 0, rules: str = "paper", threshold: float | None = None,
@@ -155,12 +180,16 @@ class Grid:
         procedure: pixel corners averaged, depth 5, no cutoff) or 'paper1992' (paper rules with
         the workload conventions that reproduce the paper's counts); ``conventions`` overrides
         single conventions by name (``CONVENTIONS``); ``max_rays`` bounds the rays of one sample
-        (a sample needing more raises ``WorkLimitError`` naming it)."""
-        desc = render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient, mailbox, conventions,
-                           max_rays)
+        (a sample needing more raises ``WorkLimitError`` naming it); ``max_depth`` 0 is the rules'
+        depth, or 5 for a scene with a material whose Ks + T is over 1 (``Scene.default_max_depth``)."""
+        desc = self._scene_depth(render_desc(width, height, rules, threshold, max_depth, threads, tile, ambient,
+                                             mailbox, conventions, max_rays))
         full = self.resolve(desc)
         img = np.zeros((full["height"], full["width"], 3), dtype=np.float32)
-        return img, self._ll.grid_render(self._h, desc, img)
+        try:
+            return img, self._ll.grid_render(self._h, desc, img)
+        except WorkLimitError as e:
+            raise self._over_budget(e, desc) from None
 
     def intersect(self, origins, directions, return_counters: bool = False):
         """Closest hit of each ray: (t, prim) arrays; t is inf and prim -1 on a miss.

@@ -10,7 +10,8 @@ with these helpers and, before any work:
     def add_parser(sub):
         p = sub.add_parser("simulate", ...)
         options.add_scene_argument(p)          # or its own positional
-        options.add_render_options(p)          # --grid --listing --res --rules --threshold --threads --tile --mailbox
+        options.add_render_options(p)          # --grid --listing --res --rules --threshold --threads --tile
+                                               # --max-rays --max-depth --mailbox
         p.add_argument("--json", metavar="OUT.json", help=options.OUTPUT_HELP["json"])
     def run(a):
         options.check_render_options(a)        # combinations (--threshold with --rules spd)
@@ -53,6 +54,8 @@ THREADS_MAX = 64         # threads: 1..THREADS_MAX
 TILE_MAX = 256           # tile edge in samples: 1..TILE_MAX
 MAX_RAYS_MAX = 1 << 24   # ray budget of a sample: 1..MAX_RAYS_MAX (the library: any positive int)
 CUTOFF_RULES = ("paper", "paper1992")   # rule sets with a contribution cutoff (--threshold)
+DEPTH_MAX = 255          # depth limit of a ray tree: 1..DEPTH_MAX (the library: 0..255, 0 the default)
+OVER_ONE_NOTE = " is over 1 ("   # in the NFF reader's note of a material with Ks + T over 1
 SPD_MAX_SIZES = {"balls": 8, "gears": 69, "mount": 12, "rings": 135, "tetra": 12, "tree": 23}
 
 OUTPUT_SUFFIX = {"png": ".png", "plot": ".png", "npz": ".npz", "html": ".html"}   # outputs whose format mprt fixes
@@ -86,6 +89,20 @@ def default_threshold() -> float:
 def default_max_rays() -> int:
     """The library's default ray budget of a sample (MPRT_DEFAULT_MAX_RAYS)."""
     return int(binding().lib.MPRT_DEFAULT_MAX_RAYS)
+
+
+_DEPTHS: dict = {}
+
+
+def default_depths() -> dict:
+    """The library's depth limit of each rule set (max_depth 0), by rules name: read from it once
+    (a render description resolved over a one-sphere scene)."""
+    if not _DEPTHS:
+        scene = Scene()
+        scene.add_sphere((0, 0, 0), 1)
+        grid = scene.grid(1)
+        _DEPTHS.update({r: grid.resolve({"width": 1, "height": 1, "rules": v})["max_depth"] for r, v in RULES.items()})
+    return dict(_DEPTHS)
 
 
 def default_tile() -> int:
@@ -301,8 +318,9 @@ def add_level(p, default, default_text: str, extra: str = "") -> None:
 
 
 def add_render_options(p: argparse.ArgumentParser, trace: bool = False) -> argparse._ArgumentGroup:
-    """--grid, --res, --rules, --threshold, --threads, --tile, --mailbox, each with its range
-    and default in --help.  Returns the argument group (to add more)."""
+    """--grid, --listing, --res, --rules, --threshold, --threads, --tile, --max-rays, --max-depth
+    (add_trace_limits), --mailbox, each with its range and default in --help.  Returns the
+    argument group (to add more)."""
     g = p.add_argument_group("rendering")
     add_grid(g)
     add_listing(g)
@@ -311,14 +329,37 @@ def add_render_options(p: argparse.ArgumentParser, trace: bool = False) -> argpa
     add_threshold(g)
     add_threads(g)
     add_tile(g, trace)
-    g.add_argument("--max-rays", type=int_range_arg("max-rays", 1, MAX_RAYS_MAX), default=None, metavar="N",
-                   help=f"ray budget of one sample (its eye ray and all its descendants), 1..{MAX_RAYS_MAX}: a "
-                        "sample needing more stops the render with an error naming it, so no scene runs away "
-                        f"(default: {default_max_rays()})")
+    add_trace_limits(g)
     g.add_argument("--mailbox", action="store_true",
                    help="IC skips primitives the ray already tested (fewer tests, same image) (default: off, as the "
                         "paper's IC)")
     return g
+
+
+def add_trace_limits(p) -> None:
+    """--max-rays and --max-depth, the limits of a sample's ray tree, for every command that
+    traces a scene (render and trace through add_render_options; simulate, explore and prepass
+    add them with this one call, to a parser or an argument group); ``trace_limits(a)`` gives the
+    keywords of Grid.render / Grid.trace / SceneEvaluator."""
+    from .scene import OVER_ONE_MAX_DEPTH
+
+    depths = default_depths()
+    p.add_argument("--max-rays", type=int_range_arg("max-rays", 1, MAX_RAYS_MAX), default=None, metavar="N",
+                   help=f"ray budget of one sample (its eye ray and all its descendants), 1..{MAX_RAYS_MAX}: a "
+                        "sample needing more stops the render with an error naming it, so no scene runs away "
+                        f"(default: {default_max_rays()})")
+    p.add_argument("--max-depth", type=int_range_arg("max-depth", 1, DEPTH_MAX), default=None, metavar="N",
+                   help=f"depth limit of a ray tree (the eye ray is level 1), 1..{DEPTH_MAX} (default: the rules' "
+                        + ", ".join(f"{r} {d}" for r, d in depths.items())
+                        + f"; {OVER_ONE_MAX_DEPTH} for a scene with a surface whose Ks + T is over 1, the classic "
+                          "glass, whose ray trees the contribution cutoff cannot end)")
+
+
+def trace_limits(a) -> dict:
+    """The keywords max_rays and max_depth of Grid.render, Grid.trace (tracing.trace) and
+    SceneEvaluator from options parsed with add_trace_limits (absent or not given: None and 0,
+    the library's budget and the scene's or rules' depth)."""
+    return {"max_rays": getattr(a, "max_rays", None), "max_depth": getattr(a, "max_depth", None) or 0}
 
 
 def check_render_options(a) -> None:
@@ -340,7 +381,7 @@ def render_kwargs(a) -> dict:
     """The keyword options of Grid.render / tracing.trace from parsed render options."""
     w, h = a.res or (0, 0)
     return dict(width=w, height=h, rules=a.rules, threshold=a.threshold, threads=a.threads, tile=a.tile,
-                mailbox=a.mailbox, max_rays=getattr(a, "max_rays", None))
+                mailbox=a.mailbox, **trace_limits(a))
 
 
 # -- scenes -------------------------------------------------------------------------------------
@@ -372,8 +413,22 @@ def load_scene(spec: str, precision: str = "double", note=None, skip_unknown: bo
                                   "know, warning with each)") from None
         raise
     for line in scene.notes:
-        print(f"mprt: warning: {line}", file=sys.stderr)
+        print(f"mprt: warning: {command_line_note(scene, line)}", file=sys.stderr)
     return scene, f"NFF file {spec}"
+
+
+def command_line_note(scene, note: str) -> str:
+    """A reader's note as the command line prints it: the Ks + T over 1 note names the option
+    (--max-rays for max_rays) and says what a render or trace of the scene does about it (its
+    ray trees stop at ``Scene.default_max_depth`` unless --max-depth is given)."""
+    if OVER_ONE_NOTE not in note:
+        return note
+    note = note.replace("(max_rays)", "(--max-rays)")
+    depth = scene.default_max_depth()
+    if depth:
+        return (f"{note}; as the contribution cutoff cannot end the ray trees of such a surface, they stop at "
+                f"depth {depth} (SPD's; classic NFF renderers limit depth) unless --max-depth is given")
+    return f"{note}; no surface takes such a material, so the rules' depth limit stands"
 
 
 def _note(message: str) -> None:

@@ -18,6 +18,15 @@ from .errors import InvalidArgument
 
 SPD_SCENES = ("balls", "gears", "mount", "rings", "tetra", "tree")
 SPD_DEFAULT_SIZES = {"balls": 4, "gears": 4, "mount": 6, "rings": 7, "tetra": 6, "tree": 11}
+# The depth limit of the ray trees of a scene whose surfaces include a material with Ks + T over 1
+# (the classic glass, "f .9 .9 .9 .1 .9 50 .9 1.33"), unless one is asked for: SPD's (its rules'
+# depth 5, the eye ray at level 1), as the classic NFF renderers limit depth.  The reflection and
+# refraction rays of such a surface may carry more light in all than their parent, so the
+# contribution cutoff need not end its trees: glass facing glass or a mirror doubles them at every
+# level up to the paper rules' safety depth of 64, far past any ray budget.  At depth 5 a
+# sample's tree has at most 31 (1 + lights) rays.
+OVER_ONE_MAX_DEPTH = 5
+OVER_ONE_MARGIN = 1e-12     # Ks + T above 1 + this is over 1 (the NFF reader's margin for decimal text)
 
 
 class Scene:
@@ -58,9 +67,26 @@ class Scene:
     @property
     def notes(self) -> list:
         """The NFF reader's notes, one string each: a file's materials with Ks + T over 1 (read
-        as written; the ray budget of a sample bounds their ray trees) and the unknown entities
-        skipped with their counts."""
+        as written; the ray budget of a sample bounds their ray trees, and renders and traces
+        limit their depth: ``default_max_depth``) and, under ``skip_unknown``, each unknown entity
+        skipped with its count and first lines (for a material line such as 'fp', the material
+        its surfaces take instead)."""
         return self._ll.scene_notes(self._h)
+
+    def over_one(self) -> int:
+        """How many of the materials that primitives use have Ks + T over 1 (the classic glass:
+        read as written, and ``default_max_depth`` limits the depth of the scene's ray trees)."""
+        m = self.materials()
+        if not len(m["ks"]):
+            return 0
+        used = np.unique(self.prim_table()["material"])
+        return int(np.count_nonzero(m["ks"][used] + m["t"][used] > 1 + OVER_ONE_MARGIN))
+
+    def default_max_depth(self) -> int:
+        """The depth limit a render or trace of this scene takes when none is asked for (max_depth
+        0): ``OVER_ONE_MAX_DEPTH`` (5, SPD's) when a surface's material has Ks + T over 1
+        (``over_one``), else 0, the rules' own (paper and paper1992 64, spd 5)."""
+        return OVER_ONE_MAX_DEPTH if self.over_one() else 0
 
     @classmethod
     def spd(cls, name: str, size: int | None = None, precision: str = "double") -> "Scene":

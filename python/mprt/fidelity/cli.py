@@ -181,7 +181,8 @@ def _load(a):
         w, h = a.res or (0, 0)
         t0 = time.perf_counter()
         st = trace_sample(grid, a.sample, w, h, a.tile or 16, rules=a.rules or "paper", threshold=a.threshold,
-                          threads=a.threads or os.cpu_count() or 1, progress=sys.stderr.isatty())
+                          threads=a.threads or os.cpu_count() or 1, progress=sys.stderr.isatty(),
+                          **machine_cli.opt.trace_limits(a))
         how = (f"traced  {scene.name}, grid {'x'.join(map(str, grid.n))}, {st.trace.meta['width']}x"
                f"{st.trace.meta['height']} {st.trace.meta['rules']}, {len(st.tiles)} of {st.tiles_total} tiles in "
                f"{time.perf_counter() - t0:.2f} s")

@@ -36,6 +36,7 @@ def add_parser(subparsers) -> argparse.ArgumentParser:
     opt.add_threshold(g)
     opt.add_threads(g, sentinel=True)
     opt.add_tile(g)
+    opt.add_trace_limits(g)
     m = s.add_argument_group("machine")
     m.add_argument("--model", choices=tuple(BUILTIN), default=None,
                    help="built-in configuration (default: M, or the --config file's)")
@@ -87,7 +88,7 @@ def _load_source(a):
         t0 = time.perf_counter()
         _, trace = trace_grid(grid, w, h, rules=a.rules or "paper", threshold=a.threshold,
                               threads=a.threads or os.cpu_count() or 1, tile=a.tile or 16,
-                              progress=sys.stderr.isatty())
+                              progress=sys.stderr.isatty(), **opt.trace_limits(a))
         how = (f"traced  {scene.name}, grid {'x'.join(map(str, grid.n))}, {trace.meta['width']}x"
                f"{trace.meta['height']} {trace.meta['rules']} in {time.perf_counter() - t0:.2f} s")
     settings = source_settings(a, trace)
@@ -100,7 +101,8 @@ def source_settings(a, trace) -> dict:
     src = a.source
     return {"source": src, "scene": m.get("scene"), "scene_sha256": m.get("scene_sha256"),
             "grid": m.get("grid"), "resolution": [m.get("width"), m.get("height")], "rules": m.get("rules"),
-            "threshold": m.get("threshold"), "tiles": len(m.get("tiles", [])),
+            "threshold": m.get("threshold"), "max_depth": m.get("max_depth"), "max_rays": m.get("max_rays"),
+            "tiles": len(m.get("tiles", [])),
             "tiles_total": m.get("tiles_total"), "tile": m.get("tile"),
             "threads": None if src.endswith(".npz") else a.threads or os.cpu_count() or 1}
 
@@ -127,8 +129,9 @@ def run(a, load=None, replay=None, plan=None) -> int:
     from .system import System
 
     if a.source.endswith(".npz"):
-        given = [f"--{k}" for k in ("grid", "res", "rules", "threshold", "threads", "tile")
-                 if getattr(a, k) is not None]
+        given = [f"--{k.replace('_', '-')}" for k in ("grid", "res", "rules", "threshold", "threads", "tile",
+                                                       "max_rays", "max_depth")
+                 if getattr(a, k, None) is not None]
         if given:
             print(f"mprt simulate: {', '.join(given)} set how a scene is traced; {a.source} was traced with "
                   "its own settings (see 'mprt stats')", file=sys.stderr)
