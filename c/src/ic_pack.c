@@ -29,34 +29,43 @@ static real tri_field(const mprt__tri *t, int f)
 
 /* ---- The portable copies ------------------------------------------------------ */
 
-uint32_t mprt__pack_test_portable(const mprt__tri *tri, const uint32_t *index, unsigned n, const mprt__ray *ray,
-                                  real tmin, real tmax, real *tt)
+/* One triangle against the ray, mprt__tri_hit's operations in its order
+ * (ic.h) but for the shear (see the top): its 13 fields (MPRT__PACK_FIELDS)
+ * at f[0], f[stride], ...; 1 and its t in *t when it hits over (tmin, tmax]. */
+static int lane_hit(const real *f, size_t stride, const mprt__ray *ray, real tmin, real tmax, real *t)
 {
     const vec3 o = ray->o, d = ray->d;
     const int kx = ray->kx, ky = ray->ky, kz = ray->kz;
     const real ox = vget(o, kx), oy = vget(o, ky), oz = vget(o, kz), sx = ray->sx, sy = ray->sy;
+    const real nx = f[9 * stride], ny = f[10 * stride], nz = f[11 * stride];
+    real x[3], y[3], dn, u;
+    size_t v;
+    dn = nx * d.x + ny * d.y + nz * d.z;
+    if (dn == 0) return 0;
+    for (v = 0; v < 3; v++) {
+        const real qz = f[(3 * v + (size_t)kz) * stride] - oz;
+        x[v] = (f[(3 * v + (size_t)kx) * stride] - ox) + qz * sx;
+        y[v] = (f[(3 * v + (size_t)ky) * stride] - oy) + qz * sy;
+    }
+    if (mprt__edge_winding(x[2], y[2], x[0], y[0]) + mprt__edge_winding(x[0], y[0], x[1], y[1]) +
+            mprt__edge_winding(x[1], y[1], x[2], y[2]) == 0)
+        return 0;
+    u = (f[12 * stride] - (nx * o.x + ny * o.y + nz * o.z)) / dn;
+    if (!(u > tmin && u <= tmax)) return 0;
+    *t = u;
+    return 1;
+}
+
+uint32_t mprt__pack_test_portable(const mprt__tri *tri, const uint32_t *index, unsigned n, const mprt__ray *ray,
+                                  real tmin, real tmax, real *tt)
+{
     uint32_t hits = 0;
     unsigned i;
     for (i = 0; i < n; i++) {
-        const mprt__tri *p = &tri[index[i]];
-        const real nx = p->normal.x, ny = p->normal.y, nz = p->normal.z;
-        real x[3], y[3], dn, t;
-        int v;
-        /* mprt__tri_hit's operations, in its order (ic.h), but for the shear (see the top) */
-        dn = nx * d.x + ny * d.y + nz * d.z;
-        if (dn == 0) continue;
-        for (v = 0; v < 3; v++) {
-            const real qz = tri_field(p, 3 * v + kz) - oz;
-            x[v] = (tri_field(p, 3 * v + kx) - ox) + qz * sx;
-            y[v] = (tri_field(p, 3 * v + ky) - oy) + qz * sy;
-        }
-        if (mprt__edge_winding(x[2], y[2], x[0], y[0]) + mprt__edge_winding(x[0], y[0], x[1], y[1]) +
-                mprt__edge_winding(x[1], y[1], x[2], y[2]) == 0)
-            continue;
-        t = (p->d - (nx * o.x + ny * o.y + nz * o.z)) / dn;
-        if (!(t > tmin && t <= tmax)) continue;
-        tt[i] = t;
-        hits |= (uint32_t)1 << i;
+        real f[MPRT__PACK_FIELDS];
+        int k;
+        for (k = 0; k < MPRT__PACK_FIELDS; k++) f[k] = tri_field(&tri[index[i]], k);
+        if (lane_hit(f, 1, ray, tmin, tmax, &tt[i])) hits |= (uint32_t)1 << i;
     }
     return hits;
 }
@@ -68,34 +77,11 @@ uint32_t mprt__pack_test_portable(const mprt__tri *tri, const uint32_t *index, u
 uint32_t mprt__block_test_portable(const real *blocks, unsigned nblocks, const mprt__ray *ray, real tmin, real tmax,
                                   real *tt)
 {
-    const vec3 o = ray->o, d = ray->d;
-    const int kx = ray->kx, ky = ray->ky, kz = ray->kz;
-    const real ox = vget(o, kx), oy = vget(o, ky), oz = vget(o, kz), sx = ray->sx, sy = ray->sy;
     uint32_t hits = 0;
-    unsigned b;
-    for (b = 0; b < nblocks; b++) {
-        const real *B = blocks + (size_t)b * MPRT__PACK_BLOCK;
-        int j;
-        for (j = 0; j < MPRT__PACK_W; j++) {
-            const real nx = FIELD(B, 9, j), ny = FIELD(B, 10, j), nz = FIELD(B, 11, j);
-            real x[3], y[3], dn, t;
-            int v;
-            /* mprt__tri_hit's operations, in its order (ic.h), but for the shear (see the top) */
-            dn = nx * d.x + ny * d.y + nz * d.z;
-            if (dn == 0) continue;
-            for (v = 0; v < 3; v++) {
-                const real qz = FIELD(B, 3 * v + kz, j) - oz;
-                x[v] = (FIELD(B, 3 * v + kx, j) - ox) + qz * sx;
-                y[v] = (FIELD(B, 3 * v + ky, j) - oy) + qz * sy;
-            }
-            if (mprt__edge_winding(x[2], y[2], x[0], y[0]) + mprt__edge_winding(x[0], y[0], x[1], y[1]) +
-                    mprt__edge_winding(x[1], y[1], x[2], y[2]) == 0)
-                continue;
-            t = (FIELD(B, 12, j) - (nx * o.x + ny * o.y + nz * o.z)) / dn;
-            if (!(t > tmin && t <= tmax)) continue;
-            tt[b * MPRT__PACK_W + (unsigned)j] = t;
-            hits |= (uint32_t)1 << (b * MPRT__PACK_W + (unsigned)j);
-        }
+    unsigned i;
+    for (i = 0; i < nblocks * MPRT__PACK_W; i++) {
+        const real *B = blocks + (size_t)(i / MPRT__PACK_W) * MPRT__PACK_BLOCK;
+        if (lane_hit(&FIELD(B, 0, i % MPRT__PACK_W), MPRT__PACK_W, ray, tmin, tmax, &tt[i])) hits |= (uint32_t)1 << i;
     }
     return hits;
 }
@@ -141,52 +127,97 @@ TARGET_AVX2 static inline void transpose4(const __m256d a[4], __m256d r[4])
     r[3] = _mm256_permute2f128_pd(t1, t3, 0x31);
 }
 
+/* The ray as four lanes see it: each value in every lane. */
+typedef struct {
+    __m256d ox, oy, oz, dx, dy, dz; /* origin and direction */
+    __m256d px, py, pz, sx, sy;     /* the origin's kx, ky, kz coordinates, and the shear */
+    __m256d lo, hi;                 /* tmin, tmax */
+    int kx, ky, kz;
+} ray4;
+
+TARGET_AVX2 static inline void ray4_set(ray4 *r, const mprt__ray *ray, real tmin, real tmax)
+{
+    r->ox = _mm256_set1_pd(ray->o.x);
+    r->oy = _mm256_set1_pd(ray->o.y);
+    r->oz = _mm256_set1_pd(ray->o.z);
+    r->dx = _mm256_set1_pd(ray->d.x);
+    r->dy = _mm256_set1_pd(ray->d.y);
+    r->dz = _mm256_set1_pd(ray->d.z);
+    r->kx = ray->kx;
+    r->ky = ray->ky;
+    r->kz = ray->kz;
+    r->px = _mm256_set1_pd(vget(ray->o, ray->kx));
+    r->py = _mm256_set1_pd(vget(ray->o, ray->ky));
+    r->pz = _mm256_set1_pd(vget(ray->o, ray->kz));
+    r->sx = _mm256_set1_pd(ray->sx);
+    r->sy = _mm256_set1_pd(ray->sy);
+    r->lo = _mm256_set1_pd(tmin);
+    r->hi = _mm256_set1_pd(tmax);
+}
+
+/* The four lanes of block B (ic_pack.h's layout) against the ray: bit j of
+ * the result set when lane j hits; where any lane passes the edge tests,
+ * tt[0 .. 4) takes the four lanes' t (read only where a bit is set).
+ * Inlined into both tests, so the ray's registers stay registers. */
+TARGET_AVX2 __attribute__((always_inline)) static inline uint32_t block4_avx2(const ray4 *r, const real *B, real *tt)
+{
+    const __m256d z = _mm256_setzero_pd();
+    const __m256d nx = _mm256_loadu_pd(B + 9 * MPRT__PACK_W), ny = _mm256_loadu_pd(B + 10 * MPRT__PACK_W),
+                  nz = _mm256_loadu_pd(B + 11 * MPRT__PACK_W);
+    __m256d x[3], y[3], dn, t;
+    __m256i up = _mm256_setzero_si256(), down = _mm256_setzero_si256();
+    int v, m;
+    dn = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(nx, r->dx), _mm256_mul_pd(ny, r->dy)), _mm256_mul_pd(nz, r->dz));
+    for (v = 0; v < 3; v++) {
+        const __m256d qz = _mm256_sub_pd(_mm256_loadu_pd(B + (3 * v + r->kz) * MPRT__PACK_W), r->pz);
+        x[v] = _mm256_add_pd(_mm256_sub_pd(_mm256_loadu_pd(B + (3 * v + r->kx) * MPRT__PACK_W), r->px),
+                             _mm256_mul_pd(qz, r->sx));
+        y[v] = _mm256_add_pd(_mm256_sub_pd(_mm256_loadu_pd(B + (3 * v + r->ky) * MPRT__PACK_W), r->py),
+                             _mm256_mul_pd(qz, r->sy));
+    }
+    edge_avx2(x[2], y[2], x[0], y[0], &up, &down);
+    edge_avx2(x[0], y[0], x[1], y[1], &up, &down);
+    edge_avx2(x[1], y[1], x[2], y[2], &up, &down);
+    /* a winding number (ups less downs) other than 0, and dn != 0 (NaN too, as dn == 0 is false for it) */
+    m = _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(up, down))) ^ 0xf;
+    m &= _mm256_movemask_pd(_mm256_cmp_pd(dn, z, _CMP_NEQ_UQ));
+    if (!m) return 0;
+    t = _mm256_div_pd(_mm256_sub_pd(_mm256_loadu_pd(B + 12 * MPRT__PACK_W),
+                                    _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(nx, r->ox), _mm256_mul_pd(ny, r->oy)),
+                                                  _mm256_mul_pd(nz, r->oz))),
+                      dn);
+    m &= _mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(t, r->lo, _CMP_GT_OQ), _mm256_cmp_pd(t, r->hi, _CMP_LE_OQ)));
+    _mm256_storeu_pd(tt, t);
+    return (uint32_t)m;
+}
+
+/* The records of four triangles, gathered into a block and tested as one. */
 TARGET_AVX2 static uint32_t pack_test_avx2(const mprt__tri *tri, const uint32_t *index, unsigned n,
                                            const mprt__ray *ray, real tmin, real tmax, real *tt)
 {
     static const mprt__tri none; /* a zero normal: a lane that never hits */
-    const __m256d ox = _mm256_set1_pd(ray->o.x), oy = _mm256_set1_pd(ray->o.y), oz = _mm256_set1_pd(ray->o.z);
-    const __m256d dx = _mm256_set1_pd(ray->d.x), dy = _mm256_set1_pd(ray->d.y), dz = _mm256_set1_pd(ray->d.z);
-    const int kx = ray->kx, ky = ray->ky, kz = ray->kz;
-    const __m256d px = _mm256_set1_pd(vget(ray->o, kx)), py = _mm256_set1_pd(vget(ray->o, ky));
-    const __m256d pz = _mm256_set1_pd(vget(ray->o, kz)), sx = _mm256_set1_pd(ray->sx), sy = _mm256_set1_pd(ray->sy);
-    const __m256d lo = _mm256_set1_pd(tmin), hi = _mm256_set1_pd(tmax), z = _mm256_setzero_pd();
+    ray4 r;
     uint32_t hits = 0;
     unsigned b;
+    ray4_set(&r, ray, tmin, tmax);
     for (b = 0; b < n; b += MPRT__PACK_W) {
         const mprt__tri *p[4];
-        __m256d F[13], a[4], x[3], y[3], dn, t;
-        __m256i up = _mm256_setzero_si256(), down = _mm256_setzero_si256();
-        int v, m, j;
+        real B[MPRT__PACK_BLOCK];
+        __m256d a[4], F[4];
+        int j;
         for (j = 0; j < 4; j++) p[j] = b + (unsigned)j < n ? &tri[index[b + (unsigned)j]] : &none;
-        /* the records (13 reals each) as three rows of four and d, transposed: F[f] = field f of the four */
+        /* the records (13 reals each) as three rows of four and d, transposed: field f of the four at B + 4 f */
         for (j = 0; j < 4; j++) a[j] = _mm256_loadu_pd(&p[j]->v[0].x);
         transpose4(a, F);
+        for (j = 0; j < 4; j++) _mm256_storeu_pd(B + j * MPRT__PACK_W, F[j]);
         for (j = 0; j < 4; j++) a[j] = _mm256_loadu_pd(&p[j]->v[1].y);
-        transpose4(a, F + 4);
+        transpose4(a, F);
+        for (j = 0; j < 4; j++) _mm256_storeu_pd(B + (4 + j) * MPRT__PACK_W, F[j]);
         for (j = 0; j < 4; j++) a[j] = _mm256_loadu_pd(&p[j]->v[2].z);
-        transpose4(a, F + 8);
-        F[12] = _mm256_set_pd(p[3]->d, p[2]->d, p[1]->d, p[0]->d);
-        dn = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(F[9], dx), _mm256_mul_pd(F[10], dy)), _mm256_mul_pd(F[11], dz));
-        for (v = 0; v < 3; v++) {
-            const __m256d qz = _mm256_sub_pd(F[3 * v + kz], pz);
-            x[v] = _mm256_add_pd(_mm256_sub_pd(F[3 * v + kx], px), _mm256_mul_pd(qz, sx));
-            y[v] = _mm256_add_pd(_mm256_sub_pd(F[3 * v + ky], py), _mm256_mul_pd(qz, sy));
-        }
-        edge_avx2(x[2], y[2], x[0], y[0], &up, &down);
-        edge_avx2(x[0], y[0], x[1], y[1], &up, &down);
-        edge_avx2(x[1], y[1], x[2], y[2], &up, &down);
-        /* a winding number (ups less downs) other than 0, and dn != 0 (NaN too, as dn == 0 is false for it) */
-        m = _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(up, down))) ^ 0xf;
-        m &= _mm256_movemask_pd(_mm256_cmp_pd(dn, z, _CMP_NEQ_UQ));
-        if (!m) continue;
-        t = _mm256_div_pd(_mm256_sub_pd(F[12], _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(F[9], ox),
-                                                                           _mm256_mul_pd(F[10], oy)),
-                                                             _mm256_mul_pd(F[11], oz))),
-                          dn);
-        m &= _mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(t, lo, _CMP_GT_OQ), _mm256_cmp_pd(t, hi, _CMP_LE_OQ)));
-        _mm256_storeu_pd(tt + b, t);
-        hits |= (uint32_t)m << b;
+        transpose4(a, F);
+        for (j = 0; j < 4; j++) _mm256_storeu_pd(B + (8 + j) * MPRT__PACK_W, F[j]);
+        for (j = 0; j < 4; j++) B[12 * MPRT__PACK_W + j] = p[j]->d;
+        hits |= block4_avx2(&r, B, tt + b) << b;
     }
     return n < 32 ? hits & (((uint32_t)1 << n) - 1) : hits;
 }
@@ -194,43 +225,12 @@ TARGET_AVX2 static uint32_t pack_test_avx2(const mprt__tri *tri, const uint32_t 
 TARGET_AVX2 static uint32_t block_test_avx2(const real *blocks, unsigned nblocks, const mprt__ray *ray, real tmin,
                                             real tmax, real *tt)
 {
-    const __m256d ox = _mm256_set1_pd(ray->o.x), oy = _mm256_set1_pd(ray->o.y), oz = _mm256_set1_pd(ray->o.z);
-    const __m256d dx = _mm256_set1_pd(ray->d.x), dy = _mm256_set1_pd(ray->d.y), dz = _mm256_set1_pd(ray->d.z);
-    const int kx = ray->kx, ky = ray->ky, kz = ray->kz;
-    const __m256d px = _mm256_set1_pd(vget(ray->o, kx)), py = _mm256_set1_pd(vget(ray->o, ky));
-    const __m256d pz = _mm256_set1_pd(vget(ray->o, kz)), sx = _mm256_set1_pd(ray->sx), sy = _mm256_set1_pd(ray->sy);
-    const __m256d lo = _mm256_set1_pd(tmin), hi = _mm256_set1_pd(tmax), z = _mm256_setzero_pd();
+    ray4 r;
     uint32_t hits = 0;
     unsigned b;
-    for (b = 0; b < nblocks; b++) {
-        const real *B = blocks + (size_t)b * MPRT__PACK_BLOCK;
-        __m256d x[3], y[3], nx, ny, nz, dn, t;
-        __m256i up = _mm256_setzero_si256(), down = _mm256_setzero_si256();
-        int v, m;
-        nx = _mm256_loadu_pd(B + 9 * MPRT__PACK_W);
-        ny = _mm256_loadu_pd(B + 10 * MPRT__PACK_W);
-        nz = _mm256_loadu_pd(B + 11 * MPRT__PACK_W);
-        dn = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(nx, dx), _mm256_mul_pd(ny, dy)), _mm256_mul_pd(nz, dz));
-        for (v = 0; v < 3; v++) {
-            const __m256d qz = _mm256_sub_pd(_mm256_loadu_pd(B + (3 * v + kz) * MPRT__PACK_W), pz);
-            x[v] = _mm256_add_pd(_mm256_sub_pd(_mm256_loadu_pd(B + (3 * v + kx) * MPRT__PACK_W), px), _mm256_mul_pd(qz, sx));
-            y[v] = _mm256_add_pd(_mm256_sub_pd(_mm256_loadu_pd(B + (3 * v + ky) * MPRT__PACK_W), py), _mm256_mul_pd(qz, sy));
-        }
-        edge_avx2(x[2], y[2], x[0], y[0], &up, &down);
-        edge_avx2(x[0], y[0], x[1], y[1], &up, &down);
-        edge_avx2(x[1], y[1], x[2], y[2], &up, &down);
-        /* a winding number (ups less downs) other than 0, and dn != 0 (NaN too, as dn == 0 is false for it) */
-        m = _mm256_movemask_pd(_mm256_castsi256_pd(_mm256_cmpeq_epi64(up, down))) ^ 0xf;
-        m &= _mm256_movemask_pd(_mm256_cmp_pd(dn, z, _CMP_NEQ_UQ));
-        if (!m) continue;
-        t = _mm256_div_pd(
-            _mm256_sub_pd(_mm256_loadu_pd(B + 12 * MPRT__PACK_W),
-                          _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(nx, ox), _mm256_mul_pd(ny, oy)), _mm256_mul_pd(nz, oz))),
-            dn);
-        m &= _mm256_movemask_pd(_mm256_and_pd(_mm256_cmp_pd(t, lo, _CMP_GT_OQ), _mm256_cmp_pd(t, hi, _CMP_LE_OQ)));
-        _mm256_storeu_pd(tt + b * MPRT__PACK_W, t);
-        hits |= (uint32_t)m << (b * MPRT__PACK_W);
-    }
+    ray4_set(&r, ray, tmin, tmax);
+    for (b = 0; b < nblocks; b++)
+        hits |= block4_avx2(&r, blocks + (size_t)b * MPRT__PACK_BLOCK, tt + b * MPRT__PACK_W) << (b * MPRT__PACK_W);
     return hits;
 }
 
@@ -239,32 +239,28 @@ TARGET_AVX2 static uint32_t block_test_avx2(const real *blocks, unsigned nblocks
 TARGET_AVX2 static uint32_t ball_filter_avx2(const mprt__ball *balls, const int32_t *ids, unsigned n,
                                              const mprt__ray *ray, real dd)
 {
-    const __m256d ox = _mm256_set1_pd(ray->o.x), oy = _mm256_set1_pd(ray->o.y), oz = _mm256_set1_pd(ray->o.z);
-    const __m256d dx = _mm256_set1_pd(ray->d.x), dy = _mm256_set1_pd(ray->d.y), dz = _mm256_set1_pd(ray->d.z);
     const __m256d vdd = _mm256_set1_pd(dd), c107 = _mm256_set1_pd(R(1.07));
     const __m256d k = _mm256_set1_pd(R(4096.0) * REAL_EPS * REAL_EPS);
+    ray4 r; /* its o and d */
     uint32_t miss = 0;
     unsigned i;
+    ray4_set(&r, ray, 0, 0);
     for (i = 0; i < n; i += 4) {
-        __m256d b[4], t0, t1, t2, t3, mx, my, mz, r2, cx, cy, cz, lhs, rhs;
+        __m256d b[4], c[4], mx, my, mz, cx, cy, cz, lhs, rhs;
         unsigned j;
         for (j = 0; j < 4; j++)
             b[j] = i + j < n ? _mm256_loadu_pd(&balls[ids[i + j]].c.x) : _mm256_setzero_pd();
-        t0 = _mm256_unpacklo_pd(b[0], b[1]); /* x0 x1 z0 z1 */
-        t1 = _mm256_unpackhi_pd(b[0], b[1]); /* y0 y1 r0 r1 */
-        t2 = _mm256_unpacklo_pd(b[2], b[3]);
-        t3 = _mm256_unpackhi_pd(b[2], b[3]);
-        mx = _mm256_sub_pd(ox, _mm256_permute2f128_pd(t0, t2, 0x20));
-        mz = _mm256_sub_pd(oz, _mm256_permute2f128_pd(t0, t2, 0x31));
-        my = _mm256_sub_pd(oy, _mm256_permute2f128_pd(t1, t3, 0x20));
-        r2 = _mm256_permute2f128_pd(t1, t3, 0x31);
+        transpose4(b, c); /* x, y, z and r2 of the four */
+        mx = _mm256_sub_pd(r.ox, c[0]);
+        my = _mm256_sub_pd(r.oy, c[1]);
+        mz = _mm256_sub_pd(r.oz, c[2]);
         /* c = om x d; |c|^2 > dd (1.07 r2 + 4096 eps^2 |om|^2) */
-        cx = _mm256_sub_pd(_mm256_mul_pd(my, dz), _mm256_mul_pd(mz, dy));
-        cy = _mm256_sub_pd(_mm256_mul_pd(mz, dx), _mm256_mul_pd(mx, dz));
-        cz = _mm256_sub_pd(_mm256_mul_pd(mx, dy), _mm256_mul_pd(my, dx));
+        cx = _mm256_sub_pd(_mm256_mul_pd(my, r.dz), _mm256_mul_pd(mz, r.dy));
+        cy = _mm256_sub_pd(_mm256_mul_pd(mz, r.dx), _mm256_mul_pd(mx, r.dz));
+        cz = _mm256_sub_pd(_mm256_mul_pd(mx, r.dy), _mm256_mul_pd(my, r.dx));
         lhs = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(cx, cx), _mm256_mul_pd(cy, cy)), _mm256_mul_pd(cz, cz));
         rhs = _mm256_add_pd(_mm256_add_pd(_mm256_mul_pd(mx, mx), _mm256_mul_pd(my, my)), _mm256_mul_pd(mz, mz));
-        rhs = _mm256_mul_pd(vdd, _mm256_add_pd(_mm256_mul_pd(c107, r2), _mm256_mul_pd(k, rhs)));
+        rhs = _mm256_mul_pd(vdd, _mm256_add_pd(_mm256_mul_pd(c107, c[3]), _mm256_mul_pd(k, rhs)));
         miss |= (uint32_t)_mm256_movemask_pd(_mm256_cmp_pd(lhs, rhs, _CMP_GT_OQ)) << i;
     }
     return n < 32 ? miss & (((uint32_t)1 << n) - 1) : miss;
