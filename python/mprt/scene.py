@@ -77,10 +77,10 @@ class Scene:
         """How many of the materials that primitives use have Ks + T over 1 (the classic glass:
         read as written, and ``default_max_depth`` limits the depth of the scene's ray trees)."""
         m = self.materials()
-        if not len(m["ks"]):
+        over = m["ks"] + m["t"] > 1 + OVER_ONE_MARGIN
+        if not over.any():      # (the common case: no primitive table to read)
             return 0
-        used = np.unique(self.prim_table()["material"])
-        return int(np.count_nonzero(m["ks"][used] + m["t"][used] > 1 + OVER_ONE_MARGIN))
+        return int(np.count_nonzero(over[np.unique(self.prim_table()["material"])]))
 
     def default_max_depth(self) -> int:
         """The depth limit a render or trace of this scene takes when none is asked for (max_depth
