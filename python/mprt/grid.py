@@ -121,7 +121,8 @@ class Grid:
     def _over_budget(self, e: WorkLimitError, desc: dict) -> WorkLimitError:
         """The library's error of a sample over the ray budget with the command line's options
         that change it (the threshold only under the rules with a cutoff)."""
-        opts = ("--threshold, " if desc.get("rules", RULES["paper"]) != RULES["spd"] else "") + "--max-rays, --max-depth"
+        cutoff = desc.get("rules", RULES["paper"]) != RULES["spd"]
+        opts = ("--threshold, " if cutoff else "") + "--max-rays, --max-depth"
         return WorkLimitError(f"{e} (mprt's options: {opts})")
 
     def tiling(self, desc: dict):
