@@ -33,6 +33,10 @@ $(B)/libmprt.a: $(patsubst c/src/%.c,$(B)/obj/%.o,$(SRC))
 $(B)/test_%: tests/c/test_%.c $(B)/libmprt.a $(wildcard tests/c/*.h)
 	$(CC) $(CFLAGS) $< $(B)/libmprt.a -o $@ $(LDLIBS)
 
+# The grid's build against the plain one kept in the tests (tests/c/grid_reference.c).
+$(B)/test_grid_build: tests/c/test_grid_build.c tests/c/grid_reference.c $(B)/libmprt.a $(wildcard tests/c/*.h)
+	$(CC) $(CFLAGS) $< tests/c/grid_reference.c $(B)/libmprt.a -o $@ $(LDLIBS)
+
 # The usage example of mprt.h: the indented lines of its "Usage" comment,
 # compiled as they stand by test_header_example.c.
 $(B)/header_example.inc: c/include/mprt.h

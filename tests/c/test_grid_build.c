@@ -11,7 +11,7 @@
  * studies/03_bench/build.py --before. */
 #include "check.h"
 #include "geom.h"
-#include "grid.h"
+#include "grid_reference.h"
 #undef PI
 #include "spd_check.h"
 
