@@ -30,6 +30,7 @@ ORDER = [
     "tracing",     # trace(grid, ...) -> (image, Trace) (adds Grid.trace)
     "options",     # the command line's options, validated once for every subcommand
     "memory_estimate",  # peak memory of simulate, explore and sweep, against the memory available
+    "figures",     # figures read at a glance: readable defaults, a checker of text size, overlaps, clipping
     "report",      # self-contained HTML pages of explore, simulate and sweep (from their JSON and plots)
     "cost",        # operation costs of stage visits (takes a Trace)
     "replay",      # costed trace -> per-PE ray streams
