@@ -16,18 +16,26 @@ import shlex
 import sys
 import time
 
+from . import figures
 from .atomic import open_replacing
 
+# The content is figures.CONTENT_PX wide in a 1280-px window (its figures are drawn for that width
+# and checked at it); body text figures.BODY_PX; an image wider than the content is scaled down
+# to it, never up; a table never wider than the content: its cells wrap, long words included.
 STYLE = """
-body { font: 14px/1.45 system-ui, sans-serif; margin: 0 auto; max-width: 1200px; padding: 1em 2em; color: #222; }
+body { font: %(body)dpx/1.45 system-ui, sans-serif; margin: 0 auto; max-width: %(content)dpx; padding: 1em 20px;
+       color: #222; }
 h1 { font-size: 1.6em; margin-bottom: .2em; } h2 { border-bottom: 1px solid #ccc; margin-top: 1.6em; }
-table { border-collapse: collapse; margin: .5em 0; } td, th { border: 1px solid #ccc; padding: .2em .6em; }
+table { border-collapse: collapse; margin: .5em 0; max-width: 100%%; }
+td, th { border: 1px solid #ccc; padding: .2em .6em; overflow-wrap: anywhere; vertical-align: top; }
 th { background: #f2f2f2; text-align: left; } td.num { text-align: right; font-variant-numeric: tabular-nums; }
-img { max-width: 100%; height: auto; display: block; margin: .5em 0; border: 1px solid #eee; }
+table table { margin: 0; } table table td, table table th { border: none; padding: 0 .6em 0 0; }
+img { max-width: 100%%; height: auto; display: block; margin: .5em 0; border: 1px solid #eee; }
 pre { background: #f6f6f6; padding: .6em; overflow-x: auto; white-space: pre-wrap; word-break: break-all; }
+summary { cursor: pointer; margin: .5em 0; }
 .answer { font-size: 1.15em; background: #eef6ee; padding: .6em 1em; border-left: 4px solid #4a4; }
 .warn { background: #fff4e0; border-left-color: #e90; }
-"""
+""" % {"body": figures.BODY_PX, "content": figures.CONTENT_PX}
 
 
 # -- building blocks ------------------------------------------------------------------------
@@ -57,7 +65,7 @@ def png_img(data: bytes, alt: str) -> str:
     return f'<img alt="{esc(alt)}" src="data:image/png;base64,{base64.b64encode(data).decode()}">'
 
 
-def figure_png(fig, dpi: int = 100) -> bytes:
+def figure_png(fig, dpi: int = figures.DPI) -> bytes:
     buf = io.BytesIO()
     fig.savefig(buf, format="png", dpi=dpi)
     return buf.getvalue()
@@ -95,11 +103,42 @@ def _plt():
     return plt
 
 
+def value(v) -> str:
+    """A setting's value for people: none as "-", numbers with thousands separators (floats to
+    four significant figures), a list of numbers joined (a grid as 18 x 18 x 1), other lists by
+    commas; a table (dict) is for table_html."""
+    if v is None or v == "":
+        return "-"
+    if isinstance(v, bool):
+        return "yes" if v else "no"
+    if isinstance(v, int):
+        return f"{v:,}"
+    if isinstance(v, float):
+        return f"{v:,.0f}" if v.is_integer() and abs(v) >= 1 else f"{v:,.4g}"
+    if isinstance(v, (list, tuple)):
+        if v and all(isinstance(x, int) and not isinstance(x, bool) for x in v):
+            return " x ".join(map(str, v))
+        return ", ".join(value(x) for x in v)
+    return str(v)
+
+
+def settings_table(settings: dict) -> str:
+    """(setting, value) rows, a value that is itself a table (dict) as a table inside its cell;
+    plain text for people, never a Python repr."""
+    def cell(v):
+        if isinstance(v, dict):
+            return "<table>" + "".join(f"<tr><th>{esc(k)}</th><td>{cell(x)}</td></tr>" for k, x in v.items()) \
+                + "</table>" if v else "-"
+        return esc(value(v))
+    rows = "".join(f"<tr><th>{esc(str(k).replace('_', ' '))}</th><td>{cell(v)}</td></tr>"
+                   for k, v in (settings or {}).items())
+    return f"<table><tr><th>setting</th><th>value</th></tr>{rows}</table>" if rows else ""
+
+
 def reproduce(argv, settings: dict) -> str:
     from ._lowlevel import EXT_VERSION
-    rows = [(k, v if isinstance(v, (int, float, str)) else repr(v)) for k, v in (settings or {}).items()]
     return (f"<p>Run again with (mprt {esc(EXT_VERSION)}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}):</p>"
-            f"<pre>{esc(command_line(argv))}</pre>" + (table(("setting", "value"), rows) if rows else ""))
+            f"<pre>{esc(command_line(argv))}</pre>" + settings_table(settings))
 
 
 # -- explore ----------------------------------------------------------------------------------
@@ -202,35 +241,168 @@ def explore_html(rep: dict, argv, plot_path) -> str:
 
 # -- simulate ---------------------------------------------------------------------------------
 
+def _pct(x) -> str:
+    return f"{100 * x:.0f}%" if isinstance(x, (int, float)) else "-"
+
+
+def _share(part, whole) -> str:
+    """A count with its share of the whole: 2,244,773 (72%)."""
+    return f"{part:,} ({100 * part / whole:.0f}%)" if whole else f"{part:,}"
+
+
 def simulate_html(out: dict, argv=None, plot_path=None) -> str:
-    st = out["stages"]
-    rows = [(s, num(v["processing"]), num(v["communication"]), num(v["waiting"]),
-             f"{v.get('utilisation', 0):.0%}" if isinstance(v.get("utilisation"), float) else "")
-            for s, v in st.items()]
-    ans = (f'<p class="answer">{esc(out.get("model"))}: <b>{num(out["cycles"])} cycles</b> at level '
-           f'{esc(out.get("level"))} ({esc(out.get("engine"))} engine), {num(out.get("visits", 0))} visits.</p>')
-    sections = [section("answer", "Answer", ans),
-                section("stages", "Stages", table(("stage", "processing", "communication", "waiting",
-                                                    "utilisation"), rows))]
+    """The page of a simulate run (its JSON, as --json writes it) with its plot (a PNG file, as
+    SimResult.plot draws it)."""
+    st, settings = out["stages"], dict(out.get("settings") or {})
+    scene = settings.get("scene", "")
+    res, grid = settings.get("resolution"), settings.get("grid")
+    where = ", ".join(x for x in (value(res) if res else "", f"grid {value(grid)}" if grid else "") if x)
+    util = {k: v.get("utilisation") for k, v in st.items() if isinstance(v.get("utilisation"), (int, float))}
+    bottleneck = max(util, key=util.get) if util else None
+    lo, hi = (out.get("cycles_interval") or [None, None])[:2]
+    sampled = out.get("sampled", 1.0)
+    estimate = (f" (estimated from {100 * sampled:.0f}% of the rays: {num(lo)} to {num(hi)})"
+                if isinstance(sampled, float) and sampled < 1 and lo is not None else "")
+    rays = out.get("rays") or {}
+    ans = (f'<p class="answer">Model {esc(out.get("model"))} renders {esc(scene)}'
+           + (f" ({esc(where)})" if where else "")
+           + f' in <b>{num(out["cycles"])} cycles</b>{esc(estimate)} at level {esc(out.get("level"))} '
+           f'({esc(out.get("engine"))} engine).</p>'
+           + (f"<p>The busiest stage is <b>{esc(bottleneck)}</b>, busy {_pct(util[bottleneck])} of the time; "
+              + ", ".join(f"{esc(k)} {_pct(v)}" for k, v in util.items() if k != bottleneck)
+              + f". {num(out.get('visits', 0))} stage visits by {num(sum(rays.values()))} rays ("
+              + ", ".join(f"{num(v)} {esc(k)}" for k, v in rays.items()) + ").</p>" if bottleneck else ""))
+    rows = []
+    for s, v in st.items():
+        whole = sum(v.get(c, 0) for c in ("processing", "communication", "waiting"))
+        rows.append((s, num(v.get("rays_in", 0)), _share(v["processing"], whole),
+                     _share(v["communication"], whole), _share(v["waiting"], whole), _pct(v.get("utilisation"))))
+    stages = ("<p>Cycles summed over the PEs, with each category's share of the stage's time.</p>"
+              + table(("stage", "rays in", "processing", "communication", "waiting", "utilisation"), rows))
+    fifos = [(name, num(f["packets"]), f"{f['mean']:,.1f}", num(f["max"]), value(f.get("capacity")))
+             for name, f in (out.get("fifos") or {}).items() if f.get("packets")]
+    if fifos:
+        stages += "<h3>FIFOs</h3>" + table(("FIFO", "packets", "mean occupancy", "most", "capacity"), fifos)
+    sections = [section("answer", "Answer", ans), section("stages", "Stages", stages)]
     if plot_path:
         sections.append(section("plots", "Plots", file_png(plot_path, "stage loads and timelines")))
-    sections.append(section("reproduce", "Reproduce", reproduce(argv, out.get("settings"))))
-    return page(f"mprt simulate {out.get('settings', {}).get('scene', '')}", f"model {out.get('model')}", sections)
+    settings["replay_seconds"] = out.get("replay_seconds")
+    sections.append(section("reproduce", "Reproduce", reproduce(argv, settings)))
+    return page(f"mprt simulate {scene}", f"model {out.get('model')}", sections)
 
 
 # -- sweep -------------------------------------------------------------------------------------
 
-def sweep_html(r: dict, argv=None) -> str:
+def _cycles(v):
+    """A sweep row's cycles as a number, None where the design deadlocked ("" in the CSV)."""
+    return None if v in ("", None) else float(v)
+
+
+def _geomean(xs) -> float:
+    return math.exp(sum(math.log(x) for x in xs) / len(xs))
+
+
+def sweep_answer(rows) -> dict:
+    """What a sweep found, from its rows (dicts with scene, subdivision, design and cycles, "" or
+    None where the design deadlocked; the CSV's or run_sweep's): "best", per (scene, design) its
+    fewest cycles and the row that has them (its best subdivision); "geomean", per design the
+    geometric mean over the scenes of those cycles (None if it deadlocks at every subdivision of
+    some scene); "ranked", the designs with a geometric mean, fewest cycles first (ties in the
+    spec's order); "scenes", "designs" in their order."""
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    designs = list(dict.fromkeys(r["design"] for r in rows))
+    best: dict = {}
+    for r in rows:
+        c = _cycles(r["cycles"])
+        k = (r["scene"], r["design"])
+        if c is not None and (k not in best or c < best[k][0]):
+            best[k] = (c, r)
+    geo = {d: _geomean([best[(s, d)][0] for s in scenes]) if all((s, d) in best for s in scenes) else None
+           for d in designs}
+    ranked = sorted((d for d in designs if geo[d] is not None), key=lambda d: (geo[d], designs.index(d)))
+    return {"scenes": scenes, "designs": designs, "best": best, "geomean": geo, "ranked": ranked}
+
+
+def _times(a, b) -> str:
+    """How much faster a is than b (cycles): 1.23x, or 'as fast as'."""
+    return "as fast as" if a == b else f"{b / a:.2f}x as fast as"
+
+
+def _utilisation(row) -> str:
+    return ", ".join(f"{k[5:]} {100 * float(v):.0f}%" for k, v in row.items() if k.startswith("util_") and v != "")
+
+
+def sweep_html(r: dict, argv=None, spec=None) -> str:
+    """The page of a sweep (run_sweep's result: its CSV and PNG), spec (load_spec's) adding its
+    settings where given: the best design per scene and over all scenes first, then every row."""
     import csv
 
     with open(r["csv"], newline="") as f:
-        rows = list(csv.reader(f))
-    head, body = (rows[0], rows[1:]) if rows else ([], [])
-    ans = (f'<p class="answer">{r["rows"]} rows from {r["tasks"]} tasks ({r["cached"]} from the cache) in '
-           f'{r["seconds"]:.1f} s.</p>')
-    sections = [section("answer", "Answer", ans), section("results", "Results", table(head, body[:500])
-                                                           + (f"<p>({len(body) - 500} more rows in the CSV)</p>"
-                                                              if len(body) > 500 else "")),
-                section("plots", "Plots", file_png(r["png"], "sweep")),
-                section("reproduce", "Reproduce", reproduce(argv, {"csv": r["csv"]}))]
-    return page("mprt sweep", f"{r['rows']} rows", sections)
+        rows = list(csv.DictReader(f))
+    a = sweep_answer(rows)
+    ranked, geo, best = a["ranked"], a["geomean"], a["best"]
+    n_sc = len(a["scenes"])
+    if ranked:
+        top = ranked[0]
+        ans = (f'<p class="answer">Over {"the scene" if n_sc == 1 else f"all {n_sc} scenes"}, the best design is '
+               f'<b>{esc(top)}</b>: {num(geo[top])} cycles'
+               + (" (geometric mean over the scenes of each design's cycles at its best subdivision)" if n_sc > 1
+                  else " at its best subdivision")
+               + (f", {_times(geo[top], geo[ranked[1]])} {esc(ranked[1])}, the next best" if len(ranked) > 1 else "")
+               + (f", {_times(geo[top], geo[ranked[-1]])} {esc(ranked[-1])}, the slowest" if len(ranked) > 2 else "")
+               + ".</p>")
+    else:
+        ans = '<p class="answer warn">Every design deadlocks at every subdivision of some scene: no best design.</p>'
+    dead = [d for d in a["designs"] if geo[d] is None]
+    if dead and ranked:
+        ans += f"<p>Not ranked (they deadlock at every subdivision of a scene): {esc(', '.join(dead))}.</p>"
+    per_scene = []
+    for sc in a["scenes"]:
+        mine = sorted((best[(sc, d)][0], a["designs"].index(d), d) for d in a["designs"] if (sc, d) in best)
+        if not mine:
+            per_scene.append((sc, "every design deadlocks", "-", "-", "-", "-"))
+            continue
+        c, _, d = mine[0]
+        row = best[(sc, d)][1]
+        per_scene.append((sc, d, row["subdivision"], num(c),
+                          f"{mine[1][0] / c:.2f}x ({mine[1][2]})" if len(mine) > 1 else "-", row["bottleneck"]))
+    ans += ("<h3>Best per scene</h3>" + table(("scene", "best design", "subdivision", "cycles",
+                                                "the next design's time", "bottleneck"), per_scene))
+    kge = lambda x: "-" if _cycles(x["cost"]) is None else num(_cycles(x["cost"]), 1)   # noqa: E731
+    cost = {}                      # per design: its cost, or the range of its costs over the rows
+    for d in a["designs"]:
+        cs = [c for c in (_cycles(x["cost"]) for x in rows if x["design"] == d) if c is not None]
+        cost[d] = "-" if not cs else num(min(cs), 1) if min(cs) == max(cs) else \
+            f"{num(min(cs), 1)} to {num(max(cs), 1)}"
+    rank_rows = [(i + 1, d, num(geo[d]), f"{geo[d] / geo[ranked[0]]:.2f}", cost[d],
+                  "; ".join(f"{s}: {best[(s, d)][1]['subdivision']}" for s in a["scenes"]))
+                 for i, d in enumerate(ranked)]
+    rank_rows += [("-", d, "deadlocks", "-", cost[d], "-") for d in dead]
+    ranking = ("<h3>Designs ranked</h3>" + table(
+        ("rank", "design", "cycles (geometric mean)" if n_sc > 1 else "cycles", "x the best's time", "cost (kGE)",
+         "best subdivision"), rank_rows))
+    results = [(x["scene"], x["subdivision"], x["design"],
+                "deadlock" if _cycles(x["cycles"]) is None else num(_cycles(x["cycles"])),
+                kge(x), x["bottleneck"], _utilisation(x)) for x in rows]
+    shown = results[:500]
+    detail = (f"<details{' open' if len(rows) <= 40 else ''}><summary>All {num(len(rows))} rows "
+              f"(scene x subdivision x design)</summary>"
+              + table(("scene", "subdivision", "design", "cycles", "cost (kGE)", "bottleneck", "utilisation"), shown)
+              + (f"<p>({num(len(rows) - 500)} more rows in the CSV)</p>" if len(rows) > 500 else "") + "</details>")
+    grids = {sc: ", ".join(dict.fromkeys(x["subdivision"] for x in rows if x["scene"] == sc)) for sc in a["scenes"]}
+    settings = {"spec": argv[1] if argv and len(argv) > 1 and argv[0] == "sweep" else None,
+                "scenes": ", ".join(a["scenes"]), "subdivisions": grids, "designs": ", ".join(a["designs"])}
+    if spec:
+        settings.update({"resolution": f"{spec['width']} x {spec['height']}", "shape": spec["shape"],
+                         "level": spec["level"], "rules": spec["rules"], "batch": spec["batch"]})
+    else:
+        settings["level"] = ", ".join(dict.fromkeys(x["level"] for x in rows))
+    settings.update({"cost model": ", ".join(dict.fromkeys(x.get("costs", "") for x in rows)), "csv": r["csv"],
+                     "run": f"{num(r['rows'])} rows from {num(r['tasks'])} tasks ({num(r['cached'])} from the "
+                            f"cache) in {r['seconds']:.1f} s"})
+    sections = [section("answer", "Answer", ans + ranking), section("results", "Results", detail),
+                section("plots", "Plots", file_png(r["png"], "cycles against subdivision per scene and design")),
+                section("reproduce", "Reproduce", reproduce(argv, settings))]
+    n_sub = max((len(g.split(", ")) for g in grids.values()), default=0)
+    return page("mprt sweep", f"{n_sc} scene(s) x {n_sub} subdivision(s) x {len(a['designs'])} design(s): "
+                f"{num(r['rows'])} rows", sections)

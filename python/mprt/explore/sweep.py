@@ -153,24 +153,58 @@ def run_sweep(spec: dict, out_dir, scheduler=None, workers=None, progress=None) 
 
 
 def _plot(rows, spec, path):
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
+    """sweep.png, and the Figure: per scene (two panels a row, as wide as a report page) the cycles
+    of each design against the subdivision on a log scale, a deadlock an x on the axis and a gap in
+    the line; one legend.  Over 8 designs: the 8 fastest (report.sweep_answer's ranking) in colour,
+    the rest grey and unnamed."""
+    from .. import figures
+    from ..report import sweep_answer
 
-    scenes = spec["scenes"]
-    fig, axes = plt.subplots(1, len(scenes), figsize=(4.5 * len(scenes), 3.6), squeeze=False)
-    for ax, sc in zip(axes[0], scenes):
-        for name in spec["designs"]:
-            pts = [(i, r["cycles"] if r["cycles"] != "" else np.nan)       # a deadlock: a gap in the line
-                   for i, r in enumerate(x for x in rows if x["scene"] == sc and x["design"] == name)]
-            labels = [r["subdivision"] for r in rows if r["scene"] == sc and r["design"] == name]
-            dead = int(np.isnan([c for _, c in pts]).sum())      # (NaN: it deadlocked there, no point)
-            ax.plot([p[0] for p in pts], [p[1] for p in pts], marker="o",
-                    label=name + (f" (deadlocks at {dead} of {len(pts)})" if dead else ""))
-            ax.set_xticks(range(len(labels)), labels, rotation=30, fontsize=7)
-        ax.set(yscale="log", title=sc, xlabel="subdivision", ylabel="cycles")
-        ax.legend(fontsize=7)
-    fig.tight_layout()
+    scenes, names = spec["scenes"], list(spec["designs"])
+    ranked = sweep_answer(rows)["ranked"]
+    named = (ranked + [n for n in names if n not in ranked])[:8]
+    colour = {n: f"C{i}" for i, n in enumerate(sorted(named, key=names.index))}
+    ncols = 1 if len(scenes) == 1 else 2
+    nrows = -(-len(scenes) // ncols)
+    fig, axes = figures.figure(3.4 * nrows, nrows, ncols)
+    handles, dead_any = {}, False
+    for i, ax in enumerate(axes.flat):
+        if i >= len(scenes):
+            ax.set_visible(False)
+            continue
+        sc = scenes[i]
+        labels = list(dict.fromkeys(r["subdivision"] for r in rows if r["scene"] == sc))
+        for name in names:
+            mine = [r for r in rows if r["scene"] == sc and r["design"] == name]
+            xs = [labels.index(r["subdivision"]) for r in mine]
+            ys = [np.nan if r["cycles"] == "" else r["cycles"] for r in mine]    # a deadlock: a gap in the line
+            c = colour.get(name, "0.75")
+            (line,) = ax.plot(xs, ys, marker="o", color=c, lw=2 if name in colour else 1,
+                              zorder=3 if name in colour else 2)
+            if name in colour:
+                handles.setdefault(name, line)
+            dead = [x for x, y in zip(xs, ys) if np.isnan(y)]
+            if dead:        # on the axis (x in data, y in the axes' fraction): no cycles to place it at
+                dead_any = True
+                ax.plot(dead, [0.04] * len(dead), ls="", marker="x", ms=9, mew=2, color=c,
+                        transform=ax.get_xaxis_transform(), clip_on=False, zorder=4)
+        ax.set_yscale("log")
+        figures.cycles_axis(ax.yaxis, log=True)
+        figures.index_axis(ax.xaxis, labels)
+        ax.set_xlim(-0.5, len(labels) - 0.5)
+        ax.set(title=sc, xlabel="subdivision (cells in x, y, z)", ylabel="cycles")
+        ax.grid(True, which="major", axis="y", color="0.9")
+    from matplotlib.lines import Line2D
+    leg = [handles[n] for n in names if n in handles]
+    lab = [n for n in names if n in handles]
+    if len(names) > len(named):
+        leg.append(Line2D([], [], color="0.75", marker="o"))
+        lab.append(f"{len(names) - len(named)} more designs")
+    if dead_any:
+        leg.append(Line2D([], [], ls="", marker="x", ms=9, mew=2, color="0.3"))
+        lab.append("deadlocks there\n(no cycles)")
+    figures.legend_outside(fig, handles=leg, labels=lab, title="design")
+    figures.readable(fig)
     with replacing(path) as tmp:
-        fig.savefig(tmp, dpi=90)
-    plt.close(fig)
+        fig.savefig(tmp, dpi=fig.dpi)
+    return fig

@@ -189,7 +189,9 @@ def run(a, load=None, replay=None, plan=None) -> int:
     if a.json:
         opt.write_json(a.json, out)
         print(f"wrote   {a.json}")
-    title = f"{settings['scene']} grid {settings['grid']}: model {cfg.name}, {res.cycles:,} cycles"
+    grid = settings.get("grid")
+    title = (f"{settings['scene']}, grid {'x'.join(map(str, grid)) if isinstance(grid, (list, tuple)) else grid}: "
+             f"model {cfg.name}, {res.cycles:,} cycles")
     if a.plot:
         res.plot(a.plot, title=title)
         print(f"wrote   {a.plot}")

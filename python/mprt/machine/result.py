@@ -171,28 +171,29 @@ class SimResult:
         return json.dumps(self.to_dict(), indent=2)
 
     # -- plots --------------------------------------------------------------------
-    def plot(self, path, title: str | None = None) -> None:
-        """PNG: per-stage load bars (processing / communication / waiting, as the
-        paper's figure 6), and with a timeline the utilisation and FIFO occupancy over time."""
-        import matplotlib
-
-        matplotlib.use("Agg")
-        import matplotlib.pyplot as plt
+    def plot(self, path, title: str | None = None):
+        """PNG (and the Figure): per-stage load bars (processing / communication / waiting, as the
+        paper's figure 6), and with a timeline each processor's utilisation over time and the
+        FIFOs' occupancy (over time where the engine logs it, SimPy's; else each FIFO's mean and
+        most, as the compiled replay counts them).  As wide as a report page, its text at least
+        the page's body size (mprt.figures)."""
+        from .. import figures
 
         tl = self.timeline
         nplots = 3 if tl is not None else 1
-        fig, axes = plt.subplots(nplots, 1, figsize=(10, 3.2 * nplots), squeeze=False)
+        fig, axes = figures.figure(3.0 * nplots + 0.4, nplots, 1)
+        fig.suptitle(title or f"model {self.model}: {self.cycles:,} cycles", fontsize=figures.body_points(fig) * 1.2)
         ax = axes[0][0]
         colours = {"processing": "#4878a8", "communication": "#e0a040", "waiting": "#c8c8c8"}
-        bottom = [0.0] * 3
+        left = [0.0] * 3
         for c in CATEGORIES:
-            vals = [self.stages[t][c] / 1e6 for t in SUBTASKS]
-            ax.barh(SUBTASKS, vals, left=bottom, color=colours[c], label=c)
-            bottom = [b + v for b, v in zip(bottom, vals)]
+            vals = [self.stages[t][c] for t in SUBTASKS]
+            ax.barh(SUBTASKS, vals, left=left, color=colours[c], label=c)
+            left = [b + v for b, v in zip(left, vals)]
         ax.invert_yaxis()
-        ax.set_xlabel("million cycles (summed over PEs)")
-        ax.set_title(title or f"model {self.model}: {self.cycles:,} cycles")
-        ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+        figures.cycles_axis(ax.xaxis)
+        ax.set(xlabel="cycles (summed over the PEs)", title="where each stage's time goes")
+        figures.legend_outside(ax)
         if tl is not None:
             tl.finish(self.cycles)
             ax = axes[1][0]
@@ -200,28 +201,39 @@ class SimResult:
                 if kind == "busy":
                     reps = self.nodes.get(name.split(".", 1)[1], {}).get("replicas", 1)
                     t, v = tl.mean_series(name, self.cycles, reps)
-                    ax.plot([x / 1e6 for x in t], v, label=name, lw=1)
-            ax.set_ylabel("utilisation")
+                    ax.plot(t, v, label=name, lw=1.5)
             ax.set_ylim(0, 1.05)
-            ax.set_xlabel("million cycles")
-            ax.legend(fontsize=7, ncol=1, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+            figures.percent_axis(ax.yaxis)
+            figures.cycles_axis(ax.xaxis)
+            ax.set(ylabel="busy", xlabel="cycle", title="utilisation of each processor over time")
+            figures.legend_outside(ax)
             ax = axes[2][0]
-            fifo = False
-            for name, kind in tl.kind.items():
-                if kind == "fifo" and self.fifos.get(name, {}).get("packets"):
-                    t, v = tl.mean_series(name, self.cycles)
-                    ax.plot([x / 1e6 for x in t], v, label=name, lw=1)
-                    fifo = True
-            ax.set_ylabel("FIFO occupancy (packets)")
-            ax.set_xlabel("million cycles")
-            if fifo:
-                ax.legend(fontsize=7, ncol=1, loc="upper left", bbox_to_anchor=(1.01, 1.0), frameon=False)
+            series = [(name, tl.mean_series(name, self.cycles)) for name, kind in tl.kind.items()
+                      if kind == "fifo" and self.fifos.get(name, {}).get("packets")]
+            used = [(name, f) for name, f in self.fifos.items() if f.get("packets")]
+            if series:
+                for name, (t, v) in series:
+                    ax.plot(t, v, label=name, lw=1.5)
+                figures.cycles_axis(ax.xaxis)
+                figures.thousands_axis(ax.yaxis, integer=False)
+                ax.set(ylabel="packets", xlabel="cycle", title="FIFO occupancy over time")
+                figures.legend_outside(ax)
+            elif used:      # the compiled replay counts each FIFO's mean and most, not its level over time
+                y = range(len(used))
+                ax.barh([i - 0.2 for i in y], [f["mean"] for _, f in used], 0.4, color="#4878a8", label="mean")
+                ax.barh([i + 0.2 for i in y], [f["max"] for _, f in used], 0.4, color="#e0a040", label="most")
+                ax.set_yticks(list(y), [name for name, _ in used])
+                ax.invert_yaxis()
+                figures.thousands_axis(ax.xaxis)
+                ax.set(xlabel="packets", title="FIFO occupancy (this engine counts its mean and most, not a "
+                                                  "timeline: --engine simpy draws one)")
+                figures.legend_outside(ax)
             else:
-                ax.text(0.5, 0.5, "no FIFO series: the compiled replay logs visits, not FIFO levels\n"
-                        "(--engine simpy draws them)" if not any(k == "fifo" for k in tl.kind.values())
-                        else "no packet went through a FIFO", ha="center", va="center",
-                        transform=ax.transAxes, fontsize=9, color="0.4")
-        fig.tight_layout()
+                ax.set_axis_off()
+                ax.text(0.5, 0.5, "No packet went through a FIFO." if any(k == "fifo" for k in tl.kind.values())
+                        else "No FIFO figures: this engine logs visits, not FIFO levels (--engine simpy draws them).",
+                        ha="center", va="center", transform=ax.transAxes, color="0.3")
+        figures.readable(fig)
         with replacing(path) as tmp:
-            fig.savefig(tmp, dpi=100)
-        plt.close(fig)
+            fig.savefig(tmp, dpi=fig.dpi)
+        return fig
