@@ -12,10 +12,11 @@ import pytest
 import mprt
 from mprt.cost import CostModel
 from mprt.fidelity import Analytical, Compiled, at_level, engine_for, evaluate, native_level, replay, unsupported
-from mprt.machine import ConfigError, DeadlockError, SystemConfig, builtin, load_config, make_stage, simulate
+from mprt.machine import ConfigError, DeadlockError, builtin, load_config, make_stage, simulate
 from mprt.machine.config import FEEDS
 from mprt.trace import TraceError
 
+from machines import random_config, random_costs
 from test_machine import PARENT, PARENT_COSTS, costs, hand_trace
 from mprt.trace import IC, LEFT, OS, PRIMARY, RETURN, TO_IC
 
@@ -89,23 +90,6 @@ def test_golden_traces_equal_simpy(traces, name):
 
 # ---- differential: random configurations -------------------------------------------
 
-MAPPINGS = [(("OS",), ("IC",), ("SC",)), (("OS", "SC"), ("IC",)), (("OS",), ("IC", "SC")), (("OS", "IC"), ("SC",)),
-            (("OS", "IC", "SC"),), (("IC",), ("OS",), ("SC",)), (("SC",), ("IC", "OS"))]
-
-
-def random_config(rng, feeds=False):
-    stages = []
-    for subs in rng.choice(MAPPINGS):
-        finite = rng.random() < 0.6
-        stages.append(make_stage(subs, rng.choice(["sequential", "paper:OS", "paper:IC", "paper:SC"]),
-                                 replicas=rng.choice([1, 1, 2, 3]),
-                                 send_fifo=rng.choice([None, 1, 2, 4]) if finite else None,
-                                 receive_fifo=rng.choice([None, 1, 2, 3, 8]) if finite else None,
-                                 feed=rng.choice(FEEDS) if feeds else "shared"))
-    return SystemConfig("random", tuple(stages), pes=rng.choice([1, 1, 2, 3]),
-                        dis=rng.choice(["blocks", "interleaved", "dynamic"]), window=rng.choice([1, 2, 4, 16, 64, 256]))
-
-
 def outcome(fn):
     try:
         return fn()
@@ -124,9 +108,7 @@ def test_random_configurations_equal_simpy(traces, seed, feeds):
     for i in range(100):
         t = head(traces[rng.choice(names)], rng.choice([5, 20, 60]))
         cfg = random_config(rng, feeds)
-        vc = CM.visit_costs(t, cfg.processors())
-        if rng.random() < 0.3:
-            vc.inject_process = vc.inject_send = 0
+        vc = random_costs(t, cfg, rng)
         a = outcome(lambda: simulate(t, cfg, costs=vc))
         b = outcome(lambda: replay(t, cfg, costs=vc))
         if isinstance(a, DeadlockError) or isinstance(b, DeadlockError):

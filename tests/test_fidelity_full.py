@@ -14,9 +14,9 @@ from mprt.fidelity import Compiled, engine_for, evaluate, native_level, unsuppor
 from mprt.machine import ConfigError, DeadlockError, builtin, load_config
 from mprt.machine.config import CacheConfig, LocalMemoryConfig, RingConfig
 
+from machines import logged_memories, random_config, random_costs, random_machine
 from test_fidelity import FULL, GOLDEN, NAMES, head
-from test_fidelity_memory import check, random_gm, random_memory, small_memories
-from test_fidelity_ring import random_costs, ring_config
+from test_fidelity_memory import check, small_memories
 
 CM = CostModel.default()
 
@@ -54,17 +54,6 @@ def test_golden_traces_equal_simpy_with_ring_and_memories(traces, name):
 
 # ---- random configurations ---------------------------------------------------------------
 
-def random_machine(rng):
-    """ring_config's random ring machine (2 or 3 stages in any mapping, replicas and feeds,
-    FIFOs, PEs, DIS, window, flit time, buffer classes) with random memories."""
-    cfg = ring_config(rng)
-    ic, sc = random_memory(rng), random_memory(rng)
-    if ic is None and sc is None:
-        ic = random_memory(rng) or LocalMemoryConfig(0, CacheConfig(64, 16, 2))
-    return cfg.replace(ic_memory=ic, sc_memory=sc, icgm=random_gm(rng) if ic else None,
-                       scgm=random_gm(rng) if sc else None)
-
-
 @pytest.mark.parametrize("seed", range(4))
 def test_random_ring_and_memory_configurations_equal_simpy(traces, seed):
     # 80 configurations per seed (320): random ring machines with random memories
@@ -93,9 +82,7 @@ def test_random_ring_and_memory_configurations_equal_simpy(traces, seed):
 def test_event_logs_equal_simpy_with_ring_and_memories(traces, seed):
     rng = random.Random(600 + seed)
     t = head(traces["gears-g9"], 15)
-    cfg = ring_config(rng).replace(ic_memory=LocalMemoryConfig(rng.choice([0, 64]), CacheConfig(128, 16, 2)),
-                                   sc_memory=LocalMemoryConfig(0, None), icgm=random_gm(rng), scgm=random_gm(rng))
-    check(t, cfg, record=True)
+    check(t, logged_memories(random_config(rng, ring=True), rng), record=True)
 
 
 def test_ring_deadlock_with_memories(traces):

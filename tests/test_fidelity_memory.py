@@ -19,7 +19,8 @@ from mprt.machine import ConfigError, DeadlockError, builtin, load_config, simul
 from mprt.machine.config import CacheConfig, GlobalMemoryConfig, LocalMemoryConfig
 from mprt.machine.memory import DataLayout, LocalMemory
 
-from test_fidelity import FULL, GOLDEN, NAMES, head, outcome, random_config, same
+from machines import logged_memories, random_config, random_costs, random_memories
+from test_fidelity import FULL, GOLDEN, NAMES, head, outcome, same
 
 CM = CostModel.default()
 
@@ -72,28 +73,9 @@ def test_golden_traces_equal_simpy_with_memories(traces, name):
 
 # ---- random configurations ---------------------------------------------------------------
 
-def random_memory(rng):
-    if rng.random() < 0.15:
-        return None
-    resident = rng.choice([0, 0, 16, 64, 200, 1024, 1 << 40])
-    cache = None
-    if rng.random() < 0.8:
-        line = rng.choice([1, 4, 8, 16, 32, 64])
-        ways = rng.choice([1, 2, 3, 4, 8])
-        sets = rng.choice([1, 2, 3, 4, 5, 8, 64])
-        if rng.random() < 0.05:           # far more than the data: sets beyond it never fill
-            sets = (1 << 40) // (line * ways)
-        cache = CacheConfig(line * ways * sets, line, ways)
-    return LocalMemoryConfig(resident, cache)
-
-
-def random_gm(rng):
-    return GlobalMemoryConfig(rng.choice([0, 1, 5, 20, 100]), rng.choice([1, 3, 8, 64]), rng.random() < 0.5)
-
-
 @pytest.mark.parametrize("seed", range(3))
 def test_random_memory_configurations_equal_simpy(traces, seed):
-    # 110 configurations per seed: random machines of test_fidelity (mappings, replicas and
+    # 110 configurations per seed: random machines (machines.py: mappings, replicas and
     # feeds, FIFOs, PEs, DIS, windows) with random memories: resident 0 to 2^40 bytes, caches
     # of 1 to 64 sets (or 2^40 bytes) of 1 to 8 ways and 1 to 64-byte lines or none, latency,
     # bandwidth, shared or per-PE ports; deadlocks included
@@ -102,14 +84,8 @@ def test_random_memory_configurations_equal_simpy(traces, seed):
     kinds = {"deadlock": 0, "stall": 0, "ic": 0, "sc": 0}
     for i in range(110):
         t = head(traces[rng.choice(names)], rng.choice([5, 20, 60]))
-        cfg = random_config(rng, feeds=rng.random() < 0.5)
-        ic, sc = random_memory(rng), random_memory(rng)
-        cfg = cfg.replace(ic_memory=ic, sc_memory=sc, icgm=random_gm(rng) if ic else None,
-                          scgm=random_gm(rng) if sc else None)
-        vc = CM.visit_costs(t, cfg.processors())
-        if rng.random() < 0.3:
-            vc.inject_process = vc.inject_send = 0
-        res = check(t, cfg, vc)
+        cfg = random_memories(random_config(rng, feeds=rng.random() < 0.5), rng)
+        res = check(t, cfg, random_costs(t, cfg, rng))
         if isinstance(res, DeadlockError):
             kinds["deadlock"] += 1
         else:
@@ -143,10 +119,7 @@ def test_caches_of_each_way_count_equal_simpy(traces, ways):
 def test_event_logs_equal_simpy_with_memories(traces, seed):
     rng = random.Random(400 + seed)
     t = head(traces["gears-g9"], 15)
-    cfg = random_config(rng, seed >= 2)
-    cfg = cfg.replace(ic_memory=LocalMemoryConfig(rng.choice([0, 64]), CacheConfig(128, 16, 2)),
-                      sc_memory=LocalMemoryConfig(0, None), icgm=random_gm(rng), scgm=random_gm(rng))
-    check(t, cfg, record=True)
+    check(t, logged_memories(random_config(rng, seed >= 2), rng), record=True)
 
 
 # ---- one load, many memories --------------------------------------------------------------

@@ -9,10 +9,12 @@ import pytest
 import mprt
 from mprt.cost import CostModel
 from mprt.fidelity import Compiled, at_level, engine_for, evaluate, replay, unsupported
-from mprt.machine import DeadlockError, SystemConfig, builtin, load_config, make_stage, simulate
-from mprt.machine.config import FEEDS, RingConfig
+from mprt.machine import DeadlockError, builtin, load_config, simulate
+from mprt.machine.config import RingConfig
 
-from test_fidelity import FULL, GOLDEN, MAPPINGS, NAMES, fed, head, outcome, same
+from machines import random_config, random_costs
+from test_fidelity import FULL, GOLDEN, NAMES, fed, head, outcome, same
+from test_fidelity_memory import check
 from test_machine import PARENT, PARENT_COSTS, costs
 
 CM = CostModel.default()
@@ -22,19 +24,6 @@ RING = RingConfig(flit_time=1, buffer_classes=3)
 @pytest.fixture(scope="module")
 def traces():
     return {n: mprt.load_trace(p) for n, p in zip(NAMES, GOLDEN)}
-
-
-def both(t, cfg, vc, **kw):
-    return outcome(lambda: simulate(t, cfg, costs=vc, **kw)), outcome(lambda: replay(t, cfg, costs=vc, **kw))
-
-
-def assert_same(a, b, what):
-    assert type(a) is type(b), what
-    if isinstance(a, DeadlockError):
-        assert str(a) == str(b) and a.state == b.state, what
-    else:
-        assert a.cycles == b.cycles, what
-        assert same(a, b), what
 
 
 # ---- a hand-worked run --------------------------------------------------------------
@@ -71,9 +60,7 @@ def test_one_flit_packets_and_slow_links():
     for flits, ft in ((0, 1), (1, 3), (5, 2)):
         c.flits = np.full(8, flits, np.int32)
         cfg = builtin("M").replace(ring=RingConfig(flit_time=ft, buffer_classes=2))
-        a, b = both(PARENT, cfg, c)
-        assert_same(a, b, (flits, ft))
-        assert b.cycles > PARENT_COSTS.process.sum() - 30        # the ring only adds time
+        assert check(PARENT, cfg, c).cycles > PARENT_COSTS.process.sum() - 30        # the ring only adds time
 
 
 # ---- golden traces ----------------------------------------------------------------------
@@ -86,9 +73,8 @@ def test_golden_traces_equal_simpy_at_level_2(traces, name):
     for cfg in (three, at_level(load_config(FULL), 2), two_pe, fed(name)[0].replace(ring=RING)):
         assert cfg.ring is not None and cfg.ic_memory is None
         vc = CM.visit_costs(t, cfg.processors())
-        a, b = both(t, cfg, vc)
-        assert_same(a, b, (name, cfg.name))
-        assert not isinstance(b, DeadlockError) and all(0 < u < 1 for u in b.links["PE0"])
+        res = check(t, cfg, vc)
+        assert not isinstance(res, DeadlockError) and all(0 < u < 1 for u in res.links["PE0"]), (name, cfg.name)
 
 
 def test_ring_deadlock_without_the_structured_pool(traces):
@@ -96,13 +82,10 @@ def test_ring_deadlock_without_the_structured_pool(traces):
     # ring, three complete; both engines report the same machine
     t = traces["balls-g9"]
     vc = CM.visit_costs(t, builtin("M").processors())
-    a, b = both(t, builtin("M").replace(ring=RingConfig(1, 1)), vc)
-    assert isinstance(b, DeadlockError)
-    assert_same(a, b, "one class")
-    assert "headers can wait on each other" in str(b) and b.state["pes"]["PE0"]["network"]["waiting"]
-    a, b = both(t, builtin("M").replace(ring=RingConfig(1, 3)), vc)
-    assert_same(a, b, "three classes")
-    assert b.cycles > 0
+    one = check(t, builtin("M").replace(ring=RingConfig(1, 1)), vc)
+    assert isinstance(one, DeadlockError)
+    assert "headers can wait on each other" in str(one) and one.state["pes"]["PE0"]["network"]["waiting"]
+    assert check(t, builtin("M").replace(ring=RingConfig(1, 3)), vc).cycles > 0
 
 
 def test_many_pes_equal_simpy(traces):
@@ -111,40 +94,10 @@ def test_many_pes_equal_simpy(traces):
     t = head(traces["rings-g9"], 300)
     for pes, dis, window, ring in ((16, "dynamic", 4, RingConfig(1, 3)), (40, "blocks", 8, RingConfig(2, 2))):
         cfg = at_level(builtin("3mppe"), 2).replace(pes=pes, dis=dis, window=window, ring=ring)
-        a, b = both(t, cfg, CM.visit_costs(t, cfg.processors()))
-        assert_same(a, b, pes)
-        assert len(b.links) == pes
+        assert len(check(t, cfg).links) == pes
 
 
 # ---- random configurations ------------------------------------------------------------------
-
-def ring_config(rng):
-    mapping = rng.choice([m for m in MAPPINGS if len(m) >= 2])
-    stages = []
-    for subs in mapping:
-        finite = rng.random() < 0.6
-        stages.append(make_stage(subs, rng.choice(["sequential", "paper:OS", "paper:IC", "paper:SC"]),
-                                 replicas=rng.choice([1, 1, 2, 3]),
-                                 send_fifo=rng.choice([None, 1, 2, 4]) if finite else None,
-                                 receive_fifo=rng.choice([None, 1, 2, 3, 8]) if finite else None,
-                                 feed=rng.choice(FEEDS)))
-    return SystemConfig("random", tuple(stages), pes=rng.choice([1, 1, 2, 3]),
-                        dis=rng.choice(["blocks", "interleaved", "dynamic"]), window=rng.choice([1, 2, 4, 16, 64, 256]),
-                        ring=RingConfig(rng.choice([1, 1, 2, 3]), rng.randint(1, len(stages))))
-
-
-def random_costs(t, cfg, rng, seed):
-    """The cost model's visit costs for cfg, or (30% each) with SC not making the primary
-    rays, or with random packet sizes of 0 to 6 flits drawn from seed."""
-    vc = CM.visit_costs(t, cfg.processors())
-    if rng.random() < 0.3:
-        vc.inject_process = vc.inject_send = 0
-    if rng.random() < 0.3:
-        nr = np.random.default_rng(seed)
-        vc.flits = nr.integers(0, 7, len(vc.flits)).astype(np.int32)
-        vc.inject_flits = int(nr.integers(0, 4))
-    return vc
-
 
 @pytest.mark.parametrize("seed", [21, 22, 23, 24])
 def test_random_ring_configurations_equal_simpy(traces, seed):
@@ -157,13 +110,11 @@ def test_random_ring_configurations_equal_simpy(traces, seed):
     deadlocks = ring_waits = 0
     for i in range(100):
         t = head(traces[rng.choice(names)], rng.choice([5, 20, 60]))
-        cfg = ring_config(rng)
-        vc = random_costs(t, cfg, rng, 1000 * seed + i)
-        a, b = both(t, cfg, vc)
-        assert_same(a, b, (i, cfg))
-        if isinstance(b, DeadlockError):
+        cfg = random_config(rng, ring=True)
+        res = check(t, cfg, random_costs(t, cfg, rng, 1000 * seed + i))
+        if isinstance(res, DeadlockError):
             deadlocks += 1
-            ring_waits += any(pe["network"]["waiting"] for pe in b.state["pes"].values())
+            ring_waits += any(pe["network"]["waiting"] for pe in res.state["pes"].values())
     assert deadlocks > 0 and ring_waits > 0      # the comparison covered deadlocks, some with packets on the ring
 
 
@@ -171,12 +122,7 @@ def test_random_ring_configurations_equal_simpy(traces, seed):
 def test_ring_event_logs_equal_simpy(traces, seed):
     rng = random.Random(200 + seed)
     t = head(traces["gears-g9"], 15)
-    cfg = ring_config(rng)
-    vc = CM.visit_costs(t, cfg.processors())
-    a, b = both(t, cfg, vc, record=True)
-    assert_same(a, b, cfg)
-    if not isinstance(a, DeadlockError):
-        assert a.log == b.log
+    check(t, random_config(rng, ring=True), record=True)
 
 
 # ---- engines, errors --------------------------------------------------------------------------

@@ -16,9 +16,8 @@ from mprt.machine import ConfigError, DeadlockError, builtin, load_config
 from mprt.machine.config import SUBTASKS, LocalMemoryConfig
 from mprt.trace import PRIMARY
 
+from machines import random_costs, random_machine
 from test_fidelity import FULL, GOLDEN, NAMES, head
-from test_fidelity_full import random_machine
-from test_fidelity_ring import random_costs
 
 CM = CostModel.default()
 
