@@ -190,3 +190,20 @@ def test_sweep_answer_ranks_by_geometric_mean():
     assert a["geomean"]["y"] == pytest.approx(math.sqrt(90 * 300))
     assert a["geomean"]["z"] is None                        # deadlocks at every subdivision of b
     assert a["ranked"] == ["y", "x"]
+
+
+@pytest.mark.parametrize("deadlock", [False, True])
+def test_ladder_figure_reads_at_a_glance_and_its_title_is_true(deadlock):
+    from mprt.report import ladder_figure
+
+    ladder = [{"level": 0, "engines": ["analytical"], "seconds_per_design": 1e-4, "error_median": 0.12,
+               "error_worst": 0.3},
+              {"level": 1, "engines": ["compiled"], "seconds_per_design": 2e-3, "error_median": 0.02,
+               "error_worst": math.inf if deadlock else 0.05},
+              {"level": 3, "engines": ["simpy"], "seconds_per_design": 0.5, "error_median": 0.0, "error_worst": 0.0}]
+    fig = ladder_figure(ladder)
+    assert figures.check(fig, min_px=figures.BODY_PX) == []
+    title = fig.axes[1].get_title()
+    assert ("deadlock" in title) == deadlock
+    ms = [t.get_text() for t in fig.axes[0].get_yticklabels() if t.get_text()]
+    assert {"0.1", "1", "100"} <= set(ms) and all(x.replace(".", "").replace(",", "").isdigit() for x in ms)

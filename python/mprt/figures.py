@@ -221,7 +221,7 @@ def _tick_axes(fig):
 
 
 def _room(axis, drawn):
-    """None if the axis's drawn major tick labels are apart (by a quarter of their height), else how
+    """None if the axis's drawn major tick labels are apart (by half their height), else how
     many such labels its length has room for, side by side with half a label between them."""
     from matplotlib.axis import XAxis
 
@@ -229,7 +229,7 @@ def _room(axis, drawn):
     boxes = [box for t, box in drawn if id(t) in labels]
     for i, a in enumerate(boxes):
         for b in boxes[i + 1:]:
-            pad = 0.25 * min(a.height, b.height)
+            pad = 0.5 * min(a.height, b.height)
             if a.x1 + pad > b.x0 and b.x1 + pad > a.x0 and a.y1 + pad > b.y0 and b.y1 + pad > a.y0:
                 along = XAxis if isinstance(axis, XAxis) else None
                 size = max(x.width if along else x.height for x in boxes)

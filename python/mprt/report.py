@@ -154,29 +154,40 @@ def _err_pct(x) -> str:
 
 
 def ladder_png(ladder: list) -> bytes:
-    """The fidelity ladder: seconds per design against the error of each level, side by side."""
-    plt = _plt()
-    fig, ax = plt.subplots(1, 2, figsize=(10, 3.4))
+    """ladder_figure as PNG bytes."""
+    fig = ladder_figure(ladder)
+    return figure_png(fig, fig.dpi)
+
+
+def ladder_figure(ladder: list):
+    """The fidelity ladder: milliseconds per design against the error of each level, side by side,
+    drawn to be read at a glance on the page (mprt.figures); a level with no finite error (a design
+    that deadlocked at one level only) has no bar and says so."""
+    from matplotlib import ticker
+
+    fig, (ax,) = figures.figure(3.6, 1, 2)
     names = [f"level {r['level']}\n({', '.join(r.get('engines', []))})" for r in ladder]
-    x = range(len(ladder))
+    x = list(range(len(ladder)))
     ax[0].bar(x, [max(r["seconds_per_design"], 1e-9) * 1e3 for r in ladder], color="tab:blue")
-    ax[0].set(yscale="log", ylabel="ms per design", title="speed")
-    ax[0].set_xticks(list(x), names, fontsize=8)
+    ax[0].set(yscale="log", ylabel="ms per design", title="time per design")
+    figures.cycles_axis(ax[0].yaxis, log=True)                     # 1, 2, 5 a decade, then plain numbers
+    ax[0].yaxis.set_major_formatter(ticker.FuncFormatter(lambda v, _pos: f"{v:,g}"))
+    ax[0].set_xticks(x, names)
     w = 0.38
+    dead = False
     for dx, key, label, colour in ((-w / 2, "error_median", "median", "tab:green"),
                                    (w / 2, "error_worst", "worst", "tab:red")):
         ax[1].bar([i + dx for i in x], [100 * r[key] if _finite(r[key]) else 0.0 for r in ladder], w, label=label,
                   color=colour)
         for i, r in zip(x, ladder):     # no finite error (a design deadlocked at one level only): no bar
             if not _finite(r[key]):
-                ax[1].annotate("deadlock", (i + dx, 0), rotation=90, ha="center", va="bottom", fontsize=7)
-    ax[1].set(ylabel="% off the top level", title="error (deadlock: at one level only, no figure)")
-    ax[1].set_xticks(list(x), names, fontsize=8)
-    ax[1].legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.0, 1.0))
-    fig.tight_layout()
-    data = figure_png(fig)
-    plt.close(fig)
-    return data
+                dead = True
+                ax[1].annotate("deadlock", (i + dx, 0), rotation=90, ha="center", va="bottom")
+    ax[1].set(ylabel="% off the top level", title="error against the top level"
+              + (" (deadlock: at one level only, no figure)" if dead else ""))
+    ax[1].set_xticks(x, names)
+    figures.legend_outside(ax[1])
+    return figures.readable(fig)
 
 
 PAPER = "the paper's 3MPPE"
