@@ -4,8 +4,14 @@ Every file a command writes (images, JSON, CSV, plots, reports, NFF) is written 
 temporary file beside its target and renamed onto it only when complete, so an interrupt
 (Ctrl-C, SIGKILL, a full disk) never leaves a partial file under the final name.  The
 temporary's name is ``.NAME.PID.tmpEXT`` (hidden, the target's extension kept so that
-writers that infer the format from it still work); a later write of the same target removes
-those left by processes that no longer run.
+writers that infer the format from it still work), or ``.NAME.PID.TAG.tmpEXT`` for a scratch
+file of another kind made on the way (a trace's records before they are deflated); a later
+write of the same target removes those left by processes that no longer run (SIGKILL leaves
+them: nothing can clean up after it).  Ctrl-C removes them on the way out.
+
+The files are created with ``open`` (mode 0o666 less the umask), not ``tempfile.mkstemp``
+(0o600): a file renamed into place keeps the mode it was made with, and every output of mprt
+gets the user's usual permissions.
 """
 from __future__ import annotations
 
@@ -38,14 +44,17 @@ def _stale(path: str) -> list:
     return out
 
 
-def temporary(path) -> str:
-    """The temporary path used while writing path (stale ones of dead processes removed)."""
+def temporary(path, tag: str = "") -> str:
+    """The temporary path used while writing path (stale ones of dead processes removed);
+    ``tag`` (letters): that of a scratch file of another kind, ``.NAME.PID.TAG.tmpEXT``."""
     path = os.fspath(path)
+    if tag and not tag.isalpha():
+        raise ValueError(f"a temporary's tag is letters, not {tag!r}")
     for p in _stale(path):
         with contextlib.suppress(OSError):
             os.remove(p)
     d, base = os.path.split(os.path.abspath(path))
-    return os.path.join(d, f".{base}.{os.getpid()}{TMP}{os.path.splitext(base)[1]}")
+    return os.path.join(d, f".{base}.{os.getpid()}{'.' + tag if tag else ''}{TMP}{os.path.splitext(base)[1]}")
 
 
 @contextlib.contextmanager

@@ -14,7 +14,6 @@ import argparse
 import os
 import shutil
 import sys
-import tempfile
 import threading
 import time
 import zlib
@@ -242,22 +241,14 @@ def cmd_trace(a) -> int:
             said = threading.Thread(target=lambda: say(packed()), daemon=True)
             said.start()
     t0 = time.perf_counter()
-    target = a.output
-    if a.compress:   # stream uncompressed beside the output, then deflate into it
-        fd, target = tempfile.mkstemp(prefix=os.path.basename(a.output) + ".", suffix=".npz",
-                                      dir=os.path.dirname(a.output) or ".")
-        os.close(fd)
-    try:
-        _, tr = trace(grid, **kw, tiles=a.tiles, sample=a.sample, path=target, progress=_progress_wanted(a))
-        if a.compress:
-            tr.save(a.output, compress=True)
+    try:   # written beside the output and renamed onto it whole (with --compress: streamed, then deflated)
+        _, tr = trace(grid, **kw, tiles=a.tiles, sample=a.sample, path=a.output, compress=a.compress,
+                      progress=_progress_wanted(a))
     except OSError as e:   # (disk full, ...) name the user's file, not the temporary ones beside it
         raise OSError(f"-o {a.output}: {e.strerror or e}") from None
     finally:
         if said is not None:
             said.join()
-        if a.compress:
-            os.unlink(target)
     t1 = time.perf_counter()
     size = os.path.getsize(a.output)
     nr, nv = len(tr.rays), len(tr.visits)  # memory-mapped: not read here

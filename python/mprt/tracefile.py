@@ -31,6 +31,7 @@ from types import SimpleNamespace
 import numpy as np
 
 from ._lowlevel import binding
+from .atomic import replacing
 from .errors import TraceError
 from . import tracecheck, tracevalid
 from .pages import chunks, release  # noqa: F401  (tracefile.chunks, tracefile.release: kept for callers)
@@ -224,12 +225,14 @@ def write(path, meta: dict, arrays: dict, compress: bool | None = None) -> dict:
     """Write a trace (every array of ``ARRAYS``) with its metadata and checksums.  The records
     are deflate-compressed when ``compress``, stored when False, and when None (the default)
     compressed unless they hold ``AUTO_COMPRESS_BYTES`` or more; the other members always.
-    Returns the metadata as written."""
+    The file is written beside ``path`` and moved onto it whole (``atomic.replacing``): an
+    interrupt leaves ``path`` as it was (and a trace memory-mapped from ``path`` may be saved
+    onto it).  Returns the metadata as written."""
     if compress is None:
         compress = sum(np.asarray(arrays[k]).nbytes for k in RECORDS) < AUTO_COMPRESS_BYTES
     members = file_members(meta, arrays)
     meta = dict(meta, format=FORMAT, version=FORMAT_VERSION, crc32={k: typed_crc(members[k]) for k in MEMBERS})
-    with zipfile.ZipFile(path, "w", allowZip64=True) as z:
+    with replacing(path) as tmp, zipfile.ZipFile(tmp, "w", allowZip64=True) as z:
         z.writestr("meta.json", json.dumps(meta, sort_keys=True))
         for k in MEMBERS:
             _write_array(z, k, members[k], compress)

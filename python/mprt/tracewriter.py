@@ -11,6 +11,11 @@ from one reused buffer straight to the device; the partial blocks at the two end
 and everything small (zip headers, the grid tables, ``meta.json``), through the page cache.
 Where direct writes are refused (tmpfs, some network file systems, no ``O_DIRECT``) the same
 blocks are written through the page cache: the same bytes either way.
+
+Nothing appears under the file's name until it is whole: it is written to a temporary beside
+it (``atomic.temporary``'s name, the file mode that of ``open``: 0o666 less the umask) and
+renamed at the end; an error or Ctrl-C removes the temporaries, and those SIGKILL leaves are
+removed by the next write of the same name.
 """
 from __future__ import annotations
 
@@ -19,7 +24,6 @@ import io
 import json
 import mmap
 import os
-import tempfile
 import zipfile
 import zlib
 from collections import deque
@@ -28,7 +32,9 @@ from concurrent.futures import ThreadPoolExecutor
 
 import numpy as np
 
+from . import tracefile
 from ._lowlevel import RAY_DTYPE, VISIT_DTYPE, binding
+from .atomic import temporary
 from .tracefile import (FORMAT, FORMAT_VERSION, MEMBERS, RECORDS, _stored, _write_array, as_bytes, file_members,
                         npy_header, signature)
 
@@ -244,16 +250,19 @@ class TraceWriter:
     """A trace file written while the trace is made, in bounded memory: ``write`` hands over a
     chunk of records, written in the background (visits straight into the file's stored
     ``visits.npy``, rays into an unnamed scratch file beside it) while the caller makes the
-    next ones (``depth`` chunks in flight at most); ``finish`` completes the file (the visits' count and checksum put in place, the rays
-    copied in, the other arrays, ``meta.json`` last) and moves it onto the path; ``abort``
-    leaves the path untouched.  The records' CRC-32s are taken as they are written (one pass,
-    over bytes still in cache); the zip's and ``meta``'s checksums are combined from them."""
+    next ones (``depth`` chunks in flight at most); ``finish`` completes the file (the visits'
+    count and checksum put in place, the rays copied in, the other arrays, ``meta.json`` last)
+    and moves it onto the path; ``abort`` leaves the path untouched.  The records' CRC-32s are
+    taken as they are written (one pass, over bytes still in cache); the zip's and ``meta``'s
+    checksums are combined from them.  With ``compress`` the file so made is a scratch file
+    beside the path (``.NAME.PID.stream.tmp.npz``), deflated into the path by ``finish``
+    (``tracefile.write``, itself through a temporary)."""
 
-    def __init__(self, path, depth: int = 1):
+    def __init__(self, path, depth: int = 1, compress: bool = False):
         self.path = os.fspath(path)
-        where = os.path.dirname(os.path.abspath(self.path))
-        fd, self.part = tempfile.mkstemp(prefix=os.path.basename(self.path) + ".", suffix=".part", dir=where)
-        os.close(fd)
+        self.compress = bool(compress)
+        self.part = temporary(self.path, "stream" if self.compress else "")   # made by ZipFile: open's mode
+        self.mapped = None                  # with compress, after finish: the records mapped from the scratch file
         self.z = self.visits = self.rays = None
         self.pending: deque = deque()
         self.depth = max(1, int(depth))      # writes in flight at most
@@ -271,9 +280,10 @@ class TraceWriter:
             plain = self._open(self.part)
             self.bufs = [aligned_buffer(BUFFER_BYTES + ALIGN), aligned_buffer(BUFFER_BYTES // 4 + ALIGN)]
             self.visits = Appender(plain, self._direct(self.part), self.z.start_dir, self.bufs[0])
-            fd, scratch = tempfile.mkstemp(prefix=os.path.basename(self.path) + ".", suffix=".rays", dir=where)
-            self.fds.append(fd)
+            scratch = temporary(self.path, "rays")     # unnamed once opened twice (plain, direct)
             try:
+                fd = os.open(scratch, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o600)
+                self.fds.append(fd)
                 self.rays_direct = self._direct(scratch)
             finally:
                 os.unlink(scratch)
@@ -367,20 +377,29 @@ class TraceWriter:
             self.z.writestr("meta.json", json.dumps(meta, sort_keys=True))
             self.z.close()
             self.z = None
-            os.replace(self.part, self.path)
+            if self.compress:       # deflated into the path from the records mapped from the scratch file
+                self.mapped = self._map(self.part)
+                meta = tracefile.write(self.path, {k: v for k, v in meta.items() if k != "crc32"},
+                                       dict(arrays, **self.mapped), compress=True)
+            else:
+                os.replace(self.part, self.path)
         finally:
             self.abort()
         return meta
 
-    def records(self) -> dict:
-        """After ``finish``: the records as read-only arrays mapped from the file (nothing read;
-        an empty array where there are none, as ``tracefile.read`` gives)."""
+    def _map(self, path) -> dict:
         out = {}
         for name, dtype in (("rays", RAY_DTYPE), ("visits", VISIT_DTYPE)):
             offset, count = self.records_at[name]
-            out[name] = np.memmap(self.path, dtype=dtype, mode="r", offset=offset, shape=(count,)) if count \
+            out[name] = np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=(count,)) if count \
                 else np.zeros(0, dtype=dtype)
         return out
+
+    def records(self) -> dict:
+        """After ``finish``: the records as read-only arrays mapped from the file (nothing read;
+        an empty array where there are none, as ``tracefile.read`` gives); with ``compress``,
+        from the uncompressed scratch file, removed but mapped still."""
+        return dict(self.mapped) if self.compress else self._map(self.path)
 
     def abort(self) -> None:
         """Close and remove what was written (the path is left as it was)."""

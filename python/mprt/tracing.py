@@ -412,14 +412,19 @@ def trace_records(grid: Grid, tiles, width=0, height=0, rules="paper", threshold
 
 def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_depth=0, mailbox=False, ambient=None,
           tile=None, threads=1, tiles=None, sample=None, path=None, progress=False, conventions=None,
-          max_rays=None):
+          max_rays=None, compress=False):
     """Trace (a subset of) the image recording every stage visit; returns (image, Trace).
 
     The render options are those of ``Grid.render``; ``tile`` is the tile edge in samples (the
     unit of subsets), ``tiles`` a list of tile numbers or ``sample`` (``SAMPLE_GRAMMAR``'s
     random, stratified or regular) traces a subset (other samples are NaN).  With ``path`` the trace file is
     written while tracing, a bounded chunk of records at a time (memory stays bounded by the
-    chunk and the image); ``progress`` shows a progress bar."""
+    chunk and the image), beside ``path`` and moved onto it only when whole: an error or an
+    interrupt leaves ``path`` as it was and no file beside it; with ``compress`` the records
+    are deflated in it (streamed beside it first, then deflated into it: room for both is
+    needed).  ``progress`` shows a progress bar."""
+    if compress and not path:
+        raise InvalidArgument("compress applies to a trace written to a file (path)")
     desc, tiling, sel, samples, nsamples = _setup(grid, width, height, rules, threshold, max_depth, mailbox, ambient,
                                                   tile, threads, tiles, sample, conventions, max_rays)
     writer = bar = None
@@ -434,7 +439,7 @@ def trace(grid: Grid, width=0, height=0, rules="paper", threshold=None, max_dept
     static = side.submit(made_aside)
     try:
         if path:
-            writer = tracewriter.TraceWriter(path, depth=CHUNKS - 1)
+            writer = tracewriter.TraceWriter(path, depth=CHUNKS - 1, compress=compress)
         records = _Records(nsamples, writer, direct=desc["threads"] > 1)
         if progress:
             from tqdm import tqdm      # (here: importing it costs tens of ms, paid only where a bar is shown)
