@@ -13,6 +13,7 @@ from __future__ import annotations
 import argparse
 import os
 import shutil
+import signal
 import sys
 import threading
 import time
@@ -425,13 +426,58 @@ def _add_stats(sub) -> None:
     st.set_defaults(func=cmd_stats)
 
 
+def _interrupt_once() -> None:
+    """Ctrl-C (SIGINT) raises KeyboardInterrupt once, as Python's own handler does; a second
+    one, while the command unwinds (temporaries removed, worker processes ended), ends the
+    process at once, silently (what it leaves is then only temporaries named for the next
+    run to remove: ``atomic``)."""
+    def handler(signum, frame):
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+        raise KeyboardInterrupt
+    signal.signal(signal.SIGINT, handler)
+
+
+def _from_interrupt(e: BaseException) -> bool:
+    """Whether the error came of a KeyboardInterrupt (its cause or context, at any depth)."""
+    seen = set()
+    while e is not None and id(e) not in seen:
+        if isinstance(e, KeyboardInterrupt):
+            return True
+        seen.add(id(e))
+        e = e.__cause__ or e.__context__
+    return False
+
+
 def main(argv=None) -> int:
+    """The ``mprt`` command line (``argv``: the arguments, default sys.argv's); returns the exit
+    status.  Ctrl-C in any command is one line on stderr and status 130."""
+    program = argv is None and threading.current_thread() is threading.main_thread() and \
+        signal.getsignal(signal.SIGINT) is signal.default_int_handler
+    if not program:             # a caller in-process keeps its own handler
+        return _main(argv)
+    _interrupt_once()
+    try:
+        return _main(argv)
+    finally:    # the work is done: a Ctrl-C while the interpreter exits ends it at once, silently
+        signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
+def _main(argv) -> int:
     argv = sys.argv[1:] if argv is None else [str(v) for v in argv]
-    parser = build_parser(only=argv[0] if argv[:1] and argv[0] in COMMANDS else None)
-    args = parser.parse_args(argv)
+    try:
+        parser = build_parser(only=argv[0] if argv[:1] and argv[0] in COMMANDS else None)
+        args = parser.parse_args(argv)
+    except KeyboardInterrupt:     # while the command's modules were imported
+        print("mprt: interrupted", file=sys.stderr)
+        return 130
     args.argv = argv
     try:
-        rc = args.func(args)
+        try:
+            rc = args.func(args)
+        except Exception as e:    # a Ctrl-C that a library turned into another error (an NLopt callback's)
+            if _from_interrupt(e):
+                raise KeyboardInterrupt from e
+            raise
         sys.stdout.flush()        # here, not at exit: a reader gone by now is caught below
         return rc
     except UsageError as e:

@@ -247,8 +247,15 @@ def add_skip_unknown(p: argparse.ArgumentParser) -> None:
 
 # -- the shared options: one definition each, so every subcommand spells, checks and documents
 # them alike (tests/test_cli_grammar.py walks every parser and checks it) ------------------------
-EXIT_STATUS = ("exit status: 0 done; 1 an error during the work (a malformed scene file, a damaged trace, ...); "
-               "2 a bad option, scene, input or output path, found before any work")
+def exit_status(*more: str) -> str:
+    """A parser's exit-status section: 0, 1 and 2 as every command has them, then ``more`` (a
+    command's own, e.g. "3 with --baseline: ..."), then 130 (Ctrl-C)."""
+    return "; ".join(("exit status: 0 done", "1 an error during the work (a malformed scene file, a damaged trace, ...)",
+                      "2 a bad option, scene, input or output path, found before any work", *more,
+                      "130 interrupted (Ctrl-C): nothing half-written is left under an output's name"))
+
+
+EXIT_STATUS = exit_status()
 
 
 GRID_DEFAULT = "Scene.default_grid, about 8*N^(1/3) along the box's longest axis for N primitives"

@@ -7,14 +7,22 @@ rules) and of the designs and level, so a finished batch is never run again:
 an interrupted sweep resumes, a repeated one is instant.  Each batch's result
 depends only on its inputs, so the table is the same whatever the number of
 workers.
+
+Ctrl-C at a terminal goes to every process of the foreground group: a local cluster's
+processes are started with SIGINT blocked (they inherit the mask: ``parallel.sigint_blocked``),
+so that only this process hears it, and it then closes the cluster with Dask's logging
+silenced: one line ("interrupted", from the command), no worker's traceback.
 """
 from __future__ import annotations
 
 import contextlib
 import hashlib
 import json
+import logging
 import os
-import tempfile
+
+from ..atomic import open_replacing
+from .parallel import sigint_blocked
 
 CACHE_VERSION = 1
 
@@ -45,10 +53,18 @@ class DiskCache:
     def put(self, key, value) -> None:
         p = self._path(key)
         os.makedirs(os.path.dirname(p), exist_ok=True)
-        fd, tmp = tempfile.mkstemp(dir=os.path.dirname(p), suffix=".tmp")
-        with os.fdopen(fd, "w") as f:
+        with open_replacing(p) as f:
             json.dump(value, f)
-        os.replace(tmp, p)
+
+
+QUIET = logging.CRITICAL + 1
+
+
+def silence_dask() -> None:
+    """No more of Dask's logging in this process (its cancellations and closing connections,
+    logged while a cluster is shut down after an interrupt)."""
+    for name in ("distributed", "tornado", "asyncio"):
+        logging.getLogger(name).setLevel(QUIET)
 
 
 @contextlib.contextmanager
@@ -59,22 +75,29 @@ def client(scheduler: str | None = None, workers: int | None = None):
     if scheduler is None and workers == 0:
         yield None
         return
-    import logging
-
     from distributed import Client, LocalCluster
 
     logging.getLogger("distributed").setLevel(logging.ERROR)
-    if scheduler:
-        c = Client(scheduler, timeout="20s")
-        try:
-            yield c
-        finally:
-            c.close()
-        return
-    n = workers or os.cpu_count() or 1
-    with LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
-                      dashboard_address=None, silence_logs=logging.ERROR) as cl, Client(cl) as c:
+    cl = c = None
+    try:
+        if scheduler:
+            c = Client(scheduler, timeout="20s")
+        else:
+            n = workers or os.cpu_count() or 1
+            with sigint_blocked(spawn=True):    # the cluster's processes and threads: deaf to Ctrl-C
+                cl = LocalCluster(n_workers=n, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                  dashboard_address=None, silence_logs=logging.ERROR)
+            c = Client(cl)
         yield c
+    except KeyboardInterrupt:
+        silence_dask()
+        raise
+    finally:
+        with contextlib.ExitStack() as closing:    # the client first, then the cluster, each whatever the other does
+            if cl is not None:
+                closing.callback(cl.close)
+            if c is not None:
+                closing.callback(c.close)
 
 
 def run_remote(scheduler: str, fn, *args):

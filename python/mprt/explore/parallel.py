@@ -15,15 +15,48 @@ engine ``fidelity.engine_for`` picks with "auto"): a compiled evaluation takes
 milliseconds, less than sending it to a worker that may first have to trace
 the grid.  The global phase's starts, each a search of its own, always go.
 ``workers`` <= 1 runs everything in this process, in the same order.
+
+Ctrl-C at a terminal goes to every process of the foreground group: the workers are forked
+with SIGINT blocked and then ignore it, so that only this process hears it; it ends the
+workers at once (their tasks are not waited for) and the command says "interrupted" in one
+line, with no worker's traceback.
 """
 from __future__ import annotations
 
+import contextlib
 import multiprocessing
 import os
+import signal
 from concurrent.futures import ProcessPoolExecutor, as_completed
 
 _SHARED: dict = {}          # set before the fork: the scene every worker evaluates
 _HELD: dict = {}            # in a worker: SceneEvaluator by its settings
+
+
+@contextlib.contextmanager
+def sigint_blocked(spawn: bool = False):
+    """SIGINT blocked in this thread for the block (where the platform can): processes forked or
+    spawned and threads started meanwhile inherit the mask, so a Ctrl-C at the terminal does
+    not reach them; one that comes during the block is delivered at its end.  ``spawn``: the
+    processes are spawned (multiprocessing's resource tracker, started by the first of them,
+    would unblock SIGINT in this thread: it is started first)."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    if spawn:
+        from multiprocessing import resource_tracker
+
+        resource_tracker.ensure_running()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _deaf() -> None:
+    """A worker's initializer: Ctrl-C is for the explorer's process, which ends the workers."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
 
 
 def default_workers() -> int:
@@ -96,8 +129,15 @@ class Pool:
         if self._pool is None:
             _SHARED["scene"] = self.scene
             ctx = multiprocessing.get_context("fork")
-            self._pool = ProcessPoolExecutor(self.workers, mp_context=ctx)
+            self._pool = ProcessPoolExecutor(self.workers, mp_context=ctx, initializer=_deaf)
         return self._pool
+
+    def _submit(self, fn, args_list) -> list:
+        """The futures of ``fn(*args)`` for each args (the workers forked by the first, with
+        SIGINT blocked: see ``sigint_blocked``)."""
+        ex = self._executor()
+        with sigint_blocked():
+            return [ex.submit(fn, *args) for args in args_list]
 
     def run(self, ev, points, level: int | None = None) -> list:
         """``ev.run(p, level)`` for each point, in order (``ev`` a SceneEvaluator)."""
@@ -112,11 +152,11 @@ class Pool:
         # contiguous chunks of the grouped order: each worker sees few grids
         n = min(self.workers, len(points))
         chunks = [order[k * len(order) // n:(k + 1) * len(order) // n] for k in range(n)]
-        ex = self._executor()
-        futs = [ex.submit(_run_points, ev.settings(), [points[i] for i in c], level) for c in chunks]
-        for c, f in zip(chunks, futs):
-            for i, r in zip(c, f.result()):
-                out[i] = r
+        futs = self._submit(_run_points, [(ev.settings(), [points[i] for i in c], level) for c in chunks])
+        with self._ending_on_interrupt():
+            for c, f in zip(chunks, futs):
+                for i, r in zip(c, f.result()):
+                    out[i] = r
         return out
 
     def map(self, fn, ev, args_list) -> list:
@@ -126,8 +166,9 @@ class Pool:
         args_list = list(args_list)
         if self.workers <= 1 or len(args_list) <= 1:
             return [fn(ev, *a) for a in args_list]
-        ex = self._executor()
-        return [f.result() for f in [ex.submit(_call, fn, ev.settings(), a) for a in args_list]]
+        futs = self._submit(_call, [(fn, ev.settings(), a) for a in args_list])
+        with self._ending_on_interrupt():
+            return [f.result() for f in futs]
 
     def map_forked(self, fn, ev, args_list, idle=None) -> list:
         """``map``, but on workers forked now from this process that evaluate on ``ev`` itself
@@ -146,19 +187,36 @@ class Pool:
         self.close()
         _SHARED["ev"] = ev
         try:
-            ex = self._executor()
-            futs = [ex.submit(_call_forked, fn, a) for a in args_list]
-            if idle is not None:
-                where, got = {f: i for i, f in enumerate(futs)}, {}
-                if len(futs) < self.workers:
-                    idle({})
-                for f in as_completed(futs):
-                    got[where[f]] = f.result()
-                    if len(futs) - len(got) < self.workers:
-                        idle(dict(got))
-            return [f.result() for f in futs]
+            futs = self._submit(_call_forked, [(fn, a) for a in args_list])
+            with self._ending_on_interrupt():
+                if idle is not None:
+                    where, got = {f: i for i, f in enumerate(futs)}, {}
+                    if len(futs) < self.workers:
+                        idle({})
+                    for f in as_completed(futs):
+                        got[where[f]] = f.result()
+                        if len(futs) - len(got) < self.workers:
+                            idle(dict(got))
+                return [f.result() for f in futs]
         finally:
             self.close()
+
+    @contextlib.contextmanager
+    def _ending_on_interrupt(self):
+        """Ctrl-C (KeyboardInterrupt) in the block ends the workers at once (``stop``)."""
+        try:
+            yield
+        except KeyboardInterrupt:
+            self.stop()
+            raise
+
+    def stop(self) -> None:
+        """End the workers now, their tasks not waited for (after Ctrl-C), then ``close``."""
+        if self._pool is not None:
+            for proc in list((getattr(self._pool, "_processes", None) or {}).values()):
+                with contextlib.suppress(OSError, ValueError, AttributeError):
+                    proc.terminate()
+        self.close()
 
     def close(self) -> None:
         if self._pool is not None:
