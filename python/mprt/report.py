@@ -5,6 +5,9 @@ One page per run: the answer first, then what it is compared with, how it was fo
 command and settings that reproduce it.  Everything is inside the file: images are PNG
 data URIs and the style sheet is inline, so the page opens anywhere with no network.
 Each section is a ``<section id=...>`` with an ``<h2>``; tests parse the page and check them.
+The page is laid out for a 1280-px window (content ``figures.CONTENT_PX`` wide, body text
+``figures.BODY_PX``); its figures are drawn for that width with ``mprt.figures`` and pass
+``figures.check``; numbers are for people (thousands separators, percentages) and settings a table.
 """
 from __future__ import annotations
 
@@ -94,13 +97,6 @@ def page(title: str, subtitle: str, sections: list) -> str:
 def write(path, text: str) -> None:
     with open_replacing(path) as f:
         f.write(text)
-
-
-def _plt():
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-    return plt
 
 
 def value(v) -> str:
