@@ -128,7 +128,7 @@ def test_every_sample_has_one_metavar_and_grammar():
     """--sample SPEC everywhere, each in the one grammar; a method a command cannot use is refused
     by name."""
     users = shared_options()["--sample"]
-    assert {n for n, _ in users} == {"trace", "simulate", "explore"}
+    assert {n for n, _ in users} == {"trace", "simulate"}
     assert {a.metavar for _, a in users} == {"SPEC"}
     for name, a in users:
         for spec in ("random:4:1", "stratified:4:1", "regular:4", "runs:4:1"):

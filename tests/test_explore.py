@@ -205,18 +205,23 @@ def test_window_keeps_the_fifos_from_deadlocking():
 
 def test_a_design_deadlocking_on_the_ring_runs_with_a_smaller_window():
     """The window's bound is the ideal network's: on the ring (level 3) tetra's pipeline with
-    16-word FIFOs deadlocks at it; the evaluator then halves the window until the machine runs,
-    and reports that run's cycles (the same as asking for that window)."""
-    from mprt.machine.config import config_from_dict
+    16-word FIFOs deadlocks at it; under the rule ``window = "auto"`` (the design's machine file)
+    the window is then halved until the machine runs, and that run's cycles are reported (the
+    same as asking for that window); a fixed window that deadlocks stays a deadlock."""
+    from mprt.machine.config import auto_window, config_from_dict
     d = Design.from_dict({"mapping": "OS|IC|SC", "fifo": 16, "pes": 1, "replication": {"OS": 1, "IC": 1, "SC": 1}})
     ev = TraceEvaluator(mprt.load_trace(DATA / "golden" / "tetra-g9.npz"))
-    fields = machine_fields(d, ev.leaves)
-    assert fields["window"] > 1
-    assert ev.run_config(config_from_dict(fields), 3).bottleneck == "deadlock"
-    assert ev.run_config(config_from_dict(fields), 1).bottleneck != "deadlock"     # live on the ideal network
+    fields = machine_fields(d)
+    assert fields["window"] == "auto"
+    w0 = auto_window(config_from_dict(fields), ev.leaves)
+    assert w0 > 1
+    fixed = {**fields, "window": w0}
+    assert ev.run_config(config_from_dict(fixed), 3).bottleneck == "deadlock"
+    assert ev.run_config(config_from_dict(fixed), 1).bottleneck != "deadlock"     # live on the ideal network
     got = ev.run(d, 3)
     assert got.bottleneck != "deadlock"
-    w = fields["window"] // 2
+    assert ev.run_config(config_from_dict(fields), 3).cycles == got.cycles        # the rule, as the file says
+    w = w0 // 2
     while ev.run_config(config_from_dict({**fields, "window": w}), 3).bottleneck == "deadlock":
         w //= 2
     assert got.cycles == ev.run_config(config_from_dict({**fields, "window": w}), 3).cycles

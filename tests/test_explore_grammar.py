@@ -45,11 +45,12 @@ def test_explore_passes_rules_threshold_and_grid_to_every_trace(tmp_path, traces
     html = (tmp_path / "e.html").read_text()
     reproduce = html[html.index('id="reproduce"'):]
     assert "paper1992" in reproduce and "threshold" in reproduce and "0.00390625" in reproduce
-    assert r["settings"]["rules"] == "paper1992"
-    assert r["settings"]["threshold"] == 1 / 256
+    (scene,) = r["settings"]["scenes"]
+    assert scene["rules"] == "paper1992"
+    assert scene["threshold"] == 1 / 256
     assert r["settings"]["grid"] == [4, 4, 4]
-    assert r["best"]["subdivision"] == [4, 4, 4]                      # the space's n = 9 held at 4
-    assert {tuple(h["subdivision"]) for h in r["history"]} == {(4, 4, 4)}
+    assert r["per_scene"][0]["subdivision"] == [4, 4, 4]              # the space's n = 9 held at 4
+    assert {tuple(map(tuple, h["subdivisions"])) for h in r["history"] if "subdivisions" in h} == {((4, 4, 4),)}
     assert traces and set(traces) == {("paper1992", 1 / 256)}
     assert "subdivision fixed at 4x4x4" in capsys.readouterr().out
 
@@ -60,7 +61,8 @@ def test_explore_settings_show_the_default_rules_and_cutoff(tmp_path, traces):
     assert run("explore", "tetra:1", "--res", "16x16", "--space", SMALL, "--level", "1", "--max-evals", "10",
                "--workers", "0", "--threads", "1", "--json", out) == 0
     s = json.loads(out.read_text())["settings"]
-    assert (s["rules"], s["threshold"], s["grid"]) == ("paper", default_threshold(), None)
+    (scene,) = s["scenes"]
+    assert (scene["rules"], scene["threshold"], s["grid"]) == ("paper", default_threshold(), None)
     assert {ru for ru, _ in traces} == {"paper"}
 
 

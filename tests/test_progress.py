@@ -86,25 +86,67 @@ def _explore(argv, capsys):
 
 def test_explore_announces_every_phase_numbered(capsys):
     err = _explore(["--res", "64x64", "--fraction", "2"], capsys)
-    names = ["ladder", "search", "full-resolution checks", "polish at 64x64", "references"]
+    names = ["ladder", "subdivisions", "search", "full resolution"]
     for k, name in enumerate(names, 1):
-        assert f"phase {k}/5: {name}" in err, (name, err)
-    search = err.split("phase 2/5: ")[1].splitlines()[0]
-    assert search.startswith("search: up to 20 designs") and ("about" in search or "under a second" in search)
-    assert err.count(": done in ") == 4            # the search ends with its own summary line
+        assert f"phase {k}/4: {name}" in err, (name, err)
+    for name in names[1:]:              # each after the first estimated from what ran before it
+        line = err.split(f": {name}")[1].splitlines()[0]
+        assert "about" in line or "under a second" in line, line
+    assert err.count(": done in ") == 3            # the search ends with its own summary line
+    assert "search  done in" in err
 
 
 def test_explore_at_a_fixed_level_has_no_ladder_phase(capsys):
     err = _explore(["--res", "16x16", "--level", "1"], capsys)
-    assert "phase 1/2: search" in err and "phase 2/2: references" in err and "ladder" not in err
+    assert "phase 1/3: subdivisions" in err and "phase 2/3: search" in err and "phase 3/3: full resolution" in err
+    assert "ladder" not in err
 
 
-def test_explore_on_a_scheduler_shows_the_remote_task(monkeypatch, capsys):
+def test_explore_on_a_scheduler_sends_its_evaluations_there(monkeypatch, capsys):
+    """--scheduler: every evaluation is a task of the Dask client's (here a stand-in that runs them
+    in this process and counts them)."""
+    import contextlib
     from mprt.explore import distributed
-    monkeypatch.setattr(distributed, "run_remote", lambda address, fn, *args: fn(*args))
-    err = _explore(["--res", "16x16", "--level", "1", "--scheduler", "tcp://nowhere:1"], capsys)
-    assert "remote  the search on the Dask scheduler tcp://nowhere:1" in err
-    assert "the search on the Dask scheduler tcp://nowhere:1 (one task; its phases run there): done in" in err
+    sent = []
+
+    class Client:
+        def submit(self, fn, *args, pure=True):
+            sent.append(args)
+            return fn(*args)
+
+        def gather(self, futures):
+            return list(futures)
+
+    @contextlib.contextmanager
+    def client(address=None, workers=None):
+        assert address == "tcp://nowhere:1"
+        yield Client()
+    monkeypatch.setattr(distributed, "client", client)
+    _explore(["--res", "16x16", "--level", "1", "--scheduler", "tcp://nowhere:1"], capsys)
+    assert "evaluations on the Dask scheduler tcp://nowhere:1" in capsys.readouterr().out or sent
+    assert len(sent) > 10
+
+
+def test_explore_progress_lines_appear_as_the_search_runs(tmp_path):
+    """Under a pipe, the search's progress lines arrive while it runs, not in one burst at its end:
+    their arrival times spread over most of the search phase."""
+    import subprocess
+    import sys
+    import time as _t
+    from pathlib import Path
+    small = Path(__file__).parent / "data" / "explore" / "small_space.toml"
+    cmd = [sys.executable, "-m", "mprt", "explore", "tetra:1", "balls:1", "--res", "64x64", "--space", str(small),
+           "--level", "3", "--max-evals", "150", "--workers", "0", "--no-bound"]
+    p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, bufsize=1)
+    seen = []
+    for line in p.stderr:
+        seen.append((_t.perf_counter(), line))
+    assert p.wait() == 0
+    start = next(t for t, ln in seen if ": search" in ln and ln.startswith("phase"))
+    end = next(t for t, ln in seen if ln.startswith("search  ") and " machines (" in ln)    # the search's summary
+    ticks = [t for t, ln in seen if " machines" in ln and ln.startswith("  ")]
+    assert len(ticks) >= 3
+    assert end - start > 0.2 and ticks[-1] - ticks[0] >= 0.5 * (end - start) - 0.05
 
 
 def test_the_search_counts_its_evaluations_against_the_global_phase_with_the_time_left():
@@ -117,5 +159,5 @@ def test_the_search_counts_its_evaluations_against_the_global_phase_with_the_tim
         show(SimpleNamespace(memo=range(n), best=lambda: best))
     show.end()
     text = out.getvalue()
-    assert "40 evaluations of up to 100" in text and "left" in text
-    assert "120 evaluations, best 1,000 cycles" in text and "polishing" in text
+    assert "40 machines of up to 100" in text and "left" in text
+    assert "120 machines, best 50 kGE" in text and "polishing" in text

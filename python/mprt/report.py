@@ -195,55 +195,69 @@ def _versus(ref: dict, best: dict, title: str) -> str:
 
 
 def explore_html(rep: dict, argv, plot_path) -> str:
-    """The page of an explore report (its JSON) with its plot (a PNG file, as explorer.plot draws it)."""
+    """The page of an explore report (its JSON) with its plot (a PNG file, as explore.plots.plot draws it)."""
     b, refs, lv = rep["best"], rep["references"], rep["level"]
-    feasible = b.get("feasible", True)
+    rows = rep["per_scene"]
+    names = ", ".join(r["scene"] for r in rows)
     budget = f" within {rep['budget']:g} kGE" if rep.get("budget") else ""
-    answer = (f'<p class="answer{"" if feasible else " warn"}">Best design for {esc(rep["scene"])} at '
-              f'{rep["width"]}x{rep["height"]}{esc(budget)}: <b>{esc(b["described"])}</b>, subdivision '
-              f'{esc("x".join(map(str, b["subdivision"])))}, {num(b["cycles"])} cycles at level {lv["verify"]}, '
-              f'{num(b["cost"])} kGE, {esc(_versus(refs["S"], b, "model S"))}, '
-              f'{esc(_versus(refs["3mppe"], b, PAPER))}'
-              + ("" if feasible else " (over the budget: no design in the space meets it)") + ".</p>")
-    util = ", ".join(f"{k} {v:.0%}" for k, v in b["utilisation"].items())
-    answer += f"<p>Bottleneck {esc(b['bottleneck'])}; utilisation {esc(util)}.</p>"
-    ref_rows = [("best", num(b["cycles"]), num(b["cost"]), "1.00", util)]
+    geo = b.get("speedup_geomean")
+    answer = (f'<p class="answer{"" if b["feasible"] else " warn"}">One machine for {esc(names)}{esc(budget)}: '
+              f'<b>{esc(b["described"])}</b>, {num(b["cost"])} kGE; '
+              + (f"{geo:.2f}x the paper's 3MPPE (weighted geometric mean)" if geo else "no speed-up figure")
+              + f", at level {lv['search']}"
+              + ("" if b["feasible"] else " (over the budget: no design in the space meets it)") + ".</p>")
+    pes = b["machine"]["pes"]
+    proc = table(("stage", "per PE", "PEs", "processors", "units", "FIFOs (packets)", "memories"),
+                 [(r["stage"], r["copies_per_pe"], pes, r["processors"],
+                   " + ".join(f"{n} {k}" for k, n in r["units"].items()),
+                   "-" if r["send_fifo"] is None else f"{r['send_fifo']} / {r['receive_fifo']}", r["memories"] or "-")
+                  for r in b["processors"]])
+    costs = table(("part", "kGE"), [(k, num(v)) for k, v in b["cost_breakdown"].items()] + [("total", num(b["cost"]))])
+    scenes = table(("scene", "weight", "resolution", "subdivision", "cycles", "x 3MPPE", "sharing", "bottleneck"),
+                   [(r["scene"], f"{r['weight']:g}", "x".join(map(str, r["resolution"])),
+                     "x".join(map(str, r["subdivision"])), num(r["cycles"]),
+                     "-" if r["speedup"] is None else f"{r['speedup']:.2f}", f"{r['sharing']:.3f}", r["bottleneck"])
+                    for r in rows])
+    ref_rows = []
     for name, title in (("3mppe", "paper 3MPPE"), ("M", "model M"), ("S", "model S")):
         r = refs[name]
-        dead = r["cycles"] is None
-        ref_rows.append((title, "deadlocks" if dead else num(r["cycles"]), num(r["cost"]),
-                         "-" if dead else f"{r['cycles'] / b['cycles']:.2f}",
-                         ", ".join(f"{k} {v:.0%}" for k, v in r["utilisation"].items())))
-    refs_html = table(("machine", "cycles", "cost (kGE)", "x best's time", "utilisation"), ref_rows)
+        ref_rows.append((title, num(r["cost"]), "; ".join(
+            f"{p['scene']}: " + ("deadlocks" if p["cycles"] is None else num(p["cycles"])) for p in r["per_scene"])))
+    refs_html = table(("machine", "cost (kGE)", "cycles per scene (its own best subdivision)"), ref_rows)
     ladder = lv.get("ladder") or []
     lad_rows = [(r["level"], ", ".join(r.get("engines", [])), f"{1e3 * r['seconds_per_design']:.3g}",
                  _err_pct(r["error_median"]), _err_pct(r["error_worst"])) for r in ladder]
-    lad_html = (f"<p>The search ran at level {lv['search']} and the answer was verified at level {lv['verify']}"
+    lad_html = (f"<p>Everything ran at level {lv['search']}"
                 + (f" (the ladder's choice within {100 * rep['tolerance']:g}%)" if lv.get("asked") == "auto" else "")
-                + ".</p>" + table(("level", "engines", "ms per design", "median error %", "worst error %"), lad_rows)
-                + (png_img(ladder_png(ladder), "fidelity ladder: speed and error") if ladder else ""))
-    h = rep.get("history") or []
+                + ".</p>" + (table(("level", "engines", "ms per design", "median error %", "worst error %"), lad_rows)
+                             + png_img(ladder_png(ladder), "fidelity ladder: speed and error") if ladder else ""))
+    ev = rep["evaluations"]
     phases: dict = {}
-    for r in h:
+    for r in rep.get("history") or []:
         phases[r["phase"]] = phases.get(r["phase"], 0) + 1
-    hist_html = (f"<p>{rep['evaluations']} designs evaluated in {rep['seconds']:.1f} s "
-                 f"({', '.join(f'{k}: {v}' for k, v in phases.items())}); algorithm "
-                 f"{esc(rep.get('algorithm'))}.</p>")
-    plots = file_png(plot_path, "search history, cycles against cost, utilisation")
+    hist_html = table(("what", "count"), [("machines searched", num(ev["machines"])),
+                                          ("scene replays", num(ev["replayed"])),
+                                          ("from the cache", num(ev["reused_from_cache"]))]
+                      + [(f"history rows: {k}", num(v)) for k, v in phases.items()]
+                      + [("seconds", f"{rep['seconds']:.1f}")])
+    plots = file_png(plot_path, "search history, cost against the objective, per-scene speed-ups")
     front = ""
-    if "front" in rep:
-        front = table(("cost (kGE)", "cycles", "mapping", "PEs", "subdivision"),
-                      [(num(f["cost"]), num(f["cycles"]), f["design"]["mapping"], f["design"]["pes"],
-                        "x".join(map(str, f["subdivision"]))) for f in rep["front"]])
-    settings = dict(rep.get("settings") or {})
-    settings.update({"objective": rep["objective"], "budget": rep.get("budget"), "space": rep["space"]["source"],
-                     "search resolution": "x".join(map(str, rep.get("search_resolution") or []))})
-    sections = [section("answer", "Answer", answer), section("references", "References", refs_html + front),
+    if rep.get("front"):
+        front = "<h3>Pareto front</h3>" + table(("cost (kGE)", "geometric mean of cycles", "machine"),
+                                               [(num(f["cost"]), num(f["objective"]), f["described"])
+                                                for f in rep["front"]])
+    st = rep.get("settings") or {}
+    settings = {"objective": rep["objective"], "budget": rep.get("budget"), "space": rep["space"]["source"],
+                "grid": st.get("grid"), "mprt_version": st.get("mprt_version")}
+    for e in st.get("scenes") or []:
+        settings[f"scene {e['name']}"] = ", ".join(f"{k} {v}" for k, v in e.items() if k != "name" and v is not None)
+    sections = [section("answer", "Answer", answer + proc + costs),
+                section("scenes", "Per scene", scenes + front),
+                section("references", "References", refs_html),
                 section("ladder", "Fidelity ladder: speed against error", lad_html),
-                section("history", "Search history", hist_html), section("plots", "Plots", plots),
+                section("history", "Search", hist_html), section("plots", "Plots", plots),
                 section("reproduce", "Reproduce", reproduce(argv, settings))]
-    return page(f"mprt explore {rep['scene']}", f"{rep['width']}x{rep['height']}, objective {rep['objective']}",
-                sections)
+    return page(f"mprt explore {names}", f"objective {rep['objective']}{budget}", sections)
 
 
 # -- simulate ---------------------------------------------------------------------------------

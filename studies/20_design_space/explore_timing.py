@@ -15,7 +15,8 @@ import tempfile
 import time
 
 import mprt
-from mprt.explore.explorer import explore
+from mprt.explore.explorer import SearchSettings, explore
+from mprt.explore.workload import SceneEntry, Workload
 
 
 def main(res=512, budget=800.0, *names):
@@ -24,21 +25,21 @@ def main(res=512, budget=800.0, *names):
     print("|---|---|---|---|---|---|---|---|---|---|---|---|---|---|")
     for name in names or mprt.SPD_SCENES:
         t0 = time.perf_counter()
-        r = explore(mprt.Scene.spd(name), res, res, budget=float(budget), threads=2,
-                    log=lambda s: print(f"  {name}: {s}", file=sys.stderr, flush=True))
+        r = explore(Workload((SceneEntry(name, res=(res, res)),)), None, SearchSettings(budget=float(budget)),
+                    say=lambda s: print(f"  {name}: {s}", file=sys.stderr, flush=True))
         s = time.perf_counter() - t0
-        b, refs, lv = r["best"], r["references"], r["level"]
+        (row,), b, refs, lv = r.per_scene, r.best, r.references, r.report["level"]
         with tempfile.TemporaryDirectory() as d:
             t1 = time.perf_counter()
-            subprocess.run([sys.executable, "-m", "mprt", "trace", name, "--grid", ",".join(map(str, b["subdivision"])),
+            subprocess.run([sys.executable, "-m", "mprt", "trace", name, "--grid", ",".join(map(str, row["subdivision"])),
                             "--res", f"{res}x{res}", "--threads", "2", "-o", os.path.join(d, "t.npz")], check=True,
                            stdout=subprocess.DEVNULL)
             tt = time.perf_counter() - t1
-        ran = sum(v for k, v in r["runs"].items() if not k.endswith("bounded")) if r.get("runs") else r["evaluations"]
-        print(f"| {name} | {s:.0f} | {tt:.1f} | {s / tt:.1f} | {r['evaluations']} | {ran} | {lv['search']} "
-              f"| {lv.get('ladder_seconds', 0):.0f} | {'x'.join(map(str, b['subdivision']))} | {b['described']} "
-              f"| {b['cycles']:.3g} | {b['cost']:.0f} | {refs['3mppe']['cycles'] / b['cycles']:.2f} "
-              f"| {refs['S']['cycles'] / b['cycles']:.2f} |", flush=True)
+        ev = r.report["evaluations"]
+        print(f"| {name} | {s:.0f} | {tt:.1f} | {s / tt:.1f} | {ev['machines']} | {ev['replayed']} | {lv['search']} "
+              f"| {lv.get('ladder_seconds', 0):.0f} | {'x'.join(map(str, row['subdivision']))} | {b['described']} "
+              f"| {row['cycles']:.3g} | {b['cost']:.0f} | {refs['3mppe']['cycles'] / row['cycles']:.2f} "
+              f"| {refs['S']['cycles'] / row['cycles']:.2f} |", flush=True)
 
 
 if __name__ == "__main__":

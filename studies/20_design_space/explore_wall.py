@@ -57,12 +57,12 @@ def main(argv=None):
                 for build, path in ([("before", a.before)] if a.before else []) + [("after", None)]:
                     s, rep = _explore(name, a.res, a.budget, os.path.join(d, f"{build}.json"), path)
                     got[build] = (s, rep)
-                    print(f"{r} {name} {build} {s:.2f} s, {rep['best']['cycles']:.4g} cycles, "
-                          f"{'x'.join(map(str, rep['best']['subdivision']))}", flush=True)
+                    print(f"{r} {name} {build} {s:.2f} s, {rep['per_scene'][0]['cycles']:.4g} cycles, "
+                          f"{'x'.join(map(str, rep['per_scene'][0]['subdivision']))}", flush=True)
                 after = got["after"][1]
                 if a.before and (got["before"][1]["best"] != after["best"]):
                     print(f"{r} {name}: the answers differ", flush=True)
-                t = _trace(name, a.res, after["best"]["subdivision"], os.path.join(d, "t.npz"))
+                t = _trace(name, a.res, after["per_scene"][0]["subdivision"], os.path.join(d, "t.npz"))
                 print(f"{r} {name} trace {t:.2f} s", flush=True)
                 rows.setdefault(name, []).append({k: v[0] for k, v in got.items()} | {"trace": t})
     builds = (["before"] if a.before else []) + ["after"]

@@ -16,13 +16,14 @@ import time
 from pathlib import Path
 
 import mprt
-from mprt.explore import model_m, model_s, paper_3mppe
-from mprt.explore.explorer import explore
+from mprt.explore import model_m, model_s
+from mprt.explore.explorer import FidelitySettings, SearchSettings, explore
+from mprt.explore.workload import SceneEntry, Workload
 from mprt.explore.prepass import prepass
 from mprt.explore.space import DEFAULT_SPACE_TOML, parse_space
 
 OUT = Path(__file__).resolve().parents[1] / "out"
-BUDGETS = (400.0, 800.0, 1600.0)       # kGE; the paper's 3MPPE costs 794 in the default unit costs
+BUDGETS = (400.0, 800.0, 1600.0)       # kGE
 
 
 def mapping_space(mapping: str):
@@ -74,27 +75,24 @@ def run(res, out, scenes, budgets, threads, level, max_evals):
         scene = mprt.Scene.spd(name, size)
         for b in budgets:
             t0 = time.perf_counter()
-            r = explore(scene, res, res, objective="time", budget=b, fraction=2, threads=threads, level=level,
-                        max_evals=max_evals)
-            best, refs = r["best"], r["references"]
+            r = _explore(name, size, res, level, max_evals, b)
+            best, (ps,), refs = r.best, r.per_scene, r.references
             row = {"scene": name, "budget": b, "mapping": best["design"]["mapping"], "pes": best["design"]["pes"],
-                   "subdivision": "x".join(map(str, best["subdivision"])), "cycles": best["cycles"],
-                   "cost": best["cost"], "evaluations": r["evaluations"],
+                   "subdivision": "x".join(map(str, ps["subdivision"])), "cycles": ps["cycles"],
+                   "cost": best["cost"], "evaluations": r.report["evaluations"]["machines"],
                    "described": best["described"], "design": best["design"]}
             for k in ("3mppe", "M", "S"):
                 row[f"{k}_cycles"] = refs[k]["cycles"]
             rows.append(row)
-            md.append(f"| {name} | {b:.0f} | {best['described']} | {row['subdivision']} | {best['cycles']:.3g} "
-                      f"| {best['cost']:.0f} | {refs['3mppe']['cycles'] / best['cycles']:.2f} "
-                      f"| {refs['M']['cycles'] / best['cycles']:.2f} | {refs['S']['cycles'] / best['cycles']:.2f} |")
+            md.append(f"| {name} | {b:.0f} | {best['described']} | {row['subdivision']} | {ps['cycles']:.3g} "
+                      f"| {best['cost']:.0f} | {refs['3mppe']['cycles'] / ps['cycles']:.2f} "
+                      f"| {refs['M']['cycles'] / ps['cycles']:.2f} | {refs['S']['cycles'] / ps['cycles']:.2f} |")
             print(row, f"{time.perf_counter() - t0:.1f} s", file=sys.stderr, flush=True)
         # SC on its own processor or shared, at the middle budget
         per = {}
         for mapping in ("OS|IC|SC", "OS+SC|IC", "OS|IC+SC", "OS+IC+SC"):
-            r = explore(scene, res, res, space=mapping_space(mapping), objective="time", budget=BUDGETS[1],
-                        fraction=2, threads=threads, level=level,
-                        max_evals=max_evals)
-            per[mapping] = r["best"]["cycles"]
+            r = _explore(name, size, res, level, max_evals, BUDGETS[1], mapping_space(mapping))
+            per[mapping] = r.per_scene[0]["cycles"]
         sc_rows.append((name, per))
         # the best subdivision per machine (prepass at this resolution)
         subs = _subdivisions(name, scene, rows, res, threads, level)
@@ -102,6 +100,13 @@ def run(res, out, scenes, budgets, threads, level, max_evals):
         sub_rows.append((name, subs))
         _write(out, md, rows, sc_rows, sub_rows, final=False)
     _write(out, md, rows, sc_rows, sub_rows)
+
+
+def _explore(name, size, res, level, max_evals, budget, space=None):
+    """One scene's explore (a workload of one) at res x res, searched at half of it."""
+    entry = SceneEntry(f"{name}:{size}" if size else name, res=(res, res))
+    return explore(Workload((entry,)), space, SearchSettings(budget=budget, max_evals=max_evals),
+                   FidelitySettings(level=level, fraction=2))
 
 
 def _write(out, md, rows, sc_rows, sub_rows, final=True):
@@ -133,7 +138,8 @@ def _subdivisions(name, scene, rows, res, threads, level) -> dict:
     """The prepass's subdivision (at ``level``) for models S and M, the 3MPPE and the best design
     at the middle budget in ``rows``; "level": the levels the prepass used."""
     subs, levels = {}, []
-    for label, d in (("S", model_s()), ("M", model_m()), ("3MPPE", paper_3mppe()),
+    from mprt.machine import builtin
+    for label, d in (("S", model_s()), ("M", model_m()), ("3MPPE", builtin("3mppe")),
                      ("best@800", _design(rows, name, BUDGETS[1]))):
         pre = prepass(scene, res, res, design=d, fraction=2, threads=threads, level=level)
         subs[label] = "x".join(map(str, pre["subdivision"]))

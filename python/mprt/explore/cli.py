@@ -104,63 +104,78 @@ def add_parsers(sub) -> None:
     from ..machine.config import BUILTIN
     from .search import GLOBAL_ALGORITHMS, OBJECTIVES, POLISHES, STARTS
 
-    e = sub.add_parser("explore", help="search the design space for the fastest machine (and subdivision)",
-                       description="Search a design space (--space, or the built-in one) with NLopt for the "
-                                   "machine that renders SCENE fastest under a hardware budget.",
+    from .explorer import OBJECTIVES
+    e = sub.add_parser("explore", help="one machine for a workload of scenes, and each scene's subdivision",
+                       description="Search a design space (--space, or the built-in one) for the one machine that "
+                                   "runs a workload of scenes best under a hardware budget; the subdivision is "
+                                   "chosen per scene (software), every other variable is one for the workload "
+                                   "(hardware).  Give the scenes by name (SCENE ...: weight 1 each, the options "
+                                   "below) or in a workload file (--workload).",
                        epilog=opt.EXIT_STATUS)
-    _common(e)
-    _tracing(e, "searched over the space's subdivision variables",
-             "; fixes the subdivision: the space's subdivision variables are held at N per axis (or NX,NY,NZ) "
-             "and only the machine is searched")
+    e.add_argument("scene", metavar="SCENE", nargs="*",
+                   help="scenes of the workload: SPD names (balls, balls:2) or NFF paths; or --workload")
+    opt.add_skip_unknown(e)
+    e.add_argument("--workload", metavar="FILE.toml",
+                   help="the workload: [[scene]] tables with name, and optionally weight, res, rules, threshold, "
+                        "skip_unknown, max_rays, max_depth (the options below are the defaults of what a scene "
+                        "leaves out) (default: the SCENEs given)")
+    opt.add_res(e)
+    opt.add_json(e)
+    opt.add_threads(e)
+    _tracing(e, "chosen per scene, nx, ny and nz each free (up to 512)",
+             "; fixes every scene's subdivision: only the machine is searched")
+    opt.add_trace_limits(e)
     e.add_argument("--space", metavar="FILE.toml", help="design space (default: the built-in space)")
-    e.add_argument("--objective", choices=OBJECTIVES, default="time",
-                   help="time: cycles (under --budget); time*cost; pareto: the front by a sweep of budgets "
-                        "(default: time)")
+    e.add_argument("--machine", metavar="FILE.toml",
+                   help="a fixed machine (a machine file, as --machine-out writes and simulate --config reads): "
+                        "only each scene's subdivision is chosen (default: search the space)")
+    e.add_argument("--machine-out", metavar="FILE.toml",
+                   help="write the answer as a machine file for simulate --config and prepass --config "
+                        "(default: none)")
+    e.add_argument("--objective", choices=OBJECTIVES, default="geomean",
+                   help="geomean: the weighted geometric mean of the speed-ups over the paper's 3MPPE; total: the "
+                        "weighted total cycles; worst: the worst scene's speed-up; pareto: the front of the "
+                        "geometric mean against cost (default: geomean)")
     e.add_argument("--budget", type=_positive(float), default=None, metavar="KGE",
                    help="hardware budget in kGE; one below the space's cheapest design is refused before any "
                         "work (default: none)")
     opt.add_level(e, default="auto", default_text="auto",
-                  extra="; the search and everything after it run at that level; auto measures the ladder on this "
-                        "scene and takes the lowest within --tolerance")
+                  extra="; the search and everything after it run at that level; auto measures the ladder on each "
+                        "scene and takes the highest of the scenes' lowest levels within --tolerance")
     e.add_argument("--tolerance", type=_percent, default=0.01, metavar="P",
                    help="error the level may have against the most faithful one, with --level auto (default: 1%%)")
-    e.add_argument("--sample", type=_sample, default="auto", metavar="SPEC",
-                   help="trace only these tiles of the full-resolution frame for the final polish and scale up "
-                        "(stratified:K:SEED, random:N:SEED, regular:K, or none) (default: auto, stratified:16:1 "
-                        "above 256x256)")
     e.add_argument("--verify", type=_positive(int), default=4, metavar="K",
-                   help="best designs of the low-resolution search re-evaluated at --res (with the best of each "
-                        "stage mapping) before the full-resolution polish (default: 4)")
+                   help="best machines of the low-resolution search re-evaluated on every scene's full frame "
+                        "(default: 4)")
     e.add_argument("--algorithm", choices=[a for a in GLOBAL_ALGORITHMS if a != "none"], default="direct-l",
                    help="NLopt's global search (default: direct-l)")
     e.add_argument("--polish", choices=POLISHES, default="lattice",
                    help="the local search from the global phase's best: lattice steps or an NLopt local method "
                         "(default: lattice)")
     e.add_argument("--max-evals", type=_positive(int), default=1000, metavar="N",
-                   help="most distinct designs in the global phase (default: 1000)")
+                   help="most distinct machines in the global phase (default: 1000)")
+    e.add_argument("--exhaustive", type=_nonnegative_int, default=200, metavar="N",
+                   help="a space of at most N machines is searched by evaluating every one (default: 200)")
     e.add_argument("--seed", type=int, default=1, help="seed of the randomised searches and of the ladder's "
                                                        "designs (default: 1)")
-    e.add_argument("--starts", choices=STARTS, default="whole",
-                   help="the global phase: one start over the whole space, or one per stage mapping (run in "
-                        "parallel, each with a share of --max-evals) (default: whole)")
     e.add_argument("--workers", type=_nonnegative_int, default=None, metavar="N",
-                   help="processes evaluating independent designs in parallel; the answer is the same for any "
-                        "number (default: one per core; 0 or 1: in this process)")
-    e.add_argument("--no-bound", dest="bound", action="store_false",
-                   help="at levels 2 and 3, replay every design at the level (default: a design whose bound "
-                        "is slower than the best so far, or that is over the budget, is not replayed: its level-1 "
-                        "replay in the global phase, from the polish on its stages' work over their processors; "
-                        "in the full-resolution polish, nor one whose estimate from the search's figures is)")
-    e.add_argument("--fraction", type=_positive(int), default=None, metavar="F",
-                   help="search on traces at 1/F of --res, then polish the best at --res "
-                        "(default: about 64 pixels across; 1: search at --res)")
+                   help="local processes evaluating scenes and designs in parallel; the answer is the same for "
+                        "any number (default: one per core; 0 or 1: in this process)")
     e.add_argument("--scheduler", metavar="ADDRESS",
-                   help="run the search on this Dask scheduler (default: in this process)")
-    e.add_argument("--plot", metavar="OUT.png", help="history, cost against cycles, utilisation (default: none)")
+                   help="run the evaluations as tasks on this Dask scheduler's workers (default: local)")
+    e.add_argument("--cache", metavar="DIR",
+                   help="keep every evaluation in DIR: a killed exploration run again resumes (default: none)")
+    e.add_argument("--no-bound", dest="bound", action="store_false",
+                   help="at levels 2 and 3, replay every design at the level (default: a design whose level-1 "
+                        "bound is slower than the best so far, or that is over the budget, is not replayed)")
+    e.add_argument("--fraction", type=_positive(int), default=None, metavar="F",
+                   help="search on traces at 1/F of each scene's frame, then check at full resolution "
+                        "(default: about 64 pixels across; 1: search at full resolution)")
+    e.add_argument("--plot", metavar="OUT.png", help="history, cost against the objective, per-scene speed-ups "
+                                                    "(default: none)")
     e.add_argument("--report", metavar="OUT.html",
-                   help="write one self-contained HTML page: the answer, the references, the ladder (speed "
-                        "against error), the search's history, the plots and the command that reproduces it "
-                        "(default: none)")
+                   help="write one self-contained HTML page: the answer, its per-scene table, the references, "
+                        "the ladder, the search's history, the plots and the command (default: none)")
     e.set_defaults(func=run_explore)
 
     p = sub.add_parser("prepass", help="choose the voxel subdivision from low-resolution traces",
@@ -198,6 +213,10 @@ def add_parsers(sub) -> None:
                    help="trace the K best predictions at --res on about 16 of its 16x16 tiles (stratified; a "
                         "sixty-fourth of 512x512) and choose among them by that (default: 0, the "
                         "low-resolution prediction alone; --check K is the old spelling)")
+    opt.add_trace_limits(p)
+    p.add_argument("--no-axes", dest="axes", action="store_false",
+                   help="stop at the best of the rule's line (n along the longest axis, the others in "
+                        "proportion) (default: then each axis on its own, x or / 1.25 a step, while the time falls)")
     p.add_argument("--refine", choices=("golden", "parabola", "none"), default="golden",
                    help="narrow the ladder's bracket by golden-section steps, by one parabola step (half the "
                         "candidates, less exact where time is jagged in n), or not at all (default: golden)")
@@ -268,11 +287,9 @@ def _nonnegative_int(text: str) -> int:
 
 
 def _progress_printer(every: int = 25, total: int | None = None, stream=None):
-    """The search's progress: evaluations (of up to ``total`` in the global phase), the best so
-    far, the time spent since the printer was made (the exploration's start) and the time left
-    at that rate; one line rewritten on a terminal, else a line every ``every`` evaluations.
-    (The global phase and the mappings' walks report their evaluations when they end, in a
-    burst: timing from the first report made the rate of the first burst meaningless.)"""
+    """The search's progress as it happens: machines evaluated (of up to ``total`` in the global
+    phase), the best figure so far, the time spent since the printer was made and the time left at
+    that rate; one line rewritten on a terminal, else a line every ``every`` machines."""
     stream = stream or sys.stderr
     tty = stream.isatty()
     start = [time.perf_counter()]
@@ -287,8 +304,7 @@ def _progress_printer(every: int = 25, total: int | None = None, stream=None):
         left = (f", {eta_text(spent / n * (total - n))} left" if total and 0 < n < total and spent > 0
                 else ", polishing" if total and n > total else "")
         of = f" of up to {total}" if total and n <= total else ""
-        msg = (f"\r  {n:5d} evaluations{of}, best {b.cycles:,.0f} cycles at cost "
-               f"{b.cost:.0f} kGE, {spent:.1f} s{left}")
+        msg = f"\r  {n:5d} machines{of}, best {b.cost:.0f} kGE, {spent:.1f} s{left}"
         print(msg if tty else msg[1:], end="" if tty else "\n", file=stream, flush=True)
         open_line[0] = tty
 
@@ -305,51 +321,89 @@ def _progress_printer(every: int = 25, total: int | None = None, stream=None):
     return show
 
 
+def load_workload_arg(a):
+    """The workload of the command line: --workload FILE or the SCENEs (not both), the options
+    the defaults of what each scene leaves out."""
+    from .workload import WorkloadError, load_workload, workload_of
+
+    if a.workload and a.scene:
+        raise opt.UsageError("give the scenes or --workload FILE.toml, not both")
+    if not a.workload and not a.scene:
+        raise opt.UsageError("give one or more SCENEs (SPD names or NFF paths) or --workload FILE.toml")
+    try:
+        wl = load_workload(a.workload) if a.workload else workload_of(a.scene)
+    except WorkloadError as e:
+        raise opt.UsageError(str(e)) from None
+    return wl.with_defaults(res=a.res, rules=a.rules, threshold=a.threshold, skip_unknown=a.skip_unknown,
+                            max_rays=a.max_rays, max_depth=a.max_depth)
+
+
 def run_explore(a) -> int:
-    from .explorer import explore, plot
+    from ..machine.config import load_config
+    from ..machine.errors import ConfigError
+    from .explorer import FidelitySettings, Resources, SearchSettings, explore
+    from .plots import plot
     from .space import SpaceError, default_space, load_space
 
-    opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"), ("--report", a.report, "html"))
+    opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"), ("--report", a.report, "html"),
+                      ("--machine-out", a.machine_out, "toml"))
     try:
         space = load_space(a.space) if a.space else default_space()
     except SpaceError as e:
         raise opt.UsageError(str(e)) from None
     check_budget(space, a.budget, a.objective)
     opt.check_render_options(a)
-    scene = opt.load_scene(a.scene, skip_unknown=a.skip_unknown)[0]
-    w, h = a.res or scene.info()["resolution"]
-    kw = dict(width=w, height=h, space=space, objective=a.objective, budget=a.budget,
-              level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, algorithm=a.algorithm,
-              polish=a.polish, max_evals=a.max_evals, seed=a.seed, threads=a.threads, fraction=a.fraction,
-              sample=a.sample, verify=a.verify, starts=a.starts, rules=a.rules, threshold=a.threshold, grid=a.grid,
-              bound=a.bound)
+    wl = load_workload_arg(a)
+    machine = None
+    if a.machine:
+        try:
+            machine = load_config(a.machine)
+        except ConfigError as e:
+            raise opt.UsageError(str(e)) from None
+        if a.space:
+            raise opt.UsageError("--machine fixes the machine: leave out --space (nothing is searched)")
     if a.workers is not None and a.workers < 0:
         raise opt.UsageError(f"--workers {a.workers}: give 0 or more processes")
-    if not a.scheduler:     # before any work: the frames the processes hold must fit
-        from .memory import check_explore
-        from .parallel import default_workers
-        check_explore(scene, w, h, space, a.grid, a.fraction, a.sample,
-                      default_workers() if a.workers is None else a.workers)
-    print(f"explore {scene.name} at {w}x{h}: "
-          + ("measure the fidelity ladder on a low-resolution trace, " if a.level == "auto" else "")
-          + f"search up to {a.max_evals} designs ({a.algorithm}, then {a.polish}) at the level chosen, "
-            f"re-evaluate the best {a.verify} at {w}x{h} and polish them"
-          + (f" (subdivision fixed at {_dims_text(a.grid)})" if a.grid is not None else "")
-          + (f", on the Dask scheduler {a.scheduler}" if a.scheduler else "")
-          + "; each phase reports its progress and time", flush=True)
+    grid = None if a.grid is None else ((a.grid,) * 3 if isinstance(a.grid, int) else tuple(a.grid))
+    names = ", ".join(e.name for e in wl)
+    print(f"explore {len(wl)} scene(s) ({names}), objective {a.objective}"
+          + (f", budget {a.budget:g} kGE" if a.budget else "")
+          + (f": the machine of {a.machine} fixed, each scene's subdivision chosen" if machine is not None else
+             f": {'the ladder picks the level, ' if a.level == 'auto' else ''}each scene's subdivision, then up to "
+             f"{a.max_evals} machines ({a.algorithm}, then {a.polish}) at low resolution, the best {a.verify} on "
+             f"the full frames")
+          + (f" (subdivision fixed at {_dims_text(grid)})" if grid is not None else "")
+          + (f", evaluations on the Dask scheduler {a.scheduler}" if a.scheduler else "")
+          + (f", cache {a.cache}" if a.cache else "") + "; each step is reported as it ends", flush=True)
+    show = _progress_printer(total=a.max_evals)
+    search = SearchSettings(objective=a.objective, budget=a.budget, algorithm=a.algorithm, polish=a.polish,
+                            max_evals=a.max_evals, seed=a.seed, verify=a.verify, exhaustive=a.exhaustive,
+                            bound=a.bound)
+    fidelity = FidelitySettings(level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance,
+                                fraction=a.fraction)
+    from .runner import default_workers
+    workers = default_workers() if a.workers is None else a.workers
     if a.scheduler:
-        from .distributed import run_remote
-        with clock_step(f"remote  the search on the Dask scheduler {a.scheduler} (one task; its phases run there)"):
-            rep = run_remote(a.scheduler, explore_spec, a.scene, kw)
+        from .distributed import client
+        with client(a.scheduler) as c:
+            res = explore(wl, space, search, fidelity, Resources(workers=1, client=c, cache=a.cache),
+                          machine=machine, grid=grid, say=show.line, progress=show, phases=Phases(0))
     else:
-        show = _progress_printer(total=a.max_evals)
-        rep = explore(scene, progress=show, log=show.line, workers=a.workers, phases=Phases(0), **kw)
-        show.end()
-    mark_feasible(rep)
+        res = explore(wl, space, search, fidelity, Resources(workers=workers, cache=a.cache), machine=machine,
+                      grid=grid, say=show.line, progress=show, phases=Phases(0))
+    show.end()
+    rep = res.to_json()
+    rep["settings"]["command"] = getattr(a, "argv", None)
     print_report(rep)
     if a.json:
         opt.write_json(a.json, rep, indent=1)
         print(f"wrote   {a.json}")
+    if a.machine_out:
+        from ..atomic import open_replacing
+        with open_replacing(a.machine_out, "w") as f:
+            f.write(res.machine_toml())
+        print(f"wrote   {a.machine_out} (mprt simulate SCENE --config {a.machine_out} --grid NX,NY,NZ --res WxH "
+              f"--level {rep['per_scene'][0]['level']} gives each row's cycles)")
     if a.plot:
         plot(rep, a.plot)
         print(f"wrote   {a.plot}")
@@ -363,8 +417,8 @@ def run_explore(a) -> int:
                 plot(rep, png)
             report.write(a.report, report.explore_html(rep, getattr(a, "argv", None), png))
         print(f"wrote   {a.report}")
-    if not rep["feasible"]:
-        print(f"mprt explore: error: the search found no design within the budget of {rep['budget']:g} kGE "
+    if not rep["best"]["feasible"]:
+        print(f"mprt explore: error: the search found no machine within the budget of {rep['budget']:g} kGE "
               f"(its best costs {rep['best']['cost']:.0f} kGE); raise --budget or --max-evals", file=sys.stderr)
         return 1
     return 0
@@ -387,49 +441,49 @@ def check_budget(space, budget, objective) -> None:
                              f"{cost:.1f} kGE ({design.describe()})")
 
 
-def mark_feasible(rep: dict) -> None:
-    """The report says whether its best meets the budget: ``feasible`` at the top and in ``best``
-    (always true without a budget)."""
-    budget = rep.get("budget")
-    ok = budget is None or rep["objective"] == "pareto" or rep["best"]["cost"] <= budget * (1 + 1e-12)
-    rep["feasible"] = rep["best"]["feasible"] = bool(ok)
-
-
-def explore_spec(scene_spec, kw):
-    """Runs on a Dask worker: load the scene there and explore (in that process: a Dask
-    worker is a daemon process and may not start a pool)."""
-    from .explorer import explore
-    return explore(opt.load_scene(scene_spec)[0], workers=1, **kw)
+def _x(v) -> str:
+    return "-" if v is None else f"{v:.2f}x"
 
 
 def print_report(rep: dict) -> None:
+    """The answer for people: the machine (a table of its processors and what each part costs), the
+    per-scene table and the references; every line is explained in the explorer's README."""
     b = rep["best"]
-    refs = rep["references"]
-    print(f"explore {rep['scene']} at {rep['width']}x{rep['height']}, objective {rep['objective']}"
-          + (f", budget {rep['budget']:g} kGE" if rep.get("budget") else "")
-          + f": {rep['evaluations']} designs evaluated in {rep['seconds']:.1f} s")
     lv = rep["level"]
-    print(f"level   {lv['search']}: search, full-resolution polish and references"
-          + (f" (the ladder's choice within {100 * rep['tolerance']:g}%)" if lv["asked"] == "auto" else ""))
-    print(f"best    {b['described']}" + ("" if rep.get("feasible", True) else "  (OVER THE BUDGET)"))
-    over_s = "model S deadlocks" if b["speedup_over_S"] is None else f"{b['speedup_over_S']:.2f}x model S"
-    print(f"        subdivision {'x'.join(map(str, b['subdivision']))}; {b['cycles']:,.0f} cycles; "
-          f"cost {b['cost']:.0f} kGE; {over_s}; bottleneck {b['bottleneck']}")
-    print("        utilisation " + ", ".join(f"{k} {v:.0%}" for k, v in b["utilisation"].items()))
+    ev = rep["evaluations"]
+    print(f"answer  {b['described']}" + ("" if b["feasible"] else "  (OVER THE BUDGET)"))
+    print(f"        cost {b['cost']:,.0f} kGE: " + ", ".join(f"{k} {v:,.0f}" for k, v in b["cost_breakdown"].items()
+                                                            if v))
+    pes = b["machine"]["pes"]
+    print(f"        {sum(r['processors'] for r in b['processors'])} processors in {pes} PE(s):")
+    for r in b["processors"]:
+        units = " + ".join(f"{n} {k}" for k, n in r["units"].items())
+        fifo = "" if r["send_fifo"] is None else f", FIFOs {r['send_fifo']}/{r['receive_fifo']} packets"
+        mem = f", {r['memories']}" if r["memories"] else ""
+        print(f"          {r['stage']:9s} {r['copies_per_pe']} per PE x {pes} PE(s) = {r['processors']}, "
+              f"units {units}{fifo}{mem}")
+    print(f"level   {lv['search']}" + (f" (the ladder's choice within {100 * rep['tolerance']:g}%)"
+                                       if lv["asked"] == "auto" else " (as asked)"))
+    geo = b["speedup_geomean"]
+    print(f"speedup {_x(geo)} over the paper's 3MPPE (weighted geometric mean), worst scene "
+          f"{_x(b['speedup_worst'])}; sharing {b['sharing_geomean']:.3f} (geometric mean)")
+    print(f"{'scene':16s} {'weight':>6s} {'subdivision':>12s} {'cycles':>16s} {'speedup':>8s} {'sharing':>8s}  "
+          f"bottleneck")
+    for r in rep["per_scene"]:
+        iv = r.get("cycles_interval")
+        cyc = f"{r['cycles']:16,.0f}" + (f" ({iv[0]:,.0f}..{iv[1]:,.0f})" if iv else "")
+        print(f"{r['scene'][:16]:16s} {r['weight']:6g} {'x'.join(map(str, r['subdivision'])):>12s} {cyc} "
+              f"{_x(r['speedup']):>8s} {r['sharing']:8.3f}  {r['bottleneck']}")
     for name, title in (("3mppe", "paper 3MPPE"), ("M", "model M"), ("S", "model S")):
-        r = refs[name]
-        if r["cycles"] is None:
-            held = "FIFOs and ring" if lv["verify"] >= 2 else "FIFOs"
-            print(f"        {title:12s} {'deadlocks':>14s}        cost {r['cost']:5.0f} kGE (at level {lv['verify']}, "
-                  f"even with one ray tree in flight: its {held} cannot hold this scene's largest ray tree)")
-            continue
-        print(f"        {title:12s} {r['cycles']:14,.0f} cycles, cost {r['cost']:5.0f} kGE, "
-              + ", ".join(f"{k} {v:.0%}" for k, v in r["utilisation"].items()))
-    if "front" in rep:
-        print(f"front   {len(rep['front'])} designs:")
+        ref = rep["references"][name]
+        cyc = ", ".join("deadlocks" if r["cycles"] is None else f"{r['cycles']:,.0f}" for r in ref["per_scene"])
+        print(f"ref     {title:12s} cost {ref['cost']:6,.0f} kGE; cycles {cyc}")
+    if rep.get("front"):
+        print(f"front   {len(rep['front'])} machines (cost, geometric-mean figure):")
         for f in rep["front"]:
-            print(f"        {f['cost']:7.0f} kGE {f['cycles']:14,.0f} cycles  {f['design']['mapping']}, "
-                  f"{f['design']['pes']} PE(s), subdivision {'x'.join(map(str, f['subdivision']))}")
+            print(f"        {f['cost']:7,.0f} kGE {f['objective']:14,.0f}  {f['described']}")
+    print(f"search  {ev['machines']} machines; {ev['replayed']:,} scene replays, {ev['reused_from_cache']:,} "
+          f"from the cache; {rep['seconds']:.1f} s")
 
 
 def run_prepass(a) -> int:
@@ -450,7 +504,7 @@ def run_prepass(a) -> int:
     r = prepass(scene, w, h, candidates=candidates, n_range=a.n_range, fraction=a.fraction, shape=a.shape,
                 threads=a.threads, check=a.check, refine=a.refine, design=machine,
                 level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance, rules=a.rules,
-                threshold=a.threshold)
+                threshold=a.threshold, axes=a.axes, limits=opt.trace_limits(a))
     lw, lh = r["low_resolution"]
     print(f"prepass {scene.name}: {len(r['candidates'])} subdivisions traced at {lw}x{lh} in {r['seconds']:.2f} s; "
           f"cycles predicted for {w}x{h} on {r['machine']} at level {r['level']}"

@@ -93,34 +93,19 @@ def _words_per_packet() -> int:
 
 
 def max_leaves(trace) -> int:
-    """The most leaves (rays that make no rays) of any ray tree of a trace."""
-    from ..trace import PRIMARY
+    """The most leaves of any ray tree of a trace (``machine.replay.max_leaves``)."""
+    from ..machine.replay import max_leaves as leaves
 
-    rays = trace.rays
-    parent = np.asarray(rays["parent"]).astype(np.int64)
-    if not len(parent):
-        return 1
-    has_child = np.zeros(len(parent), bool)
-    has_child[parent[parent >= 0]] = True
-    tree = np.cumsum(np.asarray(rays["kind"]) == PRIMARY) - 1
-    return int(max(np.bincount(tree[~has_child]).max(initial=1), 1))
+    return leaves(trace)
 
 
 def window(design: Design, leaves: int | None = None) -> int:
-    """How many primary rays a PE's DIS keeps in flight: WINDOW_PER_COPY per copy of the
-    most replicated processor, but with finite FIFOs no more than cannot deadlock for trees
-    of up to ``leaves`` leaves (window x leaves below the smallest sum of two stages'
+    """How many primary rays a PE's DIS keeps in flight: the machine file's rule ``window =
+    "auto"`` (``machine.config.auto_window``) for the design's machine and trees of up to
+    ``leaves`` leaves: WINDOW_PER_COPY per copy of the most replicated processor, but with finite
+    FIFOs no more than cannot deadlock (window x leaves below the smallest sum of two stages'
     capacities, which depend on the feed: the machine model's ``cycle_capacity``)."""
-    from ..machine.config import stage_capacity
-
-    groups = processors(design.mapping)
-    w = WINDOW_PER_COPY * max(design.processor_copies(g) for g in groups)
-    if len(groups) > 1 and leaves:
-        cap = _fifo_packets(design)
-        caps = sorted(stage_capacity(SimpleNamespace(send_fifo=cap, receive_fifo=cap, feed=_feed(design, g),
-                                                     replicas=design.processor_copies(g))) for g in groups)
-        w = min(w, max((caps[0] + caps[1] - 1) // leaves, 1))
-    return w
+    return machine_config(design, leaves).window
 
 
 def _feed(design: Design, group) -> str:
@@ -135,7 +120,8 @@ def _fifo_packets(design: Design) -> int:
 def machine_fields(design: Design, leaves: int | None = None, dis_window: int | None = None) -> dict:
     """The machine-configuration fields (a machine TOML file's) of a design, as the
     machine is: FIFOs and ring when it has several processors, memories always; the
-    window as ``window(design, leaves)``."""
+    window ``dis_window``, or by default the rule ``"auto"`` (``machine.config.auto_window``:
+    applied for a trace's trees when it is run; ``leaves`` is not used)."""
     groups = processors(design.mapping)
     stages = []
     for g in groups:
@@ -147,7 +133,7 @@ def machine_fields(design: Design, leaves: int | None = None, dis_window: int | 
             st["send_fifo"] = st["receive_fifo"] = _fifo_packets(design)
         stages.append(st)
     cfg = {"name": "explored", "stage": stages, "pes": design.pes, "dis": "dynamic",
-           "window": dis_window or window(design, leaves)}
+           "window": dis_window or "auto"}
     if len(groups) > 1:
         cfg["ring"] = {"flit_time": 1, "buffer_classes": len(groups)}
     for s in ("IC", "SC"):
@@ -169,9 +155,10 @@ def machine_config(design: Design, leaves: int | None = None, dis_window: int | 
 
 @lru_cache(maxsize=4096)
 def _machine_config(design: Design, leaves: int | None, dis_window: int | None):
-    from ..machine.config import config_from_dict
+    from ..machine.config import config_from_dict, with_window_for
 
-    return config_from_dict(machine_fields(design, leaves, dis_window), source="explored design")
+    cfg = config_from_dict(machine_fields(design, leaves, dis_window), source="explored design")
+    return cfg if dis_window else with_window_for(cfg, leaves)
 
 
 class TraceEvaluator:
@@ -208,15 +195,7 @@ class TraceEvaluator:
 
     def run(self, design: Design, level: int = 1, scale: float = 1.0) -> Result:
         """The design at a level; ``scale`` multiplies the cycles (a sampled trace's frame)."""
-        cost = self._cost(design)
-        cfg = machine_config(design, self.leaves)
-        r = self.run_config(cfg, level, scale, cost)
-        # The window's bound is the ideal network's; on the ring (level 3) a machine can still deadlock:
-        # its DIS then keeps fewer rays in flight, halving the window until it runs (or 1 does not)
-        while r.bottleneck == "deadlock" and cfg.window > 1:
-            cfg = machine_config(design, self.leaves, cfg.window // 2)
-            r = self.run_config(cfg, level, scale, cost)
-        return r
+        return self.run_config(machine_config(design, self.leaves), level, scale, self._cost(design))
 
     def work_bound(self, design: Design, level: int, scale: float = 1.0) -> Result | None:
         """A lower bound of the design's cycles at ``level`` (scaled as ``run``'s), nothing run:
@@ -238,16 +217,26 @@ class TraceEvaluator:
         return float(sum(cost_breakdown(design, self.unit_costs).values()))
 
     def run_config(self, cfg, level: int = 1, scale: float = 1.0, cost: float = 0.0) -> Result:
-        """A machine configuration (``SystemConfig``) at a level."""
+        """A machine configuration (``SystemConfig``) at a level.  Its window rule (``window =
+        "auto"``) is applied for this trace's trees, and the window halved while it deadlocks
+        (the ideal network's bound; on the ring a machine can still deadlock), as ``mprt
+        simulate`` does; one that deadlocks even with one ray tree in flight is reported with
+        ``bottleneck = "deadlock"`` and DEADLOCK_CYCLES."""
+        from ..machine.config import halved_window, with_window_for
         from ..machine.errors import DeadlockError
 
         if level not in LEVELS:
             raise ValueError(f"level must be 0, 1, 2 or 3, not {level!r}")
-        try:
-            e = self.evaluator(cfg).evaluate(cfg, level)
-        except DeadlockError:
-            return Result(cycles=DEADLOCK_CYCLES, level=level, cost=cost, bottleneck="deadlock")
-        return result_of(e, cfg, cost, scale)
+        cfg = with_window_for(cfg, self.leaves)
+        while True:
+            try:
+                e = self.evaluator(cfg).evaluate(cfg, level)
+            except DeadlockError:
+                cfg = halved_window(cfg)
+                if cfg is None:
+                    return Result(cycles=DEADLOCK_CYCLES, level=level, cost=cost, bottleneck="deadlock")
+                continue
+            return result_of(e, cfg, cost, scale)
 
 
 def result_of(e, cfg, cost: float, scale: float = 1.0) -> Result:
@@ -294,9 +283,11 @@ class SceneEvaluator:
 
     def __init__(self, scene, width: int, height: int, level: int = 1, shape: str = "cube",
                  unit_costs: UnitCosts | None = None, max_visits: int = 8_000_000, rules: str = "paper",
-                 threads: int = 1, sample: str | None = None, threshold: float | None = None):
+                 threads: int = 1, sample: str | None = None, threshold: float | None = None,
+                 max_rays: int | None = None, max_depth: int | None = None):
         self.scene, self.width, self.height = scene, int(width), int(height)
         self.threshold = threshold
+        self.max_rays, self.max_depth = max_rays, max_depth
         self.level, self.shape, self.rules, self.threads = level, shape, rules, threads
         self.unit_costs = unit_costs or UnitCosts()
         self.max_visits = max_visits
@@ -314,7 +305,8 @@ class SceneEvaluator:
         from these (one tracing thread each; the trace is the same whatever the threads)."""
         return {"width": self.width, "height": self.height, "level": self.level, "shape": self.shape,
                 "unit_costs": self.unit_costs, "max_visits": self.max_visits, "rules": self.rules, "threads": 1,
-                "sample": self.sample, "threshold": self.threshold}
+                "sample": self.sample, "threshold": self.threshold, "max_rays": self.max_rays,
+                "max_depth": self.max_depth}
 
     def evaluator(self, dims) -> tuple:
         """(TraceEvaluator, scale) of a grid's trace (made here, or waited for where a prefetch
@@ -350,10 +342,11 @@ class SceneEvaluator:
         if self.sample:
             from ..fidelity import trace_sample
             st = trace_sample(grid, self.sample, self.width, self.height, rules=self.rules,
-                              threshold=self.threshold, threads=threads)
+                              threshold=self.threshold, threads=threads, **self._limits())
             tr, scale = st.trace, 1.0 / st.fraction
         else:
-            _, tr = grid.trace(self.width, self.height, rules=self.rules, threshold=self.threshold, threads=threads)
+            _, tr = grid.trace(self.width, self.height, rules=self.rules, threshold=self.threshold, threads=threads,
+                               **self._limits())
             scale = 1.0
         ev = TraceEvaluator(tr, self.unit_costs, keep=KEEP_PROCESSORS)
         with self._lock:
@@ -362,6 +355,10 @@ class SceneEvaluator:
             self.trace_seconds += time.perf_counter() - t0
             self.traces_made += 1
             self._held[dims] = (ev, scale)
+
+    def _limits(self) -> dict:
+        """The ray budget and depth of the traces, where set (else the library's defaults)."""
+        return {k: v for k, v in (("max_rays", self.max_rays), ("max_depth", self.max_depth)) if v is not None}
 
     def prefetch(self, dims_list, runs=(), level: int | None = None) -> None:
         """Make these grids' traces (and their evaluators), in this order, on a thread of this

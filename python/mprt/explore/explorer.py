@@ -1,436 +1,621 @@
-"""``explore()``: search a design space for one scene and report the best machine."""
+"""``explore()``: one machine for a workload of scenes, and each scene's subdivision.
+
+A chip is built once and must run every scene; the voxel subdivision is software, chosen per
+scene.  So the machine (every design variable of the space) is one for the workload and the
+subdivision (nx, ny, nz) is free per scene.  The search is a block coordinate descent:
+
+1. **level** (``ladder``): the fidelity ladder on each scene's low-resolution trace;
+2. **subdivisions**: each scene's (nx, ny, nz) for the paper's 3MPPE (``subdivision.descend``);
+3. **search**: the machine, every scene at its subdivision, at low resolution: NLopt's global
+   phase and the lattice polish (``search.search``), or every design where the space has at
+   most ``SearchSettings.exhaustive`` of them; a design's figure is the workload objective;
+4. **subdivisions again** for the best machine, and where one moved, the polish again;
+5. **full resolution**: the ``verify`` best machines on every scene at its full frame, the best
+   of them kept; each scene's subdivision descended again there, for it and for the 3MPPE;
+6. **per scene**: the answer's figures on each full frame at the level, its speed-up over the
+   3MPPE (at the 3MPPE's own best subdivision), and the scene's own best machine under the same
+   budget (``own_best``) with ``sharing``, what the scene gives up by sharing the chip.
+
+Objectives (all under ``budget``): ``geomean`` (default) the weighted geometric mean of the
+speed-ups over the 3MPPE (ranked as the weighted geometric mean of cycles), ``total`` the
+weighted total cycles, ``worst`` the worst scene's speed-up, ``pareto`` the front of the
+geometric mean against cost.  A machine that deadlocks on any scene is infeasible.
+"""
 from __future__ import annotations
 
+import json
 import math
 import time
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
 from ..errors import MprtError
-from .evaluate import DEADLOCK_CYCLES, SceneEvaluator, grid_dims, machine_config
-from .hwcost import UnitCosts, cost_breakdown, hardware_cost
-from .parallel import Pool
-from .prepass import low_resolution
-from .refine import CHECK_BEHIND, SCREEN_MARGIN, Screen, refine as _refine
-from .problem import front_of
-from .search import Problem, cost_range, global_start, pareto, search, walk
-from .space import REFERENCE_DESIGNS, Point, Space, default_space
-from ..atomic import replacing
+from .evaluate import DEADLOCK_CYCLES, Result
+from .hwcost import UnitCosts, config_breakdown, cost_breakdown, hardware_cost
+from .problem import INFEASIBLE, Problem
+from .runner import Runner, Task, register_scene
+from .search import compass, cost_range, exhaustive, search as run_search
+from .space import Design, Point, Space, default_space
+from . import subdivision as subdiv
 
-
-# level 2 (the ring without memories) is left out of the ladder: where it would do, level 3 costs little more
-LADDER_LEVELS = (0, 1, 3)
-# A design's level-1 cycles (no ring, no memories: 5 to 15 ms a design) bound its level-2 and -3 cycles from
-# below, but not strictly (the order of events differs): level 3 was up to 3.2% below level 1 on 150 random
-# designs of tetra, 1.4% on balls (README).  So a design is ruled out (``Problem.bound_points``) only when
+OBJECTIVES = ("geomean", "total", "worst", "pareto")
+# A design's level-1 cycles bound its level-2 and -3 cycles from below, but not strictly: level 3
+# was up to 3.2% below level 1 on 150 random designs of tetra.  A design is ruled out only when
 # level 1 less this slack is slower than the incumbent.
 BOUND_LEVEL, BOUND_SLACK = 1, 0.10
+# Above this many pixels, a subdivision is chosen at full resolution on a sample of the frame's
+# tiles (PROBE_SAMPLE: one 16x16 tile in 16, stratified), and only the figures reported are the
+# whole frame's
+PROBE_PIXELS, PROBE_SAMPLE = 256 * 256, "stratified:16:1"
+DESCENT_EVALS = 16         # grids a subdivision's descent tries, about (for the estimates)
+SEARCH_POLISH = 4          # the polish after a subdivision moved: this many x 8 steps a free variable
 
 
-def _bounds(results) -> list:
-    """Lower bounds for a search at level 2 or 3 from level-1 results: the cycles less
-    BOUND_SLACK (none, 0 cycles, where level 1 deadlocks)."""
-    from dataclasses import replace
+@dataclass(frozen=True)
+class SearchSettings:
+    """What is searched for and how."""
+    objective: str = "geomean"
+    budget: float | None = None
+    algorithm: str = "direct-l"
+    polish: str = "lattice"
+    max_evals: int = 1000
+    seed: int = 1
+    budgets: int = 6                 # pareto: budgets swept
+    verify: int = 4                  # best machines of the search re-evaluated at full resolution
+    own_evals: int | None = None     # per scene, the polish of its own best machine (default 8 a free variable)
+    exhaustive: int = 200            # at most this many machines: every one is evaluated
+    bound: bool = True               # levels 2 and 3: level-1 bounds rule designs out
+
+    def __post_init__(self):
+        if self.objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, not {self.objective!r}")
+
+
+@dataclass(frozen=True)
+class FidelitySettings:
+    """At which level, and on which traces."""
+    level: int | str = "auto"
+    tolerance: float = 0.01
+    fraction: int | None = None      # search on traces at 1/fraction of each scene's frame (default ~64 px)
+
+
+@dataclass(frozen=True)
+class Resources:
+    """Where the evaluations run (``runner.Runner``)."""
+    workers: int | None = 1
+    client: object = None            # a Dask client
+    cache: str | None = None         # a folder: every evaluation kept, a killed run resumes
+    threads: int = 1
+
+
+class NoLiveDesignError(MprtError, RuntimeError):
+    """No design the explorer evaluated runs every scene to the end at its level."""
+
+
+@dataclass
+class SceneState:
+    """What the explorer knows of one scene."""
+    index: int
+    entry: object
+    scene: object
+    hash: str
+    full: tuple
+    low: tuple
+    extent: tuple
+    dims: tuple = None               # the search's subdivision (low resolution)
+    ref_low: float = None            # the 3MPPE at its own best subdivision, low resolution
+    ref_dims: tuple = None           # that subdivision
+    ref_full: float = None           # the 3MPPE at its own best subdivision, full resolution
+
+
+@dataclass
+class ExploreResult:
+    """The answer: ``best`` (the machine), ``per_scene`` (a row per scene, in order), ``front``
+    (pareto), ``references``, ``history`` and the run's figures; ``to_json()`` is ``mprt
+    explore --json``'s document."""
+    best: dict
+    per_scene: list
+    references: dict
+    front: list
+    history: list
+    report: dict = field(default_factory=dict)
+    machine: object = None           # the answer as a SystemConfig (``machine_toml`` writes its file)
+
+    def to_json(self) -> dict:
+        return {**self.report, "best": self.best, "per_scene": self.per_scene, "references": self.references,
+                "front": self.front, "history": self.history}
+
+    def machine_toml(self) -> str:
+        """The answer as a machine file (``mprt simulate --config`` runs it as it is)."""
+        from ..machine.config import config_toml
+
+        rows = [f"  {r['scene']}: subdivision {'x'.join(map(str, r['subdivision']))} at "
+                f"{r['resolution'][0]}x{r['resolution'][1]}, level {r['level']}: {r['cycles']:,.0f} cycles"
+                for r in self.per_scene]
+        head = (f"mprt explore's answer ({self.report.get('objective')}"
+                + (f", budget {self.report['budget']:g} kGE" if self.report.get("budget") else "")
+                + f"): {self.best['cost']:.0f} kGE\n{self.best['described']}\n"
+                + "mprt simulate SCENE --config THIS --grid NX,NY,NZ --res WxH --level L gives, per scene:\n"
+                + "\n".join(rows))
+        return config_toml(self.machine, head)
+
+
+def _aggregate(objective: str, cycles: list, weights: list, refs: list) -> float:
+    """The workload's figure of a machine from its scenes' cycles (lower is better)."""
+    if any(c >= DEADLOCK_CYCLES for c in cycles):
+        return DEADLOCK_CYCLES
+    w = np.asarray(weights, float)
+    c = np.asarray(cycles, float)
+    if objective == "total":
+        return float((w * c).sum())
+    if objective == "worst":
+        return float(max(ci / ri for ci, ri in zip(c, refs)))
+    return float(np.exp((w * np.log(np.maximum(c, 1.0))).sum() / w.sum()))
+
+
+def _speedup(ref, cycles):
+    if ref is None or cycles is None or not cycles or cycles >= DEADLOCK_CYCLES or ref >= DEADLOCK_CYCLES:
+        return None
+    return ref / cycles
+
+
+class _Explorer:
+    """One exploration's state (``explore`` is its front door)."""
+
+    def __init__(self, workload, space, search, fidelity, resources, machine, grid, say, progress, phases=None):
+        self.workload, self.space, self.opts, self.fid, self.res = workload, space, search, fidelity, resources
+        self.fixed, self.grid = machine, grid
+        self.say, self.progress = say, progress
+        self.phases = phases or _Silent()
+        self.unit_costs = UnitCosts.from_table(space.cost)
+        self.t0 = time.perf_counter()
+        self.scenes: list[SceneState] = []
+        for k, e in enumerate(workload):
+            sc = e.load()
+            info = sc.info()
+            full = tuple(e.res or info["resolution"])
+            frac = fidelity.fraction or max(1, min(full) // 64)
+            from .prepass import low_resolution
+            low = full if frac == 1 else tuple(low_resolution(full[0], full[1], frac))
+            h = sc.content_hash()
+            register_scene(h, sc)
+            self.scenes.append(SceneState(k, e, sc, h, full, low, tuple(np.subtract(info["hi"], info["lo"]))))
+        self.runner = Runner(resources.workers, resources.client,
+                             _cache(resources.cache), say=say)
+        self.per_scene_memo: dict = {}      # (design key, dims of every scene) -> [Result per scene]
+        from ..machine.config import builtin
+        self.refs = {name: builtin(name) for name in ("3mppe", "M", "S")}
+
+    # -- evaluation -------------------------------------------------------------------------------
+    def run(self, pairs, level: int, res: str = "low") -> list:
+        """Results of (scene index, dims, machine) pairs at a level: at the search's low resolution
+        ("low"), on each scene's whole frame ("full"), or to choose a subdivision at full
+        resolution ("probe": a sample of the frame's tiles above PROBE_PIXELS, else the frame)."""
+        groups: dict = {}
+        for n, (k, dims, m) in enumerate(pairs):
+            groups.setdefault((k, tuple(dims)), []).append(n)
+        tasks, order = [], []
+        for (k, dims), ns in groups.items():
+            s = self.scenes[k]
+            w, h = s.low if res == "low" else s.full
+            sample = PROBE_SAMPLE if res == "probe" and w * h > PROBE_PIXELS else None
+            tasks.append(Task(s.entry, s.hash, w, h, dims, level, tuple(pairs[n][2] for n in ns), self.unit_costs,
+                              max_visits=2_000_000 if res == "low" else 1, sample=sample))
+            order.append(ns)
+        out = [None] * len(pairs)
+        for ns, rows in zip(order, self.runner.run(tasks)):
+            for n, r in zip(ns, rows):
+                out[n] = r
+        return out
+
+    def cost(self, machine) -> float:
+        if isinstance(machine, Design):
+            return hardware_cost(machine, self.unit_costs)
+        return float(sum(config_breakdown(machine, self.unit_costs).values()))
+
+    def breakdown(self, machine) -> dict:
+        if isinstance(machine, Design):
+            return cost_breakdown(machine, self.unit_costs)
+        return config_breakdown(machine, self.unit_costs)
+
+    def descend(self, k: int, machine, level: int, start, full: bool = False) -> tuple:
+        """Scene k's subdivision for a machine (``subdivision.descend``; held where --grid fixes it),
+        at low resolution or, ``full``, on full-resolution probes (``run``'s "probe")."""
+        res = "probe" if full else "low"
+        if self.grid is not None:
+            dims = tuple(self.grid)
+            return dims, self.run([(k, dims, machine)], level, res)[0].cycles
+        values = self.space_axis_values()
+        s = self.scenes[k]
+        dims, cyc, _ = subdiv.descend(
+            lambda cands: [r.cycles for r in self.run([(k, c, machine) for c in cands], level, res)],
+            start, s.extent, values)
+        return dims, cyc
+
+    def space_axis_values(self) -> tuple:
+        names = {v.name: v for v in self.space.variables}
+        if "subdivision.nx" in names:
+            vals = set(names["subdivision.nx"].values) | set(names["subdivision.ny"].values) | \
+                set(names["subdivision.nz"].values)
+            return tuple(sorted(vals))
+        return tuple(sorted(names["subdivision.n"].values)) if "subdivision.n" in names else subdiv.AXIS_VALUES
+
+    def start(self, k: int) -> tuple:
+        if self.grid is not None:
+            return tuple(self.grid)
+        return subdiv.start_dims(self.scenes[k].scene, self.space_axis_values())
+
+    def workload_points(self, points, level: int) -> list:
+        """The workload figures of points (the hardware space's: each scene at its own dims)."""
+        dims = tuple(s.dims for s in self.scenes)
+        pairs = [(s.index, s.dims, p.design) for p in points for s in self.scenes]
+        got = self.run(pairs, level)
+        out = []
+        n = len(self.scenes)
+        for i, p in enumerate(points):
+            rows = got[i * n:(i + 1) * n]
+            self.per_scene_memo[(p.design.key(), dims)] = rows
+            agg = _aggregate(self.opts.objective, [r.cycles for r in rows], self.workload.weights,
+                             [s.ref_low for s in self.scenes])
+            dead = [self.scenes[j].entry.name for j, r in enumerate(rows) if r.deadlocked]
+            out.append(Result(cycles=agg, level=level, cost=self.cost(p.design),
+                              bottleneck="deadlock" if dead else rows[0].bottleneck,
+                              engine=rows[0].engine, utilisation=rows[0].utilisation if n == 1 else {},
+                              loads=rows[0].loads if n == 1 else {}))
+        return out
+
+    def bounds(self, points) -> list:
+        """Level-1 bounds of points (``slack_bounds``)."""
+        return slack_bounds(self.workload_points(points, BOUND_LEVEL))
+
+    # -- the phases ---------------------------------------------------------------------------------
+    # -- estimates (from what the runner has measured so far; None before anything ran) -------------
+    def _est_descents(self, lv: int, scale: float = 1.0, traces: int = DESCENT_EVALS) -> float | None:
+        """Descents of every scene's subdivision: ``traces`` grids each, traced and replayed, at
+        ``scale`` times the low resolution's pixels."""
+        t, r = self.runner.per_trace(), self.runner.per_replay(lv)
+        if t is None or r is None:
+            return None
+        return len(self.scenes) * traces * (t * scale + r * scale)
+
+    def _est_search(self, hw: Space, lv: int) -> float | None:
+        r = self.runner.per_replay(lv)
+        if r is None:
+            return None
+        n = _distinct(hw)
+        machines = n if n is not None and n <= self.opts.exhaustive else \
+            self.opts.max_evals + SEARCH_POLISH * 8 * sum(v.size > 1 for v in hw.variables)
+        parallel = min(max(self.runner.workers, 1), len(self.scenes))
+        return machines * len(self.scenes) * r / parallel
+
+    def _est_full(self, lv: int) -> float | None:
+        """References, checks and the answer at full resolution: whole frames and probes."""
+        t, r = self.runner.per_trace(), self.runner.per_replay(lv)
+        if t is None or r is None:
+            return None
+        out = 0.0
+        for s in self.scenes:
+            ratio = s.full[0] * s.full[1] / (s.low[0] * s.low[1])
+            if ratio == 1:
+                out += 3 * (t + r)
+                continue
+            probe = ratio / 16 if s.full[0] * s.full[1] > PROBE_PIXELS else ratio
+            out += 3 * (t + 4 * r) * ratio + 2 * DESCENT_EVALS // 2 * (t + r) * probe
+        return out
+
+    def explore(self) -> ExploreResult:
+        from .ladder import LADDER_LEVELS, choose_level, ladder_designs
+
+        ph = self.phases
+        names = [s.entry.name for s in self.scenes]
+        hw = self.space.with_subdivision((1, 1, 1))
+        lv_level = self.fid.level
+        starts = [self.start(s.index) for s in self.scenes]
+        multi = len(self.scenes) > 1 and self.fixed is None
+        ph.n = (lv_level == "auto") + 1 + (self.fixed is None) + 1 + multi
+
+        def ladder_run(k, designs, lv):
+            t = time.perf_counter()
+            got = self.run([(k, starts[k], d) for d in designs], lv)
+            return got, time.perf_counter() - t
+        said: list = []
+        if lv_level == "auto":
+            with ph.step(f"ladder: {len(ladder_designs(hw, self.opts.seed))} designs at levels "
+                         f"{', '.join(map(str, LADDER_LEVELS))} on each scene's low-resolution trace"):
+                levels = choose_level(lv_level, self.fid.tolerance, names, ladder_run, hw, self.opts.seed,
+                                      said.append)
+        else:
+            levels = choose_level(lv_level, self.fid.tolerance, names, ladder_run, hw, self.opts.seed)
+        for text in said:
+            self.say(text)
+        lv = levels["search"]
+        # 2. each scene's subdivision for the 3MPPE
+        ref = self.refs["3mppe"]
+        if self.runner.per_trace() is None:       # (a fixed level: one trace to estimate from)
+            self.run([(0, starts[0], ref)], lv)
+        with ph.step(f"subdivisions: each scene's nx, ny, nz for the paper's 3MPPE at level {lv}",
+                     self._est_descents(lv)):
+            for s, st in zip(self.scenes, starts):
+                s.dims, s.ref_low = self.descend(s.index, ref, lv, st)
+                s.ref_dims = s.dims
+                if s.ref_low >= DEADLOCK_CYCLES:
+                    s.ref_low = self.run([(s.index, s.dims, self.refs["M"])], lv)[0].cycles
+                said.append(f"subdiv  {s.entry.name}: {'x'.join(map(str, s.dims))} at {s.low[0]}x{s.low[1]}")
+        for text in said[len(said) - len(self.scenes):]:
+            self.say(text)
+        # 3. the machine
+        history: list = []
+        front: list = []
+        problem = None
+        if self.fixed is not None:
+            best_machine = self.fixed
+            self.say("search  none: the machine is fixed (--machine); only each scene's subdivision is chosen")
+        else:
+            ph.line(f"search: the machine on {len(self.scenes)} scene(s) at level {lv}, then each scene's "
+                    f"subdivision for it again", self._est_search(hw, lv))
+            t = time.perf_counter()
+            problem, best_machine, front = self.search(hw, lv)
+            history += _rows(problem, "search", lv, [x.dims for x in self.scenes])
+            # the subdivisions again for that machine; the polish again where one moved
+            for _ in range(2):
+                moved = False
+                for s in self.scenes:
+                    dims, _ = self.descend(s.index, best_machine, lv, s.dims)
+                    if dims != s.dims:
+                        self.say(f"subdiv  {s.entry.name}: {'x'.join(map(str, s.dims))} -> "
+                                 f"{'x'.join(map(str, dims))} for the search's best")
+                        s.dims, moved = dims, True
+                if not moved or self.opts.objective == "pareto":
+                    break
+                problem = self.problem(hw, lv)
+                idx = hw.canonical(hw.index_of(Point((1, 1, 1), best_machine)))
+                problem.evaluate_many([idx])
+                compass(problem, idx, SEARCH_POLISH * 8 * len(problem.free))
+                history += _rows(problem, "polish", lv, [x.dims for x in self.scenes])
+                best_machine = problem.best().point.design
+            self.say(f"search  done in {time.perf_counter() - t:.1f} s: {best_machine.describe()}, "
+                     f"{self.cost(best_machine):.0f} kGE")
+        # 4. full resolution: the references, the verify best, each scene's subdivision there
+        with ph.step("full resolution: the references at their own subdivisions, the best machines, each "
+                     "scene's subdivision there", self._est_full(lv)):
+            refs = self.references(lv)
+            best_machine, full_rows = self.full_resolution(problem, best_machine, lv, history)
+        return self.answer(best_machine, full_rows, lv, levels, history, front, problem, refs, multi)
+
+    def problem(self, hw: Space, lv: int) -> Problem:
+        objective = "pareto" if self.opts.objective == "pareto" else "time"
+        bound = self.bounds if self.opts.bound and lv > BOUND_LEVEL and objective != "pareto" else None
+        return Problem(hw, lambda pts: self.workload_points(pts, lv), objective,
+                       self.opts.budget if objective != "pareto" else None, progress=self.progress,
+                       cost_of=lambda p: hardware_cost(p.design, self.unit_costs), bound_points=bound)
+
+    def search(self, hw: Space, lv: int):
+        problem = self.problem(hw, lv)
+        n = _distinct(hw)
+        t = time.perf_counter()
+        front = []
+        if n is not None and n <= self.opts.exhaustive:
+            exhaustive(problem, batch=16)        # (batches small enough for progress to show)
+            if self.opts.objective == "pareto":
+                front = problem.front()
+        elif self.opts.objective == "pareto":
+            from .search import pareto
+            lo, hi = cost_range(hw, self.unit_costs)
+            budgets = np.geomspace(lo * 1.05, hi, self.opts.budgets)
+            front = pareto(problem, budgets, self.opts.algorithm, self.opts.polish,
+                           max(self.opts.max_evals // len(budgets), 20), self.opts.seed).front
+        else:
+            run_search(problem, self.opts.algorithm, self.opts.polish, self.opts.max_evals, self.opts.seed)
+        if self.progress is not None and hasattr(self.progress, "end"):
+            self.progress.end()
+        live = [e for e in problem.memo.values() if not e.bound and e.cycles < DEADLOCK_CYCLES]
+        if not live:
+            raise NoLiveDesignError(self._dead_message(problem, lv))
+        if self.opts.objective == "pareto":
+            if not front:
+                raise NoLiveDesignError(self._dead_message(problem, lv))
+            best = min(front, key=lambda e: (e.cycles * e.cost, e.serial))      # the knee
+        else:
+            best = problem.best()
+        how = ("every machine of the space" if n is not None and n <= self.opts.exhaustive else
+               f"{self.opts.algorithm}, then {self.opts.polish}")
+        self.say(f"search  {len(problem.memo)} machines ({how}; {problem.runs} replayed at level {lv}) in "
+                 f"{time.perf_counter() - t:.1f} s: best {best.point.design.describe()}, {best.cost:.0f} kGE")
+        return problem, best.point.design, front
+
+    def _dead_message(self, problem, lv) -> str:
+        dead: dict = {}
+        for key, rows in self.per_scene_memo.items():
+            for s, r in zip(self.scenes, rows):
+                if r.deadlocked:
+                    dead[s.entry.name] = dead.get(s.entry.name, 0) + 1
+        which = ", ".join(f"{n} ({c})" for n, c in dead.items()) or "none"
+        return (f"explore: every machine evaluated at level {lv} deadlocks on some scene ({len(problem.memo)} "
+                f"machines; deadlocks by scene: {which}): give the FIFOs more room in the space")
+
+    def full_resolution(self, problem, best_machine, lv: int, history: list) -> tuple:
+        """The ``verify`` best machines at each scene's full frame; the best, with each scene's
+        subdivision descended there.  Returns (machine, [(dims, Result) per scene])."""
+        cands = [best_machine]
+        if problem is not None and self.opts.objective != "pareto":
+            ranked = [e for e in problem.ranked() if e.cycles < DEADLOCK_CYCLES][:self.opts.verify]
+            cands += [e.point.design for e in ranked]
+        cands = list({(d.key() if isinstance(d, Design) else repr(d)): d for d in cands}.values())
+        any_full = any(s.full != s.low for s in self.scenes)
+        order = list(range(len(cands)))
+        if any_full and len(cands) > 1:
+            pairs = [(s.index, s.dims, d) for d in cands for s in self.scenes]
+            got = self.run(pairs, lv, "full")
+            n = len(self.scenes)
+            scored = []
+            for i, d in enumerate(cands):
+                rows = got[i * n:(i + 1) * n]
+                agg = _aggregate(self.opts.objective, [r.cycles for r in rows], self.workload.weights,
+                                 [s.ref_full for s in self.scenes])
+                feasible = self.opts.budget is None or self.cost(d) <= self.opts.budget * (1 + 1e-12)
+                scored.append((not feasible, agg, i))
+                history.append({"phase": "full", "design": d.to_dict(), "cycles": None if agg >= DEADLOCK_CYCLES
+                                else agg, "cost": self.cost(d), "feasible": feasible, "level": lv,
+                                "deadlock": agg >= DEADLOCK_CYCLES})
+            order = [i for _, _, i in sorted(scored)]
+        dead: list = []
+        for i in order:             # the best first; one that deadlocks on a whole frame gives way to the next
+            machine, rows = cands[i], []
+            for s in self.scenes:
+                dims, _ = self.descend(s.index, machine, lv, s.dims, full=any_full)
+                r = self.run([(s.index, dims, machine)], lv, "full")[0]
+                if r.deadlocked and dims != s.dims:      # (a probe's trees are not all of the frame's)
+                    dims, r = s.dims, self.run([(s.index, s.dims, machine)], lv, "full")[0]
+                if r.deadlocked:
+                    dead.append(s.entry.name)
+                    break
+                rows.append((dims, r))
+            else:
+                return machine, rows
+        raise NoLiveDesignError(f"explore: each of the {len(order)} best machines deadlocks on a whole frame at "
+                                f"level {lv} (on {', '.join(dict.fromkeys(dead))}): give the FIFOs more room in "
+                                f"the space")
+
+    def references(self, lv: int) -> dict:
+        """The 3MPPE at each scene's own best subdivision (descended at full resolution from its
+        low-resolution one); models M and S at the 3MPPE's subdivision."""
+        out = {}
+        any_full = any(s.full != s.low for s in self.scenes)
+        t = time.perf_counter()
+        dims3 = []
+        for s in self.scenes:
+            d = s.ref_dims
+            if any_full:
+                d, _ = self.descend(s.index, self.refs["3mppe"], lv, s.ref_dims, full=True)
+            dims3.append(d)
+        for name, cfg in self.refs.items():
+            got = self.run([(s.index, d, cfg) for s, d in zip(self.scenes, dims3)], lv, "full")
+            out[name] = {"machine": cfg.to_dict(), "cost": self.cost(cfg), "cost_breakdown": self.breakdown(cfg),
+                         "per_scene": [{"scene": s.entry.name, "subdivision": list(d),
+                                        "cycles": None if r.deadlocked else r.cycles, "deadlock": r.deadlocked,
+                                        "utilisation": r.utilisation, "bottleneck": r.bottleneck}
+                                       for s, d, r in zip(self.scenes, dims3, got)]}
+            if len(self.scenes) == 1:
+                out[name]["cycles"] = out[name]["per_scene"][0]["cycles"]
+        for s, row, m in zip(self.scenes, out["3mppe"]["per_scene"], out["M"]["per_scene"]):
+            s.ref_full = row["cycles"] if row["cycles"] is not None else m["cycles"]
+        return out
+
+    def own_best(self, problem, lv: int, full_rows) -> list:
+        """Per scene: the best machine of the search's for that scene alone under the budget, walked
+        a little further on that scene alone (``own_evals``), at full resolution."""
+        if problem is None:
+            return [None] * len(self.scenes)
+        out = []
+        hw = problem.space
+        evals = self.opts.own_evals if self.opts.own_evals is not None else 8 * len(problem.free)
+        for j, s in enumerate(self.scenes):
+            if len(self.scenes) == 1:
+                out.append(None)        # the answer is its own best
+                continue
+            single = Problem(hw, lambda pts, j=j: [self.run([(j, self.scenes[j].dims, p.design)], lv)[0]
+                                                   for p in pts], "time", self.opts.budget,
+                             cost_of=lambda p: hardware_cost(p.design, self.unit_costs))
+            for e in problem.memo.values():
+                rows = self.per_scene_memo.get((e.point.design.key(), tuple(x.dims for x in self.scenes)))
+                if rows is not None and not e.bound:
+                    single.add(e.point, replace(rows[j], cost=e.cost))
+            start = single.best()
+            if start is None:
+                out.append(None)
+                continue
+            if evals > 0:
+                compass(single, start.index, evals)
+            d = single.best().point.design
+            r = self.run([(j, full_rows[j][0], d)], lv, "full")[0]
+            out.append((d, full_rows[j][0], r))
+        return out
+
+    def answer(self, machine, full_rows, lv, levels, history, front, problem, refs, multi) -> ExploreResult:
+        from .evaluate import machine_config
+
+        own = [None] * len(self.scenes)
+        if multi:
+            r = self.runner.per_replay(lv)
+            evals = self.opts.own_evals if self.opts.own_evals is not None else 8 * len(problem.free)
+            t = self.runner.per_trace()
+            est = None if r is None or t is None else len(self.scenes) * (evals * r + sum(
+                s.full[0] * s.full[1] / (s.low[0] * s.low[1]) for s in self.scenes) / len(self.scenes) * (t + r))
+            with self.phases.step("own best: each scene's own best machine under the budget, for its sharing",
+                                  est):
+                own = self.own_best(problem, lv, full_rows)
+        cfg = machine_config(machine) if isinstance(machine, Design) else machine
+        per_scene = []
+        for s, (dims, r), o, ref in zip(self.scenes, full_rows, own, refs["3mppe"]["per_scene"]):
+            row = {"scene": s.entry.name, "weight": s.entry.weight, "resolution": list(s.full),
+                   "subdivision": list(dims), "level": lv, "cycles": r.cycles,
+                   "speedup": _speedup(ref["cycles"], r.cycles), "bottleneck": r.bottleneck,
+                   "utilisation": r.utilisation, "engine": r.engine}
+            if o is not None and o[2].cycles < r.cycles:
+                od, odims, orr = o
+                row["own_best"] = {"cycles": orr.cycles, "design": od.to_dict(), "described": od.describe(),
+                                   "cost": self.cost(od), "subdivision": list(odims), "machine": "own"}
+            else:
+                row["own_best"] = {"cycles": r.cycles, "machine": "workload"}
+            row["sharing"] = row["own_best"]["cycles"] / r.cycles
+            per_scene.append(row)
+        weights = np.asarray(self.workload.weights, float)
+        sp = [row["speedup"] for row in per_scene]
+        geo = float(np.exp((weights * np.log(sp)).sum() / weights.sum())) if all(sp) else None
+        share = [row["sharing"] for row in per_scene]
+        cost = self.cost(machine)
+        best = {"design": machine.to_dict() if isinstance(machine, Design) else None,
+                "machine": cfg.to_dict(), "described": machine.describe() if isinstance(machine, Design)
+                else f"the machine of {machine.source or machine.name}",
+                "processors": processor_table(cfg),
+                "cost": cost, "cost_breakdown": self.breakdown(machine),
+                "feasible": self.opts.budget is None or self.opts.objective == "pareto"
+                or cost <= self.opts.budget * (1 + 1e-12),
+                "speedup_geomean": geo, "speedup_worst": min(sp) if all(sp) else None,
+                "total_cycles": float(sum(w * r.cycles for w, (_, r) in zip(weights, full_rows))),
+                "sharing_geomean": float(np.exp((weights * np.log(share)).sum() / weights.sum()))}
+        front_rows = [{"design": e.point.design.to_dict(), "described": e.point.design.describe(),
+                       "cost": e.cost, "objective": e.cycles} for e in front]
+        report = {"workload": self.workload.to_dict(), "objective": self.opts.objective, "budget": self.opts.budget,
+                  "level": levels, "tolerance": self.fid.tolerance,
+                  "search_resolution": [list(s.low) for s in self.scenes],
+                  "algorithm": {"global": self.opts.algorithm, "polish": self.opts.polish,
+                                "max_evals": self.opts.max_evals, "seed": self.opts.seed},
+                  "evaluations": {"machines": len({(r.get("phase"), json.dumps(r.get("design"), sort_keys=True))
+                                                   for r in history if r.get("phase") in ("search", "polish")}),
+                                  "replayed": self.runner.ran, "reused_from_cache": self.runner.reused,
+                                  "worker_restarts": self.runner.pool.restarts if self.runner.pool else 0},
+                  "workers": self.runner.workers,
+                  "space": {"source": self.space.source,
+                            "variables": {v.name: list(v.values) for v in self.space.variables},
+                            "unit_costs": self.unit_costs.to_dict()},
+                  "settings": settings(self.workload, self.grid, [s.scene for s in self.scenes]),
+                  "seconds": time.perf_counter() - self.t0}
+        return ExploreResult(best, per_scene, refs, front_rows, history, report, cfg)
+
+
+def slack_bounds(results) -> list:
+    """Lower bounds for a search at level 2 or 3 from level-1 results: the cycles less BOUND_SLACK
+    (none, 0 cycles, where level 1 deadlocks)."""
     return [replace(r, cycles=0.0 if r.cycles >= DEADLOCK_CYCLES else float(np.floor(r.cycles * (1 - BOUND_SLACK))))
             for r in results]
 
 
-def _bounder(pool, lv: int, objective: str, bound: bool):
-    """SceneEvaluator -> the ``Problem.bound_points`` of a search at level ``lv`` (None: no bounds)."""
-    if not bound or lv <= BOUND_LEVEL or objective == "pareto":
-        return lambda sev: None
-    return lambda sev: (lambda pts: _bounds(pool.run(sev, pts, BOUND_LEVEL)))
-
-
-PREFETCH_MAX = 32      # subdivisions a search traces ahead, at most
-
-
-def _prefetch_order(scene, space: Space) -> list:
-    """The grids of a space's subdivisions from the middle one outwards (where DIRECT-L begins;
-    the walks then step to neighbours): what the search's evaluator traces ahead while the
-    global phase replays on one core (none where the space has more than PREFETCH_MAX)."""
-    subs = space.subdivisions()
-    if len(subs) > PREFETCH_MAX:
-        return []
-    m = len(subs) // 2
-    return [grid_dims(scene, subs[i], space.shape) for i in sorted(range(len(subs)), key=lambda i: (abs(i - m), i))]
-
-
-def _checks_ahead(scene, space: Space, problem, tasks, verify: int, got) -> tuple:
-    """The full-resolution checks (``refine``) as far as the polish's walks tell them, from the
-    walks (``tasks``, ``walk``'s arguments, the search's best's first) and those of them ended
-    (``got``: {index in ``tasks``: rows}): (grids, designs), most likely first.  The designs:
-    the search's best, each ended walk's best (within ``refine.CHECK_BEHIND`` of the best), then
-    the ``verify`` best of the search and those walks; the grids: theirs.  What the walks' idle
-    cores trace and run ahead; a guess, which changes no result."""
-    def dims(point):
-        return grid_dims(scene, point.subdivision, space.shape)
-
-    def best(rows):
-        return sorted(rows, key=lambda x: (problem.value(x[1].cycles, x[1].cost), x[1].cost))
-    known = best([(e.point, e.result) for e in problem.memo.values() if not e.bound] +
-                 [(point, r) for i in got for point, r, bound in got[i] if not bound])
-    worst = problem.value(known[0][1].cycles, known[0][1].cost) + math.log(CHECK_BEHIND) if known else math.inf
-    points = [tasks[0][0].point(tasks[0][4])] if tasks else []
-    for i in sorted(got):
-        points += [point for point, r in best([(point, r) for point, r, bound in got[i] if not bound])[:1]
-                   if problem.value(r.cycles, r.cost) <= worst]
-    points += [p for p, _ in known[:verify]]
-    points = list({p.key(): p for p in points}.values())          # each once, where it came first
-    return list(dict.fromkeys(dims(p) for p in points)), points
-
-
-def _polish_bounder(bounder, lv: int):
-    """``bounder`` (SceneEvaluator -> level-1 ``bound_points`` or None) for a lattice polish: work
-    bounds first (``_work_bounds``), level 1 where they cannot be had."""
-    def make(sev):
-        level1 = bounder(sev)
-        return None if level1 is None else _work_bounds(sev, lv, level1)
-    return make
-
-
-def explore(scene, width: int = 64, height: int = 64, space: Space | None = None, objective: str = "time",
-            budget: float | None = None, level: int | str = "auto", tolerance: float = 0.01,
-            algorithm: str = "direct-l", polish: str = "lattice", max_evals: int = 1000, seed: int = 1,
-            budgets: int = 6, progress=None, threads: int = 1, fraction: int | None = None, refine: int = 2,
-            refine_evals: int = 60, sample: str | None = "auto", verify: int = 4, workers: int | None = None,
-            starts: str = "whole", log=None, rules: str = "paper", threshold: float | None = None,
-            grid=None, phases=None, bound: bool = True, screen: float | None = SCREEN_MARGIN) -> dict:
-    """Search ``space`` for ``scene`` at width x height; returns the report
-    as a dict (the JSON of ``mprt explore``).
-
-    Level: ``level`` 0-3, or "auto": the fidelity ladder is measured on a
-    low-resolution trace of the scene for the reference machines and a few
-    designs of the space, and the lowest level within ``tolerance`` of the
-    top level is taken.  The search, the full-resolution checks and polish
-    and the references all run at that one level, every variable of the
-    space free (memory sizes included), each evaluation through the fidelity
-    ladder's ``evaluate`` with engine "auto" (the compiled replay wherever it
-    is exact, SimPy elsewhere).
-
-    The subdivision changes the trace, so the search runs on traces at
-    1/``fraction`` of the resolution (default: about 64 pixels across; 1
-    searches at full resolution), as the prepass does.  Then the ``verify``
-    best designs of the search and its best of each stage mapping are
-    evaluated at full resolution (``sample``: a sampled replay's tiles,
-    scaled to the frame; "auto": ``stratified:16:1`` above 256x256, the whole
-    frame below), and from the ``refine`` best subdivisions among them the
-    designs are polished there (lattice steps and pair trades,
-    ``refine_evals`` designs each); the best of those is the answer.
-
-    ``workers`` (default: one per core; 1: none) evaluate what does not depend
-    on each other in parallel (``parallel.Pool``): the ladder's designs, a
-    polish neighbourhood, the full-resolution checks, the references and,
-    with ``starts="mapping"``, the global phase's starts.  While the polish's
-    walks leave a worker idle, this process traces and runs the likely
-    full-resolution checks and the references ahead on that core
-    (``SceneEvaluator.prefetch``).  The answer does not depend on their number.
-
-    Every trace is made under ``rules`` with the cutoff ``threshold`` (None: the library's
-    default), as ``mprt render``'s.  ``grid`` (N, or (nx, ny, nz)) fixes the subdivision: N
-    voxels per axis, the space's subdivision variables held at it (no subdivision search).
-
-    ``phases`` (an ``mprt.progress.Phases``; default: silent) is told each phase as it starts,
-    numbered, with its estimated time (from the phases before it: the ladder's seconds per
-    design, the search's per evaluation scaled by the pixels), and draws its progress.
-
-    ``bound`` (at levels 2 and 3, objectives other than pareto): each new design is first
-    bounded; one whose bound is already slower than the best design run so far, or that is
-    over the budget, is not replayed at the search's level (``Problem.bound_points``), and
-    one known so is replayed as soon as a choice would take it.  In the global phase the
-    bound is the design's level-1 replay less BOUND_SLACK (the global method is told it);
-    from the lattice polish on, its work bound (``_work_bounds``: each stage's work over its
-    processors, nothing run, below a run at any level), as the polish's steps do not depend
-    on which designs the bounds rule out.  The search then makes the choices it makes
-    without bounds while level 3 stays above level 1 less the slack, in far fewer level-3
-    replays.
-
-    ``screen`` (with ``bound``; None: off): the full-resolution polish's neighbours are first
-    estimated from the search's own low-resolution replay, scaled by the polish start's ratio
-    of full to low resolution, less this margin (``refine.Screen``); one whose estimate is
-    slower than the polish's best is not replayed at full resolution."""
-    if grid is not None:
-        space = (space or default_space()).with_subdivision((grid,) * 3 if isinstance(grid, int) else grid)
-    pool = Pool(scene, workers)
-    try:
-        return _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish,
-                        max_evals, seed, budgets, progress, threads, fraction, refine, refine_evals, sample, verify,
-                        starts, log or (lambda text: None), pool, rules, threshold, grid, phases or _Silent(), bound,
-                        screen)
-    finally:
-        if pool.before_fork is not None:      # (left set where it failed: ends a prefetch still running)
-            pool.before_fork()
-        pool.close()
-
-
-def _sev_bounds(sev, bound: bool):
-    """The level-1 bounds (``_bounds``) of points on a SceneEvaluator, in this process (None: no bounds)."""
-    return (lambda pts: _bounds([sev.run(p, BOUND_LEVEL) for p in pts])) if bound else None
-
-
-def _global_task(sev, level, bound, task):
-    """One start of the global phase on a SceneEvaluator (in a worker or here); ``bound``: with
-    level-1 bounds (``_bounds``)."""
-    return global_start(lambda pts: [sev.run(p, level) for p in pts], *task, bound_points=_sev_bounds(sev, bound))
-
-
-def _work_bounds(sev, level: int, level1):
-    """Bounds of points on a SceneEvaluator for the polish: each design's work bound at the search's
-    level (``SceneEvaluator.work_bound``: nothing run), or where the compiled replay would not run it,
-    ``level1``'s (points -> level-1 bounds)."""
-    def bounds(points):
-        out = [sev.work_bound(p, level) for p in points]
-        miss = [i for i, b in enumerate(out) if b is None]
-        for i, b in zip(miss, level1([points[i] for i in miss]) if miss else ()):
-            out[i] = b
-        return out
-    return bounds
-
-
-def _walk_task(sev, level, bound, task):
-    """One mapping's polish walk on a SceneEvaluator (in a worker or here); ``bound``: with
-    work bounds (``_work_bounds``)."""
-    return walk(lambda pts: [sev.run(p, level) for p in pts], *task,
-                bound_points=_work_bounds(sev, level, _sev_bounds(sev, True)) if bound else None,
-                cost_of=lambda p: hardware_cost(p.design, sev.unit_costs))
-
-
-def _explore(scene, width, height, space, objective, budget, level, tolerance, algorithm, polish, max_evals, seed,
-             budgets, progress, threads, fraction, refine, refine_evals, sample, verify, starts, say, pool,
-             rules="paper", threshold=None, grid=None, phases=None, bound=True, screen=SCREEN_MARGIN) -> dict:
-    t0 = time.perf_counter()
-    space = space or default_space()
-    unit_costs = UnitCosts.from_table(space.cost)
-    if fraction is None:
-        fraction = max(1, min(width, height) // 64)
-    if sample == "auto":
-        sample = "stratified:16:1" if width * height > 256 * 256 and fraction > 1 else None
-    low = (width, height) if fraction == 1 else low_resolution(width, height, fraction)
-    phases.n = (level == "auto") + 1 + (fraction > 1) * (1 if objective == "pareto" else 2) + 1
-    ev = SceneEvaluator(scene, *low, level=0, shape=space.shape, unit_costs=unit_costs, threads=threads, rules=rules,
-                        threshold=threshold)
-    if level == "auto":
-        with phases.step(f"ladder: {len(ladder_designs(space, seed))} designs at levels "
-                         f"{', '.join(map(str, LADDER_LEVELS))} on a {low[0]}x{low[1]} trace"):
-            said = []          # its line after the step's (a bar may be drawn meanwhile)
-            levels = choose_levels(scene, ev, space, level, tolerance, seed, said.append, pool)
-        for text in said:
-            say(text)
-    else:
-        levels = choose_levels(scene, ev, space, level, tolerance, seed, say, pool)
-    ev.level = lv = levels["search"]
-    per_eval = _seconds_per_design(levels, lv, pool.workers)
-    # the polish may take as many designs again as the global phase, at least 32 a free variable
-    n_search = max_evals + max(max_evals, 32 * sum(v.size > 1 for v in space.variables))
-    phases.line(f"search: up to {max_evals} designs ({algorithm}), then the {polish} polish, at level {lv}, "
-                f"{low[0]}x{low[1]}", None if per_eval is None else per_eval * n_search)
-    t_search = time.perf_counter()
-    cost_of = lambda p: hardware_cost(p.design, unit_costs)  # noqa: E731
-    bounder = _bounder(pool, lv, objective, bound)
-    # the full-resolution evaluator, made now: the walks' idle cores trace its checks' grids ahead
-    full = None if fraction == 1 else SceneEvaluator(scene, width, height, level=lv, shape=space.shape,
-                                                     unit_costs=unit_costs, threads=threads, sample=sample,
-                                                     rules=rules, threshold=threshold)
-    problem = Problem(space, lambda pts: pool.run(ev, pts, lv), objective,
-                      budget if objective != "pareto" else None, progress=progress, cost_of=cost_of,
-                      bound_points=bounder(ev))
-    run_starts = lambda tasks: pool.map(_global_task, ev,  # noqa: E731
-                                        [(lv, problem.bound_points is not None, t) for t in tasks])
-    front = []
-    if objective == "pareto":
-        lo, hi = cost_range(space, unit_costs)
-        sweep = np.geomspace(lo * 1.05, hi, budgets)
-        res = pareto(problem, sweep, algorithm, polish, max(max_evals // budgets, 20), seed)
-        front = res.front
-        best = _knee(front, lv, res.evaluations)
-    else:
-        def run_walks(tasks):
-            # the walks report nothing until they end: say what runs meanwhile
-            say(f"polish  walks from each of {len(tasks)} stage mappings' best, up to {tasks[0][5]} designs "
-                f"each, on {min(pool.workers, len(tasks))} worker(s); then from the best")
-            # the first start is the search's best: its neighbours are mostly slower than the incumbent,
-            # itself, so its walk is the shortest (0.3-1.1 s of the six SPD scenes' 1.3 to 7.7 s walks at
-            # 512x512): given last, the others first, the workers end closer together (the results
-            # keep the starts' order, so the answer is the same)
-            order = list(range(1, len(tasks))) + [0] if len(tasks) > 2 else list(range(len(tasks)))
-            def ahead(got):
-                dims, points = _checks_ahead(scene, space, problem, tasks, verify,
-                                             {order[k]: rows for k, rows in got.items()})
-                # then the references, at the grid of the search's best (the answer's, most often)
-                full.prefetch(dims, points + [Point(points[0].subdivision, make())
-                                              for make in REFERENCE_DESIGNS.values()])
-            done = pool.map_forked(_walk_task, ev, [(lv, problem.bound_points is not None, tasks[i]) for i in order],
-                                   idle=None if full is None else ahead)
-            out = [None] * len(tasks)
-            for i, rows in zip(order, done):
-                out[i] = rows
-            return out
-        polish_bounds = None if problem.bound_points is None else _work_bounds(ev, lv, problem.bound_points)
-        pool.before_fork = lambda: [e.stop_prefetch() for e in (ev, full) if e is not None]
-        if starts == "whole" and pool.workers > 1:     # the global phase replays on one core: trace on the other
-            ev.prefetch(_prefetch_order(scene, space))
-        try:
-            res = search(problem, algorithm, polish, max_evals, seed, starts=starts, run_starts=run_starts,
-                         run_walks=run_walks, polish_bounds=polish_bounds)
-        except BaseException:
-            pool.before_fork()
-            raise
-        finally:
-            ev.stop_prefetch()
-        best = res.best
-    say(f"search  {len(problem.memo)} designs at level {lv}, {low[0]}x{low[1]}"
-        f"{_ruled_out(problem)}: best {best.cycles:,.0f} cycles, cost {best.cost:.0f} kGE, "
-        f"{time.perf_counter() - t0:.1f} s")
-    scr = None
-    history = []        # after the search's rows (below: the full-resolution phase may run designs it bounded)
-    runs = {}
-    evaluations = res.evaluations
-    per_eval = (time.perf_counter() - t_search) / max(len(problem.memo), 1)   # at the search's resolution
-    if fraction > 1:
-        per_eval *= width * height / (low[0] * low[1]) * (_sample_fraction(sample, width, height) if sample else 1)
-        if objective == "pareto":
-            fp = Problem(space, lambda pts: pool.run(full, pts, lv), "time")
-            with phases.step(f"front at {width}x{height}: {len(front)} designs", per_eval * len(front)):
-                fp.evaluate_many([e.index for e in front])
-            front = front_of([fp.memo[space.canonical(e.index)] for e in front])     # (less any that deadlock here)
-            best = _knee(front, lv, len(fp.memo))
-            history += [dict(r, phase="full", resolution=[width, height], level=lv) for r in fp.history()]
-            evaluations += len(fp.memo)
-        else:
-            scr = Screen(problem, ev, lv, screen) if screen is not None and problem.bound_points is not None else None
-            full.stop_prefetch()          # (the refinement runs on it: one design at a time)
-            best, rows, n, ran = _refine(problem, space, full, objective, budget, refine, refine_evals, verify,
-                                         pool, cost_of, phases, per_eval, _polish_bounder(bounder, lv), scr)
-            history += [dict(r, resolution=[width, height], level=lv) for r in rows]
-            evaluations += n
-            runs.update(full=ran, full_bounded=n - ran)
-            say(f"full    {n} designs at level {lv}, {width}x{height}"
-                f"{' (' + sample + ')' if sample else ''}{_ruled_out(n=n, ran=ran, screened=scr is not None)}"
-                f"{_screened(scr, low)}: best {best.cycles:,.0f} cycles, "
-                f"cost {best.cost:.0f} kGE, {time.perf_counter() - t0:.1f} s")
-        ev = full
-    history[:0] = [dict(r, phase="search", resolution=list(low), level=lv) for r in problem.history()]
-    runs.update(search=problem.runs, search_bounded=len(problem.memo) - problem.runs)
-    pool.before_fork = None
-    if best.cycles >= DEADLOCK_CYCLES:
-        raise NoLiveDesignError.at(lv, evaluations)
-    for i, r in enumerate(history, 1):
-        r["evaluation"] = i
-    dims = list(grid_dims(scene, best.point.subdivision, space.shape))
-    refs = {}
-    made = {name: make() for name, make in REFERENCE_DESIGNS.items()}
-    with phases.step(f"references: the paper's 3MPPE, models M and S at level {lv}, {ev.width}x{ev.height}",
-                     per_eval * len(made) if fraction > 1 else None):
-        got = pool.run(ev, [Point(best.point.subdivision, d) for d in made.values()], lv)
-    for (name, d), r in zip(made.items(), got):
-        refs[name] = {"cycles": None if r.deadlocked else r.cycles, "cost": r.cost, "utilisation": r.utilisation,
-                      "deadlock": r.deadlocked, "design": d.to_dict()}
-    b = best.result
-    report = {
-        "scene": scene.name,
-        "settings": settings(scene, width, height, threads, rules, threshold, grid),
-        "width": width, "height": height,
-        "objective": objective, "budget": budget,
-        "best": {"subdivision": dims, "design": best.point.design.to_dict(), "cycles": best.cycles,
-                 "cost": best.cost, "cost_breakdown": cost_breakdown(best.point.design, unit_costs),
-                 "utilisation": b.utilisation, "loads": b.loads, "bottleneck": b.bottleneck,
-                 "speedup_over_S": refs["S"]["cycles"] / best.cycles if best.cycles and refs["S"]["cycles"] else None,
-                 "described": best.point.design.describe()},
-        "references": refs,
-        "evaluations": evaluations,
-        "runs": runs,
-        "bound": {"level": BOUND_LEVEL, "slack": BOUND_SLACK, "polish": "work"}
-        if problem.bound_points is not None else None,
-        "screen": scr.report() if scr is not None else None,
-        "search_resolution": list(low),
-        "full_resolution_sample": sample if fraction > 1 else None,
-        "nlopt_calls": problem.calls,
-        "algorithm": {"global": algorithm, "polish": polish, "max_evals": max_evals, "seed": seed, "starts": starts},
-        "workers": pool.workers,
-        "level": levels,
-        "tolerance": tolerance,
-        "costs": b.costs,
-        "traces": {"made": ev.traces_made, "seconds": ev.trace_seconds},
-        "seconds": time.perf_counter() - t0,
-        "history": history,
-        "space": {"source": space.source, "variables": {v.name: list(v.values) for v in space.variables},
-                  "unit_costs": unit_costs.to_dict()},
-    }
-    if objective == "pareto":
-        report["front"] = [{"subdivision": list(grid_dims(scene, e.point.subdivision, space.shape)),
-                            "design": e.point.design.to_dict(), "cycles": e.cycles, "cost": e.cost} for e in front]
-        report["budgets"] = [float(x) for x in sweep]
-    return report
-
-
-def ladder_designs(space: Space, seed: int, extra: int = 2) -> list:
-    """The designs the ladder is measured on: the paper's 3MPPE, models M and S,
-    and ``extra`` designs of the space drawn with the seed."""
-    designs = [make() for make in REFERENCE_DESIGNS.values()]
-    rng = np.random.default_rng(seed)
-    for _ in range(extra):
-        idx = [int(rng.integers(v.size)) for v in space.variables]
-        designs.append(space.point(space.canonical(idx)).design)
-    return designs
-
-
-def lowest_adequate(table, tolerance: float) -> int:
-    """The lowest level whose worst error against the top level is within the
-    tolerance (the top level when none is).  ``Table.choose`` takes the fastest
-    measured; the levels are in order of cost, and choosing by their order
-    keeps the explorer's result independent of timings on a busy machine."""
-    ok = [r.level for r in table.rows if r.error_top_worst <= tolerance]
-    return min(ok) if ok else table.rows[-1].level
-
-
-def _ladder_task(sev, dims, design, levels):
-    """One design of the ladder at every level on the trace of ``dims``: {level: (cycles or
-    None on deadlock, seconds, engine)}."""
-    from ..machine.errors import DeadlockError
-
-    tev, _ = sev.evaluator(dims)
-    cfg = machine_config(design, tev.leaves)
-    out = {}
-    for lv in levels:
-        try:
-            e = tev.evaluator(cfg).evaluate(cfg, lv)
-            out[lv] = (e.cycles, e.seconds, e.engine)
-        except DeadlockError:
-            out[lv] = (None, None, None)
-    return out
-
-
-def choose_levels(scene, ev: SceneEvaluator, space: Space, level, tolerance: float, seed: int, say,
-                  pool: Pool | None = None) -> dict:
-    """The level of the search and of everything after it: as given, or with "auto" the
-    lowest adequate one (``lowest_adequate``) of the ladder measured on the trace of the
-    space's middle subdivision, its designs evaluated in parallel on ``pool``'s workers.
-    (``verify`` is the same level: kept in the report for its readers.)"""
-    if level != "auto":
-        if level not in (0, 1, 2, 3):
-            raise ValueError(f"level must be 0, 1, 2, 3 or 'auto', not {level!r}")
-        return {"asked": level, "search": level, "verify": level}
-    from ..fidelity.ladder import tabulate
-
-    pool = pool or Pool(scene, 1)
-    subs = space.subdivisions()
-    sub = subs[len(subs) // 2]
-    dims = grid_dims(scene, sub, space.shape)
-    designs = ladder_designs(space, seed)
-    t0 = time.perf_counter()
-    got = pool.map(_ladder_task, ev, [(dims, d, LADDER_LEVELS) for d in designs])
-    names = [f"design#{i}" for i in range(len(designs))]
-    cycles = {(n, lv): g[lv][0] for n, g in zip(names, got) for lv in LADDER_LEVELS}
-    seconds = {lv: [g[lv][1] for g in got if g[lv][1] is not None] for lv in LADDER_LEVELS}
-    engines = {lv: {g[lv][2] for g in got if g[lv][2] is not None} for lv in LADDER_LEVELS}
-    table = tabulate(names, list(LADDER_LEVELS), cycles, seconds, engines)
-    chosen = lowest_adequate(table, tolerance)
-    say(f"ladder  {len(designs)} designs on {scene.name} at {ev.width}x{ev.height}, subdivision "
-        f"{'x'.join(map(str, dims))}, {time.perf_counter() - t0:.1f} s: "
-        f"level {chosen} is the lowest within {100 * tolerance:g}%; the search runs there")
-    return {"asked": "auto", "search": chosen, "verify": chosen,
-            "ladder": [r.to_dict() for r in table.rows], "ladder_subdivision": list(sub),
-            "ladder_seconds": time.perf_counter() - t0}
+def processor_table(cfg) -> list:
+    """The machine's processors as a table: per stage its subtasks, copies, units and FIFOs, its
+    memories, and the count over the PEs."""
+    rows = []
+    for st in cfg.stages:
+        mems = []
+        for tag, mem in (("IC", cfg.ic_memory), ("SC", cfg.sc_memory)):
+            if tag in st.subtasks and mem is not None:
+                mems.append(f"{tag}: cache {mem.cache.size >> 10 if mem.cache else 0} KiB, "
+                            f"resident {mem.resident >> 10} KiB")
+        rows.append({"stage": st.name, "copies_per_pe": st.replicas, "units": dict(st.processor.units),
+                     "send_fifo": st.send_fifo, "receive_fifo": st.receive_fifo, "feed": st.feed,
+                     "memories": "; ".join(mems), "processors": st.replicas * cfg.pes})
+    return rows
 
 
 class _Silent:
@@ -445,152 +630,71 @@ class _Silent:
         pass
 
 
-def _seconds_per_design(levels: dict, lv: int, workers: int):
-    """The ladder's mean seconds per design at level ``lv`` over the workers (None: no ladder)."""
-    for row in levels.get("ladder") or ():
-        if row.get("level") == lv and row.get("seconds_per_design"):
-            return float(row["seconds_per_design"]) / max(workers, 1)
-    return None
+def _distinct(space: Space, limit: int = 1 << 16):
+    """The number of distinct machines of a space (None: more than ``limit`` index vectors)."""
+    import itertools
+
+    if space.count() > limit:
+        return None
+    return len({space.canonical(i) for i in itertools.product(*(range(v.size) for v in space.variables))})
 
 
-def _sample_fraction(sample: str, width: int, height: int) -> float:
-    """The share of a frame's tiles a tile sample traces (for the estimate only): N of them for
-    random:N, one in K for stratified:K and regular:K."""
-    from ..fidelity import Sampling
-    s = Sampling.parse(sample)
-    tiles = -(-width // 16) * -(-height // 16)
-    return min(s.k / tiles if s.method == "random" else 1 / max(s.k, 1), 1.0)
+def _rows(problem, phase: str, lv: int, dims) -> list:
+    """The problem's history rows, each with the scenes' subdivisions it was evaluated at (the
+    hardware space's own subdivision is a placeholder)."""
+    out = []
+    for r in problem.history():
+        r = dict(r, phase=phase, level=lv, subdivisions=[list(d) for d in dims])
+        r.pop("subdivision", None)
+        out.append(r)
+    return out
 
 
-def _ruled_out(problem=None, n=None, ran=None, screened: bool = False) -> str:
-    """', N run, M ruled out by their bounds' (nothing when none was)."""
-    if problem is not None:
-        n, ran = len(problem.memo), problem.runs
-    by = "their bounds" + (" or the screen" if screened else "")
-    return f" ({ran} replayed, {n - ran} ruled out by {by})" if n != ran else ""
+def _cache(folder):
+    if folder is None:
+        return None
+    from .distributed import DiskCache
+    return DiskCache(folder)
 
 
-def _screened(scr, low) -> str:
-    """The full phase's line on the screen: margin, designs it alone ruled out, worst error (or nothing)."""
-    if scr is None:
-        return ""
-    r = scr.report()
-    worst = "" if r["worst_below"] is None else f", worst error on those replayed {100 * r['worst_below']:+.1f}%"
-    return (f"; the polish screened by the {low[0]}x{low[1]} replay less {100 * r['margin']:g}%: "
-            f"{r['ruled_out']} of those ruled out by it alone{worst}")
-
-
-class NoLiveDesignError(MprtError, RuntimeError):
-    """No design the explorer evaluated runs to the end at its level."""
-
-    @classmethod
-    def at(cls, level, evaluations) -> "NoLiveDesignError":
-        return cls(f"explore: every design evaluated at level {level} deadlocks ({evaluations} designs): "
-                   "give the FIFOs more room in the space")
-
-
-def _knee(front, level, evaluations):
-    """The front's knee (least time x cost); an error where every design deadlocked (no front)."""
-    if not front:
-        raise NoLiveDesignError.at(level, evaluations)
-    return min(front, key=lambda e: (e.cycles * e.cost, e.serial))
-
-
-def settings(scene, width, height, threads, rules: str = "paper", threshold=None, grid=None) -> dict:
-    """What made a report: the scene and its content hash, the image, the rules and cutoff of
-    its traces, the subdivision when it was fixed (``grid``: None when searched), the version."""
+def settings(workload, grid=None, loaded=None) -> dict:
+    """What made a report: the scenes (each with its content's hash), the subdivision when it was
+    fixed (``grid``: None when searched), the version."""
     from ..options import threshold_setting, version
-    return {"scene": scene.name, "scene_sha256": scene.content_hash(), "resolution": [width, height],
-            "rules": rules, "threshold": threshold_setting(rules, threshold),
-            "grid": None if grid is None else ([grid] * 3 if isinstance(grid, int) else list(grid)),
-            "threads": threads, "mprt_version": version()}
+    scenes = []
+    for e in workload:
+        d = e.to_dict()
+        d["threshold"] = threshold_setting(d["rules"], e.threshold)       # the cutoff the traces had
+        d["scene_sha256"] = (loaded[len(scenes)] if loaded else e.load()).content_hash()
+        scenes.append(d)
+    return {"scenes": scenes, "grid": None if grid is None else list(grid), "mprt_version": version()}
 
 
-def _plain_log_axis(axis) -> None:
-    """A log axis labelled 1, 2, 5 x 10^k in plain numbers, minor ticks unlabelled (no overlaps)."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+def explore(workload, space: Space | None = None, search: SearchSettings = SearchSettings(),
+            fidelity: FidelitySettings = FidelitySettings(), resources: Resources = Resources(),
+            machine=None, grid=None, say=None, progress=None, phases=None) -> ExploreResult:
+    """One machine for ``workload`` (a ``Workload``, a ``Scene`` name or a list of names) from
+    ``space`` (default: the built-in space), and each scene's subdivision.  ``machine`` (a
+    ``SystemConfig``): fixed, only the subdivisions are chosen.  ``grid`` ((nx, ny, nz)): every
+    scene's subdivision, fixed.  ``say(text)`` is told each step's result as it ends;
+    ``progress(problem)`` after each machine the search evaluates; ``phases`` (an
+    ``mprt.progress.Phases``) each phase as it starts, numbered, with its estimated time (from what
+    ran before it: the traces' and replays' mean seconds)."""
+    from .workload import Workload, workload_of
 
-    axis.set_major_locator(LogLocator(base=10, subs=(1.0, 2.0, 5.0)))
-    axis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:,.0f}" if v >= 1 else f"{v:g}"))
-    axis.set_minor_formatter(NullFormatter())
+    if not isinstance(workload, Workload):
+        workload = workload_of([workload] if isinstance(workload, str) else list(workload))
+    if grid is not None:
+        grid = (int(grid),) * 3 if isinstance(grid, int) else tuple(int(v) for v in grid)
+        if len(grid) == 1:
+            grid = grid * 3
+    ex = _Explorer(workload, space or default_space(), search, fidelity, resources, machine, grid,
+                   say or (lambda text: None), progress, phases)
+    try:
+        return ex.explore()
+    finally:
+        ex.runner.close()
 
 
-def plot(report: dict, path) -> None:
-    """History, cycles against cost (with the front), and the best design's
-    utilisation per processor beside the paper's 3MPPE.  The search's points are
-    estimates at the search's level (scaled to the full resolution); the star is the
-    answer, verified at the verification's level: the legends say which is which, and
-    sit below the axes so that they cover no data."""
-    import matplotlib
-    matplotlib.use("Agg")
-    import matplotlib.pyplot as plt
-
-    fig, ax = plt.subplots(1, 3, figsize=(16, 5.6))
-    h = report["history"]
-    lv = report["level"]
-    n = np.array([r["evaluation"] for r in h])
-    W, H = report["width"], report["height"]
-    # search-phase cycles scaled to the full resolution (the prepass's prediction)
-    scale = np.array([W * H / (r["resolution"][0] * r["resolution"][1]) for r in h])
-    live = np.array([r["cycles"] is not None for r in h], bool)      # (a design that deadlocked has none)
-    cyc = np.array([r["cycles"] if r["cycles"] is not None else np.nan for r in h], float) * scale
-    feas = np.array([r["feasible"] for r in h], bool)
-    feas &= live
-    full = np.array([r["phase"].startswith("full") for r in h])
-    ver = np.array([r["phase"].startswith("verify") for r in h])
-    bnd = np.array([bool(r.get("bound")) for r in h])          # known by a level-1 bound only: not drawn as cycles
-    feas &= ~bnd
-    best = np.minimum.accumulate(np.where(feas, cyc, np.inf))
-
-    def dots(a, mask, *args, **kw):
-        if mask.any():                      # no legend entry without points
-            a.scatter(*(x[mask] for x in args), **kw)
-
-    dots(ax[0], feas & ~full & ~ver, n, cyc, s=6, c="tab:blue",
-         label=f"search at level {lv['search']} (estimate, scaled to full res.)")
-    dots(ax[0], feas & full, n, cyc, s=8, c="tab:green", label="full-resolution polish")
-    dots(ax[0], feas & ver, n, cyc, s=14, c="tab:purple", marker="D", label=f"verified at level {lv['verify']}")
-    dots(ax[0], ~feas & live & ~bnd, n, cyc, s=6, c="tab:gray", marker="x", label="over budget")
-    dots(ax[0], bnd & live, n, cyc, s=4, c="lightgray", label="ruled out by its bound")
-    if np.isfinite(best).any():
-        ax[0].step(n, best, where="post", c="tab:red", label="best so far")
-    ax[0].set(yscale="log", xlabel="evaluation", ylabel="cycles", title="search history")
-    _plain_log_axis(ax[0].yaxis)
-    cost = np.array([r["cost"] for r in h])
-    dead = int((~live).sum())
-    dots(ax[1], live & ~ver & ~bnd, cost, cyc, s=6, c="tab:blue", alpha=0.45,
-         label=f"evaluated at level {lv['search']} (estimates)" + (f"; {dead} deadlocked left out" if dead else ""))
-    dots(ax[1], live & ver, cost, cyc, s=14, c="tab:purple", marker="D", label=f"verified at level {lv['verify']}")
-    if report.get("front"):
-        fr = sorted((f["cost"], f["cycles"]) for f in report["front"])
-        ax[1].step([c for c, _ in fr], [y for _, y in fr], where="post", c="tab:red", marker="o", ms=3,
-                   label="Pareto front")
-    for (name, r), mk in zip(report["references"].items(), ("s", "^", "v")):
-        dead = r["cycles"] is None          # deadlocks at this level: a legend entry, no point
-        ax[1].scatter([] if dead else [r["cost"]], [] if dead else [r["cycles"]], marker=mk, s=40, edgecolors="k",
-                      zorder=4, label=(f"model {name}" if name != "3mppe" else "paper 3MPPE") + f" (level {lv['verify']})"
-                      + (": deadlocks, not drawn" if dead else ""))
-    ax[1].scatter([report["best"]["cost"]], [report["best"]["cycles"]], marker="*", s=220, c="gold",
-                  edgecolors="k", label=f"answer (level {lv['verify']})", zorder=5)
-    if report.get("budget"):
-        ax[1].axvline(report["budget"], c="k", ls=":", lw=1, label="budget")
-    ax[1].set(xscale="log", yscale="log", xlabel="cost (kGE)", ylabel="cycles", title="cycles against cost")
-    _plain_log_axis(ax[1].xaxis)
-    _plain_log_axis(ax[1].yaxis)
-    for a in ax[:2]:
-        a.legend(fontsize=7.5, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2, frameon=False)
-    bu, pu = report["best"]["utilisation"], report["references"]["3mppe"]["utilisation"]
-    names = list(bu) + [f"{k} (3MPPE)" for k in pu]
-    vals = list(bu.values()) + list(pu.values())
-    colours = ["tab:red"] * len(bu) + ["tab:gray"] * len(pu)
-    ax[2].bar(range(len(vals)), vals, color=colours)
-    ax[2].set_xticks(range(len(vals)), names, rotation=30, ha="right", fontsize=8)
-    ax[2].set(ylim=(0, 1.05), ylabel="utilisation", title="answer (red) and the paper's 3MPPE (grey)"
-              + ("\n(the 3MPPE deadlocks: no bars of its own)" if report["references"]["3mppe"]["cycles"] is None else ""))
-    fig.suptitle(f"{report['scene']} {report['width']}x{report['height']}: objective {report['objective']}, "
-                 f"{report['evaluations']} evaluations, "
-                 f"level {lv['search']}")
-    fig.tight_layout()
-    with replacing(path) as tmp:
-        fig.savefig(tmp, dpi=100)
-    plt.close(fig)
+__all__ = ["BOUND_LEVEL", "BOUND_SLACK", "ExploreResult", "slack_bounds", "FidelitySettings", "NoLiveDesignError", "OBJECTIVES",
+           "Resources", "SearchSettings", "explore", "processor_table", "settings"]

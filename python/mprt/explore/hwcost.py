@@ -84,6 +84,37 @@ def cost_breakdown(design: Design, costs: UnitCosts | None = None) -> dict:
     return {k: v * design.pes for k, v in out.items()}
 
 
+def config_breakdown(cfg, costs: UnitCosts | None = None) -> dict:
+    """Cost by part (kGE, all PEs) of any machine (a ``SystemConfig``: a machine file's, a built-in
+    model's), priced as ``cost_breakdown`` prices a design: each stage's copies with their units,
+    their FIFOs' words (a packet is ``words_per_packet`` words; an unbounded FIFO, an ideal
+    model's, is priced at nothing), a ring node each where there is a ring, and the IC and SC
+    memories of each copy of the stage running them.  A design's machine costs what the design
+    does but for its FIFOs: the design prices the words it asks for, its machine holds whole
+    packets of ``words_per_packet`` words (at least one)."""
+    from .evaluate import _words_per_packet
+
+    c = costs or UnitCosts()
+    out = {"processors": 0.0, "units": 0.0, "fifos": 0.0, "ring": 0.0, "caches": 0.0, "resident": 0.0}
+    per_kind = {"int": c.int_unit, "fp": c.fp_unit, "general": c.general_unit}
+    wpp = _words_per_packet()
+    for st in cfg.stages:
+        k = st.replicas
+        out["processors"] += k * c.processor
+        out["units"] += k * sum(per_kind.get(u, 0.0) * n for u, n in st.processor.units.items())
+        if len(cfg.stages) > 1:
+            out["fifos"] += k * sum((f or 0) * wpp for f in (st.send_fifo, st.receive_fifo)) * c.fifo_word
+        if cfg.ring is not None:
+            out["ring"] += k * c.ring_node
+    for s, mem in (("IC", cfg.ic_memory), ("SC", cfg.sc_memory)):
+        if mem is None:
+            continue
+        k = cfg.stages[cfg.stage_of(s)].replicas
+        out["caches"] += k * (mem.cache.size / 1024 if mem.cache else 0) * c.cache_kib
+        out["resident"] += k * mem.resident / 1024 * c.resident_kib
+    return {k: v * cfg.pes for k, v in out.items()}
+
+
 def cheapest_design(space, costs: UnitCosts | None = None) -> tuple:
     """(cost, design): the cheapest design of a space, found without a trace.  Every unit cost
     is non-negative and every count (units, copies, FIFO words, KiB, PEs) multiplies one, so
@@ -106,4 +137,4 @@ def cheapest_design(space, costs: UnitCosts | None = None) -> tuple:
     return best
 
 
-__all__ = ["UnitCosts", "hardware_cost", "cost_breakdown", "cheapest_design"]
+__all__ = ["UnitCosts", "hardware_cost", "cost_breakdown", "config_breakdown", "cheapest_design"]

@@ -82,17 +82,18 @@ def fixed_rule(scene, rule: str) -> tuple:
 
 
 class _Cands:
-    def __init__(self, scene, w, h, design, shape, unit_costs, threads, level, rules="paper", threshold=None):
+    def __init__(self, scene, w, h, design, shape, unit_costs, threads, level, rules="paper", threshold=None,
+                 limits=None):
         self.scene, self.w, self.h, self.design, self.shape = scene, w, h, design, shape
         self.unit_costs, self.threads, self.level = unit_costs, threads, level
-        self.rules, self.threshold = rules, threshold
+        self.rules, self.threshold, self.limits = rules, threshold, dict(limits or {})
         self.seen: dict = {}          # dims -> cycles at low resolution
 
     def __call__(self, n) -> float:
         dims = grid_dims(self.scene, (n,) if np.isscalar(n) else n, self.shape)
         if dims not in self.seen:
             _, tr = self.scene.grid(dims).trace(self.w, self.h, rules=self.rules, threshold=self.threshold,
-                                                threads=self.threads)
+                                                threads=self.threads, **self.limits)
             self.seen[dims] = TraceEvaluator(tr, self.unit_costs, counted=False).run_config(self.design,
                                                                                            self.level).cycles
         return self.seen[dims]
@@ -111,7 +112,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
             design=None, shape: str = "proportional", rungs: int = 7, level: int | str = 1,
             unit_costs: UnitCosts | None = None, threads: int = 1, ratio: float = 1.15, check: int = 0,
             check_sample: str | None = None, past: int = 1, refine: str = "golden", tolerance: float = 0.01,
-            rules: str = "paper", threshold: float | None = None) -> dict:
+            rules: str = "paper", threshold: float | None = None, axes: bool = True, limits=None) -> dict:
     """Predict the full-resolution cycles of candidate subdivisions from traces
     at width/fraction x height/fraction, and return the best.  ``candidates``:
     explicit subdivisions (n or (nx, ny, nz)), all evaluated; otherwise n is
@@ -123,7 +124,8 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
     Default sample: ``stratified:K:1`` with K such that about 16 tiles of 16x16
     are traced (a sixty-fourth of a 512x512 frame; all of a frame of 16 tiles
     or fewer).  Every trace is made under ``rules`` with the cutoff ``threshold`` (None: the
-    library's default)."""
+    library's default).  ``axes`` (searched n only): then each axis on its own, from the best
+    of the line (``_per_axis``): the subdivision is free per axis, the rule only the start."""
     if refine not in ("golden", "parabola", "none"):
         raise ValueError(f"prepass: refine must be 'parabola', 'golden' or 'none', not {refine!r}")
     t0 = time.perf_counter()
@@ -138,10 +140,11 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
     ladder_rows = None
     if level == "auto":
         level, ladder_rows = trusted_level(scene, w, h, design, shape, candidates, n_range, tolerance, threads,
-                                           rules, threshold)
+                                           rules, threshold, {k: v for k, v in (limits or {}).items() if v})
     elif level not in (0, 1, 2, 3):
         raise ValueError(f"prepass: level must be 0, 1, 2, 3 or 'auto', not {level!r}")
-    f = _Cands(scene, w, h, design, shape, unit_costs or UnitCosts(), threads, level, rules, threshold)
+    limits = {k: v for k, v in (limits or {}).items() if v}      # max_rays, max_depth (0/None: the defaults)
+    f = _Cands(scene, w, h, design, shape, unit_costs or UnitCosts(), threads, level, rules, threshold, limits)
     if candidates:
         for c in candidates:
             f(c)
@@ -162,6 +165,8 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
             _parabola(f, ladder[max(i - 1, 0)], ladder[i], ladder[min(i + 1, len(ladder) - 1)])
         elif refine == "golden":
             _golden(f, ladder[max(i - 1, 0)], ladder[min(i + 1, len(ladder) - 1)], ratio)
+        if axes:
+            _per_axis(f, ratio)
 
     cands = sorted(f.seen.items(), key=lambda kv: kv[0])
     live = [kv for kv in cands if not _dead(kv[1])]
@@ -178,7 +183,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         from .evaluate import SceneEvaluator
         from .space import Point
         full = SceneEvaluator(scene, width, height, level=level, shape="cube", unit_costs=f.unit_costs,
-                              threads=threads, sample=check_sample, rules=rules, threshold=threshold)
+                              threads=threads, sample=check_sample, rules=rules, threshold=threshold, **limits)
         for dims, _ in sorted(live, key=lambda kv: (kv[1], kv[0]))[:check]:
             checked[dims] = full.run(Point(dims, f.design)).cycles
             full._held.clear()
@@ -190,9 +195,9 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
                 f"({_grids(checked)}): {_WHY}")
         best = min(ran, key=lambda kv: (kv[1], kv[0]))
         best = (best[0], f.seen[best[0]])
-    from .explorer import settings
     return {"subdivision": list(best[0]), "predicted_cycles": best[1] * scale,
             "settings": settings(scene, width, height, threads, rules, threshold),
+            "per_axis": bool(axes and not candidates),
             # (a subdivision where the machine deadlocks: no cycles, "deadlock" true)
             "candidates": [dict({"subdivision": list(d), "predicted_cycles": None if _dead(c) else c * scale,
                                  "deadlock": _dead(c)},
@@ -206,24 +211,70 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
 
 
 def trusted_level(scene, w: int, h: int, config, shape: str, candidates, n_range, tolerance: float,
-                  threads: int = 1, rules: str = "paper", threshold: float | None = None) -> tuple:
+                  threads: int = 1, rules: str = "paper", threshold: float | None = None, limits=None) -> tuple:
     """(level, ladder rows): the lowest level within ``tolerance`` of the machine's own level
     (``native_level``) for ``config`` on the w x h trace of the middle candidate (or of the
     geometric middle of ``n_range``)."""
     from ..fidelity import measure, native_level
-    from .explorer import lowest_adequate
+    from .ladder import lowest_adequate
 
     if candidates:
         mid = sorted(grid_dims(scene, c, shape) for c in candidates)[len(candidates) // 2]
     else:
         lo, hi = (int(v) for v in n_range)
         mid = grid_dims(scene, (int(round(math.sqrt(lo * hi))),), shape)
-    _, tr = scene.grid(mid).trace(w, h, rules=rules, threshold=threshold, threads=threads)
+    _, tr = scene.grid(mid).trace(w, h, rules=rules, threshold=threshold, threads=threads, **(limits or {}))
     top = native_level(config)
     if top == 1:
         return 1, None
     table = measure(tr, [config], levels=tuple(range(top + 1)), sample=None)
     return lowest_adequate(table, tolerance), [r.to_dict() for r in table.rows]
+
+
+AXIS_STEP = 1.25       # the per-axis descent's step: n x or / this, rounded (at least 1 voxel)
+
+
+def _per_axis(f, ratio: float = AXIS_STEP, rounds: int = 8) -> None:
+    """From the best subdivision ``f`` has seen, each axis in turn one step up and down (x or /
+    ``AXIS_STEP``) while the time falls, until no axis moves (a coordinate descent)."""
+    from ..options import GRID_MAX
+
+    def live_best():
+        live = [kv for kv in f.seen.items() if not _dead(kv[1])]
+        return min(live, key=lambda kv: (kv[1], kv[0]))[0] if live else None
+    best = live_best()
+    if best is None:
+        return
+    step = max(ratio, AXIS_STEP)
+    for _ in range(rounds):
+        moved = False
+        for axis in range(3):
+            while True:
+                n = best[axis]
+                cands = []
+                for k in (max(n + 1, int(round(n * step))), min(n - 1, int(n / step))):
+                    if 1 <= k <= GRID_MAX:
+                        c = list(best)
+                        c[axis] = k
+                        cands.append(tuple(c))
+                for c in cands:
+                    f(c)
+                nxt = min([best] + cands, key=lambda d: (f.seen[d], d))
+                if nxt == best:
+                    break
+                best, moved = nxt, True
+        if not moved:
+            break
+
+
+def settings(scene, width, height, threads, rules: str = "paper", threshold=None, grid=None) -> dict:
+    """What made a prepass report: the scene and its content hash, the image, the rules and cutoff of
+    its traces, the subdivision when it was fixed, the version."""
+    from ..options import threshold_setting, version
+    return {"scene": scene.name, "scene_sha256": scene.content_hash(), "resolution": [width, height],
+            "rules": rules, "threshold": threshold_setting(rules, threshold),
+            "grid": None if grid is None else ([grid] * 3 if isinstance(grid, int) else list(grid)),
+            "threads": threads, "mprt_version": version()}
 
 
 def _parabola(f, a: int, m: int, b: int) -> None:

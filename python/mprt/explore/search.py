@@ -277,12 +277,13 @@ def split_by_mapping(space: Space) -> list[Space]:
 
 
 def global_start(evaluate_points, space: Space, objective: str, budget, algorithm: str, max_evals: int,
-                 seed: int, known=(), bound_points=None) -> tuple[list, int]:
+                 seed: int, known=(), bound_points=None, progress=None) -> tuple[list, int]:
     """One start of the global phase: ``algorithm`` over ``space`` (``known``: (point,
     result) pairs evaluated before, not counted).  Returns the new (point, result) pairs in
     evaluation order and NLopt's calls; depends only on its arguments (so it may run in
-    another process)."""
-    p = Problem(space, evaluate_points, objective, budget, bound_points=bound_points)
+    another process).  ``progress(problem)`` is told after each new design, as the search's own
+    problem tells it."""
+    p = Problem(space, evaluate_points, objective, budget, bound_points=bound_points, progress=progress)
     for point, r, bound in known:
         p.add(point, r, bound)
     n0 = len(p.order)
@@ -317,7 +318,8 @@ def walk(evaluate_points, space: Space, objective: str, budget, known, idx, max_
 
 def _local_starts(problem: Problem):
     def run(tasks):
-        return [global_start(problem.evaluate_points, *t, bound_points=problem.bound_points) for t in tasks]
+        return [global_start(problem.evaluate_points, *t, bound_points=problem.bound_points,
+                             progress=problem.progress) for t in tasks]
     return run
 
 

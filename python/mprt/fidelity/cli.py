@@ -349,6 +349,27 @@ def _phased_replay(ev, trace, cfg, level: int, engine: str, timeline: bool):
 
 
 def _replay(trace, cfg, a):
+    from ..machine.config import halved_window, with_window_for
+    from ..machine.errors import DeadlockError
+    from ..machine.replay import max_leaves
+
+    if cfg.window_rule == "auto":          # the machine file's rule, as the explorer applies it
+        frame = getattr(a, "frame_trace", None)
+        leaves = max_leaves(trace if frame is None else frame)
+        cfg = with_window_for(cfg, leaves)
+        print(f"window  {cfg.window} (window = \"auto\": trees of up to {leaves} leaf" + ("" if leaves == 1 else "s") + ")")
+    while True:
+        try:
+            return _replay_at(trace, cfg, a)
+        except DeadlockError:
+            smaller = halved_window(cfg)
+            if smaller is None:
+                raise
+            print(f"window  {cfg.window} deadlocks; the rule halves it to {smaller.window}")
+            cfg = smaller
+
+
+def _replay_at(trace, cfg, a):
     tolerance = 0.01 if a.tolerance is None else a.tolerance
     st = getattr(a, "sampled_trace", None)
     if a.level == "auto" or (a.level is None and a.tolerance is not None and not getattr(a, "baseline", None)):

@@ -108,6 +108,9 @@ class SystemConfig:
     dis: str = "dynamic"
     window: int = 256
     source: str | None = field(default=None, compare=False)
+    # "auto": the window is chosen from the trace's ray trees (``auto_window``) and halved while
+    # the machine deadlocks (``with_window_for``); ``window`` is then the rule's most, before a trace
+    window_rule: str | None = None
 
     def __post_init__(self):
         _validate(self)
@@ -169,6 +172,7 @@ class SystemConfig:
             "icgm": part(self.icgm),
             "scgm": part(self.scgm),
             "level": self.level,
+            **({"window_rule": self.window_rule} if self.window_rule else {}),
         }
 
 
@@ -297,6 +301,49 @@ def _validate(cfg: SystemConfig) -> None:
     if cfg.dis not in DIS_POLICIES:
         raise ConfigError(f"{w}dis: unknown policy {cfg.dis!r} (known: {', '.join(DIS_POLICIES)})")
     _int(cfg.window, w, "window")
+    if cfg.window_rule not in WINDOW_RULES:
+        raise ConfigError(f"{w}window: the only rule is \"auto\", not {cfg.window_rule!r}")
+
+
+# The DIS window rule of ``window = "auto"`` (what the explorer's designs use): WINDOW_PER_COPY
+# primary rays per PE for each copy of the most replicated stage, but no more than keeps the
+# FIFOs from deadlocking on the trace's largest ray tree (window x leaves < cycle_capacity);
+# a machine that deadlocks all the same (the bound is the ideal network's) runs again with half
+# the window, down to 1.
+WINDOW_RULES = (None, "auto")
+WINDOW_PER_COPY = 4
+
+
+def rule_window(cfg: "SystemConfig") -> int:
+    """The most ``window = "auto"`` gives a machine (before a trace tells its trees)."""
+    return WINDOW_PER_COPY * max(s.replicas for s in cfg.stages)
+
+
+def auto_window(cfg: "SystemConfig", leaves: int | None) -> int:
+    """The window of the "auto" rule for trees of up to ``leaves`` leaves (rays that make no
+    rays): ``rule_window``, capped where the FIFOs are finite so that window x leaves stays
+    below the machine's ``cycle_capacity``, at least 1."""
+    w = rule_window(cfg)
+    cap = cfg.cycle_capacity
+    if len(cfg.stages) > 1 and leaves and cap is not None:
+        w = min(w, max((cap - 1) // leaves, 1))
+    return w
+
+
+def with_window_for(cfg: "SystemConfig", leaves: int | None) -> "SystemConfig":
+    """The configuration with its window rule applied for trees of up to ``leaves`` leaves (as it
+    is where it has no rule)."""
+    if cfg.window_rule != "auto":
+        return cfg
+    return dataclasses.replace(cfg, window=auto_window(cfg, leaves))
+
+
+def halved_window(cfg: "SystemConfig") -> "SystemConfig | None":
+    """After a deadlock: the configuration with half its window under the "auto" rule (None where
+    it has no rule or its window is 1 already: the deadlock stands)."""
+    if cfg.window_rule != "auto" or cfg.window <= 1:
+        return None
+    return dataclasses.replace(cfg, window=cfg.window // 2)
 
 
 def check_config(config) -> SystemConfig:
@@ -466,6 +513,13 @@ def config_from_dict(data: dict, source: str | None = None) -> SystemConfig:
         ch["name"] = data["name"]
     elif cfg is None:
         ch["name"] = os.path.splitext(os.path.basename(source))[0] if source else "custom"
+    if isinstance(data.get("window"), str) and data["window"] != "auto":
+        raise ConfigError(f"{w}window: must be a positive integer or \"auto\", not {data['window']!r}")
+    if data.get("window") == "auto":
+        ch["window_rule"] = "auto"
+        data = {k: v for k, v in data.items() if k != "window"}
+    elif "window" in data:
+        ch["window_rule"] = None
     for key in ("pes", "window"):
         if key in data:
             ch[key] = _int(data[key], w, key)
@@ -529,11 +583,18 @@ def config_from_dict(data: dict, source: str | None = None) -> SystemConfig:
         if "stages" not in ch:
             raise ConfigError(f"{w}stage: missing (give [[stage]] tables, or base = \"S\"|\"M\"|\"3mppe\")")
         try:
-            return SystemConfig(**ch)
+            out = SystemConfig(**ch)
+            return _ruled(out) if out.window_rule == "auto" else out
         except TypeError as e:
             raise ConfigError(f"{w}{e}") from None
     # the base's checks ran without a file name; run them again with it
-    return dataclasses.replace(cfg, **ch)
+    out = dataclasses.replace(cfg, **ch)
+    return _ruled(out) if ch.get("window_rule") == "auto" else out
+
+
+def _ruled(cfg: SystemConfig) -> SystemConfig:
+    """A configuration of ``window = "auto"``: its window the rule's most until a trace applies it."""
+    return dataclasses.replace(cfg, window=rule_window(cfg))
 
 
 def load_config(path) -> SystemConfig:
@@ -553,3 +614,60 @@ def resolve(model: str | None = None, config_path=None, pes: int | None = None) 
     if pes is not None:
         cfg = cfg.replace(pes=_int(pes, "", "--pes"))
     return cfg
+
+
+def _toml_value(v) -> str:
+    """A TOML value of the machine file's kinds: strings, booleans, integers, floats, inline tables."""
+    import json
+    import math
+
+    if isinstance(v, bool):
+        return "true" if v else "false"
+    if isinstance(v, int):
+        return str(v)
+    if isinstance(v, float):
+        if not math.isfinite(v):
+            raise ConfigError(f"a machine file holds finite numbers only, not {v!r}")
+        return repr(v)
+    if isinstance(v, str):
+        return json.dumps(v)
+    if isinstance(v, (list, tuple)):
+        return "[" + ", ".join(_toml_value(x) for x in v) + "]"
+    if isinstance(v, dict):
+        return "{ " + ", ".join(f"{k} = {_toml_value(x)}" for k, x in v.items()) + " }" if v else "{}"
+    raise ConfigError(f"a machine file cannot hold {type(v).__name__} {v!r}")
+
+
+def config_toml(cfg: SystemConfig, header: str = "") -> str:
+    """The machine file of a configuration: TOML that ``load_config`` reads back as an equal
+    configuration (``window = "auto"`` where it has that rule).  ``header``: comment lines first."""
+    out = [f"# {line}".rstrip() for line in header.splitlines()]
+    out += [f"name = {_toml_value(cfg.name)}", f"pes = {cfg.pes}", f"dis = {_toml_value(cfg.dis)}",
+            f"window = {_toml_value(cfg.window_rule) if cfg.window_rule else cfg.window}"]
+    for key, part in (("ring", cfg.ring), ("ic_memory", cfg.ic_memory), ("sc_memory", cfg.sc_memory),
+                      ("icgm", cfg.icgm), ("scgm", cfg.scgm)):
+        if part is None:
+            out.append(f'{key} = "none"')
+    for s in cfg.stages:
+        spec = s.processor_spec
+        if not isinstance(spec, (str, dict)):
+            raise ConfigError(f"stage {s.name}: its processor was given as an object, which a machine file "
+                              f"cannot hold (give 'sequential', 'paper' or a table)")
+        out += ["", "[[stage]]", f"subtasks = {_toml_value(list(s.subtasks))}", f"processor = {_toml_value(spec)}",
+                f"replicas = {s.replicas}",
+                f"send_fifo = {_toml_value('unbounded' if s.send_fifo is None else s.send_fifo)}",
+                f"receive_fifo = {_toml_value('unbounded' if s.receive_fifo is None else s.receive_fifo)}",
+                f"feed = {_toml_value(s.feed)}"]
+    if cfg.ring is not None:
+        out += ["", "[ring]", f"flit_time = {cfg.ring.flit_time}", f"buffer_classes = {cfg.ring.buffer_classes}"]
+    for key, mem in (("ic_memory", cfg.ic_memory), ("sc_memory", cfg.sc_memory)):
+        if mem is not None:
+            out += ["", f"[{key}]", f"resident = {mem.resident}"]
+            out.append("cache = " + ('"none"' if mem.cache is None else
+                                     _toml_value({"size": mem.cache.size, "line": mem.cache.line,
+                                                  "ways": mem.cache.ways})))
+    for key, gm in (("icgm", cfg.icgm), ("scgm", cfg.scgm)):
+        if gm is not None:
+            out += ["", f"[{key}]", f"latency = {gm.latency}", f"bandwidth = {gm.bandwidth}",
+                    f"contention = {_toml_value(gm.contention)}"]
+    return "\n".join(out) + "\n"

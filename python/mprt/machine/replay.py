@@ -39,6 +39,21 @@ def _fail(msg):
     raise TraceError(f"cannot replay this trace: {msg}")
 
 
+
+def max_leaves(trace) -> int:
+    """The most leaves (rays that make no rays) of any ray tree of a trace: a bound on the rays
+    one tree has live at once (what the window rule ``window = "auto"`` is applied for)."""
+    from ..trace import PRIMARY
+
+    rays = trace.rays
+    parent = np.asarray(rays["parent"]).astype(np.int64)
+    if not len(parent):
+        return 1
+    has_child = np.zeros(len(parent), bool)
+    has_child[parent[parent >= 0]] = True
+    tree = np.cumsum(np.asarray(rays["kind"]) == PRIMARY) - 1
+    return int(max(np.bincount(tree[~has_child]).max(initial=1), 1))
+
 class Costs:
     """Per-visit cycles: ``process``, ``receive``, ``send`` and ``flits``
     (numpy arrays, one entry per visit), from arrays or from a cost model
