@@ -15,7 +15,8 @@ blocks are written through the page cache: the same bytes either way.
 Nothing appears under the file's name until it is whole: it is written to a temporary beside
 it (``atomic.temporary``'s name, the file mode that of ``open``: 0o666 less the umask) and
 renamed at the end; an error or Ctrl-C removes the temporaries, and those SIGKILL leaves are
-removed by the next write of the same name.
+removed by the next write of the same name.  The rays' scratch file has no name at all where
+the file system allows (``O_TMPFILE``).
 """
 from __future__ import annotations
 
@@ -280,17 +281,34 @@ class TraceWriter:
             plain = self._open(self.part)
             self.bufs = [aligned_buffer(BUFFER_BYTES + ALIGN), aligned_buffer(BUFFER_BYTES // 4 + ALIGN)]
             self.visits = Appender(plain, self._direct(self.part), self.z.start_dir, self.bufs[0])
-            scratch = temporary(self.path, "rays")     # unnamed once opened twice (plain, direct)
-            try:
-                fd = os.open(scratch, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o600)
-                self.fds.append(fd)
-                self.rays_direct = self._direct(scratch)
-            finally:
-                os.unlink(scratch)
+            fd = self._scratch()
             self.rays = Appender(fd, self.rays_direct, 0, self.bufs[1])
         except BaseException:
             self.abort()
             raise
+
+    def _scratch(self) -> int:
+        """The rays' scratch file beside the path, unnamed (``O_TMPFILE``: nothing to leave behind
+        whatever ends the process), or where the file system cannot, named (``.NAME.PID.rays.tmp.npz``)
+        and unlinked once opened twice; sets ``rays_direct``.  Returns its plain descriptor."""
+        tmpfile = getattr(os, "O_TMPFILE", 0)
+        if tmpfile:
+            try:
+                fd = os.open(os.path.dirname(os.path.abspath(self.path)), tmpfile | os.O_RDWR, 0o600)
+            except OSError:
+                pass
+            else:
+                self.fds.append(fd)
+                self.rays_direct = self._direct(f"/proc/self/fd/{fd}")     # (None without /proc)
+                return fd
+        scratch = temporary(self.path, "rays")
+        try:
+            fd = os.open(scratch, os.O_RDWR | os.O_CREAT | os.O_TRUNC, 0o600)
+            self.fds.append(fd)
+            self.rays_direct = self._direct(scratch)
+        finally:
+            os.unlink(scratch)
+        return fd
 
     def _open(self, path) -> int:
         fd = os.open(path, os.O_RDWR)
