@@ -87,7 +87,8 @@ baselines-update: $(VENV)/.installed
 	        --json tests/data/golden/baselines/$$t.$$m.json > /dev/null; done
 
 demo: $(VENV)/.installed mprt
-	$(PY) -m mprt explore balls --res 48x48 --budget 1000 --plot explore.png --json explore.json
+	$(PY) -m mprt explore balls gears mount rings tetra tree --res 32x32 --budget 800 --plot explore.png \
+		--json explore.json --machine-out explore-machine.toml
 
 # make bench: this checkout against BEFORE (a git revision, default main), built
 # from a clean export into $(B)/before; BEFORE= (empty) benchmarks this checkout alone.

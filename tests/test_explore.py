@@ -6,7 +6,7 @@ import pytest
 
 import mprt
 from mprt.explore import (Design, SpaceError, UnitCosts, default_space, hardware_cost, load_space, model_m,
-                          model_s, paper_3mppe)
+                          model_s, base_design)
 from mprt.explore.evaluate import TraceEvaluator, machine_config, machine_fields
 from mprt.explore.search import Problem, exhaustive, search
 
@@ -110,7 +110,7 @@ def test_canonical_merges_designs_that_cannot_differ():
 
 
 def test_design_round_trip_and_errors():
-    d = paper_3mppe()
+    d = base_design()
     assert Design.from_dict(d.to_dict()) == d
     with pytest.raises(SpaceError, match="design: replication.IC: 0 is below the minimum 1"):
         Design.from_dict({"replication": {"OS": 1, "IC": 0, "SC": 1}})
@@ -126,8 +126,8 @@ def test_cost_of_paper_machine_by_hand():
     # 16 KiB IC cache and 4 KiB SC cache
     by_hand = (3 * c.processor + (2 * c.int_unit + 2 * c.fp_unit) + (c.int_unit + 3 * c.fp_unit) + c.general_unit
                + 3 * 2 * 256 * c.fifo_word + 3 * c.ring_node + 20 * c.cache_kib)
-    assert hardware_cost(paper_3mppe()) == pytest.approx(by_hand)
-    two = Design.from_dict({**paper_3mppe().to_dict(), "pes": 2})
+    assert hardware_cost(base_design()) == pytest.approx(by_hand)
+    two = Design.from_dict({**base_design().to_dict(), "pes": 2})
     assert hardware_cost(two) == pytest.approx(2 * by_hand)
     # model S has no packets, so no FIFOs or ring
     s = model_s()
@@ -157,7 +157,7 @@ def test_levels_are_the_fidelity_ladders(level0s):
     from mprt.fidelity import evaluate
     tr = level0s["tetra"].trace
     ev = TraceEvaluator(tr)
-    d = Design.from_dict({**paper_3mppe().to_dict(), "mapping": "OS+SC|IC", "pes": 2, "fifo": 256})
+    d = Design.from_dict({**base_design().to_dict(), "mapping": "OS+SC|IC", "pes": 2, "fifo": 256})
     for level in (0, 1, 2, 3):
         r = ev.run(d, level)
         want = evaluate(tr, machine_config(d), level)
@@ -177,9 +177,9 @@ def test_pipeline_figures(level0s):
         assert m2.loads[m.bottleneck] == pytest.approx(m.loads[m.bottleneck] / 2, rel=0.02)
         assert m2.cycles < m.cycles
         # more FP units on IC never make IC busier
-        d = paper_3mppe().to_dict()
+        d = base_design().to_dict()
         d["units"]["IC"]["fp"] = 4
-        assert ev.run(Design.from_dict(d)).loads["IC"] <= ev.run(paper_3mppe()).loads["IC"]
+        assert ev.run(Design.from_dict(d)).loads["IC"] <= ev.run(base_design()).loads["IC"]
 
 
 def test_window_keeps_the_fifos_from_deadlocking():
@@ -187,7 +187,7 @@ def test_window_keeps_the_fifos_from_deadlocking():
     (the machine model's bound; at least one), so small-FIFO designs replay; a configuration
     past the bound that deadlocks is reported as such, with a cycle count no search prefers."""
     from mprt.explore.evaluate import DEADLOCK_CYCLES, max_leaves, window
-    d = Design.from_dict({**paper_3mppe().to_dict(), "fifo": 16, "replication": {"OS": 3, "IC": 4, "SC": 2}})
+    d = Design.from_dict({**base_design().to_dict(), "fifo": 16, "replication": {"OS": 3, "IC": 4, "SC": 2}})
     for path in sorted((DATA / "golden").glob("*-g9.npz")):
         tr = mprt.load_trace(path)
         leaves = max_leaves(tr)

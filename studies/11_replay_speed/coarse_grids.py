@@ -12,7 +12,7 @@ import time
 
 import mprt
 from mprt.explore.evaluate import SceneEvaluator, grid_dims
-from mprt.explore.space import Design, Point, default_space, paper_3mppe
+from mprt.explore.space import Design, Point, default_space, base_design
 
 WHOLE = Design(mapping="OS+IC+SC", replication={"OS": 2, "IC": 1, "SC": 1},
                units={"OS": {"int": 2, "fp": 3}, "IC": {"int": 1, "fp": 1}, "SC": {"general": 1}},
@@ -33,7 +33,7 @@ def main():
     for n in ns:
         dims = grid_dims(sc, (n,), "proportional")
         row = [str(n), "x".join(map(str, dims)), str(len(se.trace(dims).visits))]
-        for d in (paper_3mppe(), WHOLE):
+        for d in (base_design(), WHOLE):
             p = Point((n,), d)
             r = se.run(p)
             best = min((lambda t0: (se.run(p), time.perf_counter() - t0)[1])(time.perf_counter())

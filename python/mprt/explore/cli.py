@@ -365,6 +365,11 @@ def run_explore(a) -> int:
     if a.workers is not None and a.workers < 0:
         raise opt.UsageError(f"--workers {a.workers}: give 0 or more processes")
     grid = None if a.grid is None else ((a.grid,) * 3 if isinstance(a.grid, int) else tuple(a.grid))
+    from .runner import default_workers
+    workers = default_workers() if a.workers is None else a.workers
+    if not a.scheduler:     # before any work: the largest whole frame, in every process that may hold it
+        from .memory import check_workload
+        check_workload(wl, workers, grid)
     names = ", ".join(e.name for e in wl)
     print(f"explore {len(wl)} scene(s) ({names}), objective {a.objective}"
           + (f", budget {a.budget:g} kGE" if a.budget else "")
@@ -381,8 +386,6 @@ def run_explore(a) -> int:
                             bound=a.bound)
     fidelity = FidelitySettings(level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance,
                                 fraction=a.fraction)
-    from .runner import default_workers
-    workers = default_workers() if a.workers is None else a.workers
     if a.scheduler:
         from .distributed import client
         with client(a.scheduler) as c:

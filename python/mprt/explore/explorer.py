@@ -50,6 +50,7 @@ BOUND_LEVEL, BOUND_SLACK = 1, 0.10
 PROBE_PIXELS, PROBE_SAMPLE = 256 * 256, "stratified:16:1"
 DESCENT_EVALS = 16         # grids a subdivision's descent tries, about (for the estimates)
 SEARCH_POLISH = 4          # the polish after a subdivision moved: this many x 8 steps a free variable
+TYPICAL_SEARCH = 300       # machines DIRECT-L and the polish evaluate on the built-in space (for the estimate)
 
 
 @dataclass(frozen=True)
@@ -280,14 +281,18 @@ class _Explorer:
         return len(self.scenes) * traces * (t * scale + r * scale)
 
     def _est_search(self, hw: Space, lv: int) -> float | None:
+        """The search (every machine of a small space, else about TYPICAL_SEARCH: DIRECT-L stops once
+        idle long before ``max_evals`` on a lattice), each on every scene, the scenes spread over
+        the workers; then each scene's subdivision again and a short polish."""
         r = self.runner.per_replay(lv)
         if r is None:
             return None
         n = _distinct(hw)
-        machines = n if n is not None and n <= self.opts.exhaustive else \
-            self.opts.max_evals + SEARCH_POLISH * 8 * sum(v.size > 1 for v in hw.variables)
+        free = sum(v.size > 1 for v in hw.variables)
+        machines = n if n is not None and n <= self.opts.exhaustive else min(self.opts.max_evals, TYPICAL_SEARCH)
         parallel = min(max(self.runner.workers, 1), len(self.scenes))
-        return machines * len(self.scenes) * r / parallel
+        search = (machines + 4 * free) * len(self.scenes) * r / parallel
+        return search + (self._est_descents(lv, traces=DESCENT_EVALS // 2) or 0.0)
 
     def _est_full(self, lv: int) -> float | None:
         """References, checks and the answer at full resolution: whole frames and probes."""
@@ -369,6 +374,7 @@ class _Explorer:
                 if not moved or self.opts.objective == "pareto":
                     break
                 problem = self.problem(hw, lv)
+                problem.progress = None         # (a short walk: its summary line says what it did)
                 idx = hw.canonical(hw.index_of(Point((1, 1, 1), best_machine)))
                 problem.evaluate_many([idx])
                 compass(problem, idx, SEARCH_POLISH * 8 * len(problem.free))
@@ -540,7 +546,7 @@ class _Explorer:
             r = self.runner.per_replay(lv)
             evals = self.opts.own_evals if self.opts.own_evals is not None else 8 * len(problem.free)
             t = self.runner.per_trace()
-            est = None if r is None or t is None else len(self.scenes) * (evals * r + sum(
+            est = None if r is None or t is None else len(self.scenes) * (4 * len(problem.free) * r + sum(
                 s.full[0] * s.full[1] / (s.low[0] * s.low[1]) for s in self.scenes) / len(self.scenes) * (t + r))
             with self.phases.step("own best: each scene's own best machine under the budget, for its sharing",
                                   est):

@@ -81,14 +81,24 @@ class Design:
                 "cache": dict(self.cache), "resident": dict(self.resident), "pes": self.pes}
 
     @classmethod
-    def from_dict(cls, d: dict, where: str = "design") -> "Design":
+    def from_dict(cls, d: dict, where: str = "design", base: "Design | None" = None) -> "Design":
+        """A design of the space file's fields, checked (errors name ``where`` and the field).
+        Without ``base``, a field left out is the default design's (a ``to_dict()`` reads back as
+        it was).  With ``base`` (a Design), ``d`` is a partial design: the fields it gives replace
+        the base's, tables merged key by key down to each processor's unit kinds (``{units = {OS
+        = {int = 3}}}`` changes that count only; a kind left out keeps the base's, 0 removes it)."""
         known = {"mapping", "replication", "feed", "units", "fifo", "cache", "resident", "pes"}
+        if not isinstance(d, dict):
+            raise SpaceError(f"{where}: a table of design fields, not {d!r}")
         extra = set(d) - known
         if extra:
             raise SpaceError(f"{where}: unknown field(s) {sorted(extra)}; known: {sorted(known)}")
-        base = cls().to_dict()
-        base.update(d)
-        out = cls(**base)
+        fields = (base or cls()).to_dict()
+        for k, v in d.items():
+            keys = {"replication": STAGE_NAMES, "units": STAGE_NAMES, "cache": ("IC", "SC"),
+                    "resident": ("IC", "SC")}.get(k)
+            fields[k] = _merged(fields[k], v, f"{where}: {k}", keys, k == "units") if base and keys else v
+        out = cls(**fields)
         out.validate(where)
         return out
 
@@ -145,6 +155,23 @@ class Design:
         return text
 
 
+def _merged(old: dict, new, where: str, keys, nested: bool) -> dict:
+    """A design's table ``old`` with the keys of ``new`` (a table of ``keys``) replacing its own;
+    ``nested``: each value a table merged the same way (a processor's units by kind)."""
+    if not isinstance(new, dict):
+        raise SpaceError(f"{where}: a table of {', '.join(keys)}, not {new!r}")
+    out = dict(old)
+    for k, v in new.items():
+        if k not in keys:
+            raise SpaceError(f"{where}.{k}: unknown field (known: {', '.join(keys)})")
+        if nested:
+            if not isinstance(v, dict):
+                raise SpaceError(f"{where}.{k}: a table of unit counts ({', '.join(UNIT_KINDS)}), not {v!r}")
+            v = {**old.get(k, {}), **v}
+        out[k] = v
+    return out
+
+
 def _need_int(v, lo, where):
     if isinstance(v, bool) or not isinstance(v, int):
         raise SpaceError(f"{where}: {v!r} is not an integer")
@@ -159,9 +186,20 @@ def _check_units_can_run(i, f, g, where):
         raise SpaceError(f"{where}: no unit runs floating-point operations (give fp or general at least 1)")
 
 
-# The reference machines of the paper, as designs.
+# Designs of the explorer's vocabulary.  The paper's machines themselves (3mppe, M, S) are the
+# machine model's (``mprt.machine.builtin``): one definition, used by simulate, prepass, explore and sweep.
+def base_design() -> Design:
+    """The explorer's base design (``Design()``): the paper's three processors (OS 2 int + 2 FP,
+    IC 1 int + 3 FP, SC one general unit), one copy each, 256-word FIFOs, 16/4 KiB caches, no
+    resident memory, one PE.  Not the paper's 3MPPE (``mprt.machine.builtin("3mppe")``)."""
+    return Design()
+
+
 def paper_3mppe() -> Design:
-    """The paper's 3MPPE: OS 2 int + 2 FP, IC 1 int + 3 FP, SC one general unit."""
+    """Deprecated: the explorer's base design (``base_design``), which is not the paper's 3MPPE."""
+    import warnings
+    warnings.warn("mprt.explore.paper_3mppe() is the explorer's base design, not the paper's 3MPPE; use "
+                  "base_design(), or mprt.machine.builtin('3mppe') for the 3MPPE", DeprecationWarning, stacklevel=2)
     return Design()
 
 
@@ -176,7 +214,7 @@ def model_s() -> Design:
     return Design(mapping="OS+IC+SC", units={"OS": {"general": 1}, "IC": {"general": 1}, "SC": {"general": 1}})
 
 
-REFERENCE_DESIGNS = {"3mppe": paper_3mppe, "M": model_m, "S": model_s}
+REFERENCE_DESIGNS = {"base": base_design, "M": model_m, "S": model_s}
 
 
 @dataclass(frozen=True)
@@ -208,9 +246,10 @@ mapping = { choices = ["OS|IC|SC", "OS+SC|IC", "OS|IC+SC", "OS+IC+SC"] }
 fifo = { choices = [16, 64, 256] }       # words per send and per receive FIFO
 pes = { min = 1, max = 4 }
 
-[subdivision]
-n = { choices = [4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256] }   # voxels along the longest axis
-shape = "proportional"                   # other axes in proportion to the scene's box
+[subdivision]                            # voxels per axis: software, chosen per scene on this lattice
+nx = { choices = [1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512] }
+ny = { choices = [1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512] }
+nz = { choices = [1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384, 512] }
 
 [replication]
 OS = { min = 1, max = 3 }
