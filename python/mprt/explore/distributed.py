@@ -9,7 +9,7 @@ depends only on its inputs, so the table is the same whatever the number of
 workers.
 
 Ctrl-C at a terminal goes to every process of the foreground group: a local cluster's
-processes are started with SIGINT blocked (they inherit the mask: ``parallel.sigint_blocked``),
+processes are started with SIGINT blocked (they inherit the mask: ``sigint_blocked``),
 so that only this process hears it, and it then closes the cluster with Dask's logging
 silenced: one line ("interrupted", from the command), no worker's traceback.
 """
@@ -20,11 +20,32 @@ import hashlib
 import json
 import logging
 import os
+import signal
 
 from ..atomic import open_replacing
-from .parallel import sigint_blocked
 
 CACHE_VERSION = 1
+
+
+@contextlib.contextmanager
+def sigint_blocked(spawn: bool = False):
+    """SIGINT blocked in this thread for the block (where the platform can): processes forked or
+    spawned and threads started meanwhile inherit the mask, so a Ctrl-C at the terminal does
+    not reach them; one that comes during the block is delivered at its end.  ``spawn``: the
+    processes are spawned (multiprocessing's resource tracker, started by the first of them,
+    would unblock SIGINT in this thread: it is started first)."""
+    if not hasattr(signal, "pthread_sigmask"):
+        yield
+        return
+    if spawn:
+        from multiprocessing import resource_tracker
+
+        resource_tracker.ensure_running()
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, {signal.SIGINT})
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
 
 
 def cache_key(*parts) -> str:

@@ -22,7 +22,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import threading
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -295,10 +294,6 @@ class SceneEvaluator:
         self._held: dict = {}             # dims -> (TraceEvaluator, scale)
         self.trace_seconds = 0.0
         self.traces_made = 0
-        self._lock = threading.Lock()     # _held and _pending, shared with a prefetch thread
-        self._pending: dict = {}          # dims -> threading.Event: being made, set when done
-        self._prefetch = None             # (thread, stop Event, its state) while prefetching
-        self._ran: dict = {}              # (point key, level) -> Result: the prefetch's runs
 
     def settings(self) -> dict:
         """What makes this evaluator's results (the scene apart): a worker process builds its own
@@ -309,32 +304,13 @@ class SceneEvaluator:
                 "max_depth": self.max_depth}
 
     def evaluator(self, dims) -> tuple:
-        """(TraceEvaluator, scale) of a grid's trace (made here, or waited for where a prefetch
-        is making it)."""
+        """(TraceEvaluator, scale) of a grid's trace (made here once, kept while it fits)."""
         dims = tuple(dims)
-        while True:
-            with self._lock:
-                if dims in self._held:
-                    self._held[dims] = self._held.pop(dims)      # most recent last
-                    return self._held[dims]
-                wait = self._pending.get(dims)
-                if wait is None:
-                    self._pending[dims] = done = threading.Event()
-                    break
-            wait.wait()         # (a prefetch that failed leaves it to be made here, failing here)
-        self._make(dims, self.threads, done)
-        with self._lock:
-            return self._held[dims]
-
-    def _make(self, dims, threads: int, done: threading.Event) -> None:
-        """Trace a grid (on ``threads``: the same trace for any number) and keep its evaluator;
-        then, made or failed, the grid is no longer pending (``done`` set)."""
-        try:
-            self._trace(dims, threads)
-        finally:
-            with self._lock:
-                self._pending.pop(dims, None)
-            done.set()
+        if dims in self._held:
+            self._held[dims] = self._held.pop(dims)      # most recent last
+        else:
+            self._trace(dims, self.threads)
+        return self._held[dims]
 
     def _trace(self, dims, threads: int) -> None:
         t0 = time.perf_counter()
@@ -349,96 +325,21 @@ class SceneEvaluator:
                                **self._limits())
             scale = 1.0
         ev = TraceEvaluator(tr, self.unit_costs, keep=KEEP_PROCESSORS)
-        with self._lock:
-            while self._held and sum(e.visits for e, _ in self._held.values()) + len(tr.visits) > self.max_visits:
-                self._held.pop(next(iter(self._held)))
-            self.trace_seconds += time.perf_counter() - t0
-            self.traces_made += 1
-            self._held[dims] = (ev, scale)
+        while self._held and sum(e.visits for e, _ in self._held.values()) + len(tr.visits) > self.max_visits:
+            self._held.pop(next(iter(self._held)))
+        self.trace_seconds += time.perf_counter() - t0
+        self.traces_made += 1
+        self._held[dims] = (ev, scale)
 
     def _limits(self) -> dict:
         """The ray budget and depth of the traces, where set (else the library's defaults)."""
         return {k: v for k, v in (("max_rays", self.max_rays), ("max_depth", self.max_depth)) if v is not None}
-
-    def prefetch(self, dims_list, runs=(), level: int | None = None) -> None:
-        """Make these grids' traces (and their evaluators), in this order, on a thread of this
-        process while the caller goes on (one tracing thread; the C tracer and replay let go of
-        the interpreter, so a search replaying on one core traces on the other); then run
-        ``runs`` (points, at ``level``: default this evaluator's), each result kept for ``run``
-        to return.  Called again while that thread runs, the work joins the end of its list.
-        A grid the caller asks for while it is being made is waited for, one not yet begun is
-        made by the caller; a trace and a run are the same whichever thread made them, so
-        nothing a search finds depends on it.  The prefetch makes no trace once those held
-        reach half of ``max_visits`` (it would make the evaluator let go of traces it holds).
-        ``stop_prefetch`` ends it: before this process forks (a thread's locks would be copied
-        held), and before the caller runs or bounds points on this evaluator itself (a trace's
-        evaluator runs one design at a time).  A run the SimPy model would make is left to the
-        caller (it holds the interpreter, and the pool runs it on a worker)."""
-        from .parallel import uses_simpy
-
-        level = self.level if level is None else level
-        todo = [("trace", tuple(d)) for d in dims_list] + \
-               [("run", p, level) for p in runs if isinstance(p.design, Design) and not uses_simpy([p], level)]
-        with self._lock:
-            if self._prefetch is not None and self._prefetch[2]["running"]:
-                self._prefetch[2]["todo"] += todo
-                return
-        self.stop_prefetch()
-        stop, state = threading.Event(), {"todo": todo, "running": True}
-
-        def work():
-            while True:
-                with self._lock:
-                    full = sum(e.visits for e, _ in self._held.values()) >= self.max_visits // 2
-                    if stop.is_set() or not state["todo"]:
-                        state["running"] = False
-                        return
-                    item = state["todo"].pop(0)
-                    dims = item[1] if item[0] == "trace" else grid_dims(self.scene, item[1].subdivision, self.shape)
-                    if dims in self._pending or (dims not in self._held and full):
-                        continue
-                    done = None
-                    if dims not in self._held:
-                        self._pending[dims] = done = threading.Event()
-                try:
-                    if done is not None:
-                        self._make(dims, 1, done)
-                    if item[0] == "run":
-                        self._keep_run(item[1], item[2])
-                except Exception:       # (what fails is made again by whoever needs it, failing there)
-                    pass
-        t = threading.Thread(target=work, name="mprt-prefetch", daemon=True)
-        self._prefetch = (t, stop, state)
-        t.start()
-
-    def _keep_run(self, point, level: int) -> None:
-        key = (point.key(), level)
-        with self._lock:
-            held = self._held.get(grid_dims(self.scene, point.subdivision, self.shape))
-            if key in self._ran or held is None:
-                return
-        r = held[0].run(point.design, level, held[1])
-        with self._lock:
-            self._ran[key] = r
-
-    def stop_prefetch(self) -> None:
-        """End a prefetch: the trace under way is finished, the rest left (made when asked for)."""
-        if self._prefetch is not None:
-            t, stop, _ = self._prefetch
-            stop.set()
-            t.join()
-            self._prefetch = None
 
     def trace(self, dims):
         return self.evaluator(dims)[0].trace
 
     def run(self, point, level: int | None = None) -> Result:
         level = self.level if level is None else level
-        if self._ran:
-            with self._lock:
-                r = self._ran.pop((point.key(), level), None)   # (each run's own object, as made here)
-            if r is not None:
-                return r
         ev, scale = self.evaluator(grid_dims(self.scene, point.subdivision, self.shape))
         if not isinstance(point.design, Design):          # a machine configuration
             return ev.run_config(point.design, level, scale)

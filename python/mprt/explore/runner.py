@@ -269,8 +269,11 @@ class LocalPool:
 
         ctx = multiprocessing.get_context("fork")
         parent, child = ctx.Pipe()
+        from .distributed import sigint_blocked
+
         p = ctx.Process(target=_worker_main, args=(child,), daemon=True, name="mprt-explore-worker")
-        p.start()
+        with sigint_blocked():          # (until the worker ignores it: Ctrl-C is the explorer's)
+            p.start()
         child.close()
         if k is None:
             self.procs.append((p, parent))
