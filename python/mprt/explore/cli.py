@@ -239,6 +239,7 @@ def add_parsers(sub) -> None:
                         "(default: none)")
     w.add_argument("--workers", type=_nonnegative_int, default=None, metavar="N",
                    help="LocalCluster worker processes (default: one per core; 0: run in this process)")
+    opt.add_skip_unknown(w)     # the default of the scenes whose [[scene]] table does not say
     w.set_defaults(func=run_sweep)
 
 
@@ -529,24 +530,25 @@ def run_prepass(a) -> int:
 
 def run_sweep(a) -> int:
     from .space import SpaceError
-    from .sweep import load_spec, run_sweep as sweep
+    from .sweep import check_memory, load_spec, run_sweep as sweep
 
     try:
-        spec = load_spec(a.spec)
+        spec = load_spec(a.spec, skip_unknown=a.skip_unknown)
     except SpaceError as e:
         raise opt.UsageError(str(e)) from None
     if a.report:
         opt.check_outputs(("--report", a.report, "html"))
     check_output(os.path.join(a.out, "x"))  if os.path.isdir(a.out) else check_output(a.out)
+    sizes = dict.fromkeys("x".join(map(str, e.res)) for e in spec["entries"])     # (each scene's own)
     print(f"sweep   {len(spec['scenes'])} scene(s) x {len(spec['subdivisions'])} subdivision(s) x "
-          f"{len(spec['designs'])} design(s) at {spec['width']}x{spec['height']}, level {spec['level']}, on "
+          f"{len(spec['designs'])} design(s) at {', '.join(sizes)}, level {spec['level']}, on "
           f"{'the Dask scheduler ' + a.scheduler if a.scheduler else 'a local Dask cluster'}; progress with an "
           "estimate of the time left below", flush=True)
     if not a.scheduler:     # before any work: every worker holds a traced frame
-        from .memory import check_sweep
-        check_sweep(spec, a.workers)
+        check_memory(spec, a.workers)
     tick = sweep_progress()
-    r = sweep(spec, a.out, scheduler=a.scheduler, workers=a.workers, progress=tick)
+    r = sweep(spec, a.out, scheduler=a.scheduler, workers=a.workers, progress=tick,
+              note=lambda text: print(f"mprt: warning: {text}", file=sys.stderr))
     tick.end()
     print(f"sweep   {r['rows']} rows from {r['tasks']} tasks ({r['cached']} from the cache) in {r['seconds']:.1f} s")
     print(f"wrote   {r['csv']}\nwrote   {r['png']}")
