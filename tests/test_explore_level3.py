@@ -184,11 +184,12 @@ def test_a_cheap_repair_does_not_hide_the_trade_that_keeps_the_pes():
     d = Design(mapping="OS+IC+SC", replication={"OS": 2, "IC": 1, "SC": 1}, feed="shared",
                units={"OS": {"int": 2, "fp": 3}, "IC": {"int": 1, "fp": 1}, "SC": {"general": 1}}, fifo=16,
                cache={"IC": 4, "SC": 4}, resident={"IC": 0, "SC": 0}, pes=2)
-    start = sp.canonical(sp.index_of(Point((64,), d)))
+    start = sp.canonical(sp.index_of(Point((64, 64, 64), d)))
     assert hardware_cost(d) == 792.0
     p = Problem(sp, f, "time", 800.0, cost_of=lambda pt: hardware_cost(pt.design))
     p.evaluate_many([start])
-    end = sp.point(compass(p, start, 60, fixed=(names.index("mapping"), names.index("subdivision.n")))).design
+    fixed = tuple(names.index(n) for n in ("mapping", "subdivision.nx", "subdivision.ny", "subdivision.nz"))
+    end = sp.point(compass(p, start, 60, fixed=fixed)).design
     assert (end.replication["OS"], end.pes, end.cache["IC"]) == (3, 2, 4)
     assert hardware_cost(end) <= 800.0
 

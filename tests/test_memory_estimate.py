@@ -139,8 +139,10 @@ def test_sweep_estimate_of_a_small_spec_fits():
 
 def test_explore_refuses_a_huge_resolution(monkeypatch, capsys):
     monkeypatch.setenv(me.ENV, "16G")
+    # the records a frame makes measured on a small trace of it and scaled: a visit and a ray
+    # record each, their costs, and the samples (96 GiB of colours alone)
     refused(capsys, ["explore", "balls:1", "--res", "65536x65536", "--budget", "800", "--workers", "1"],
-            "needs at least about", "samples 96.0 GiB", "16.0 GiB available")
+            "needs about", "for balls:1's 65536x65536 frame", "visits", "16.0 GiB available")
 
 
 # ---- the compiled replay's cache limit and --engine auto -----------------------------------

@@ -15,7 +15,7 @@ import sys
 import time
 
 from .. import options as opt
-from ..progress import Phases, clock_step, eta_text
+from ..progress import Phases, eta_text
 
 
 def _positive(kind):
@@ -102,9 +102,8 @@ def _tracing(p, grid_default: str, grid_extra: str) -> None:
 
 def add_parsers(sub) -> None:
     from ..machine.config import BUILTIN
-    from .search import GLOBAL_ALGORITHMS, OBJECTIVES, POLISHES, STARTS
-
-    from .explorer import OBJECTIVES
+    from .result import OBJECTIVES
+    from .search import GLOBAL_ALGORITHMS, POLISHES
     e = sub.add_parser("explore", help="one machine for a workload of scenes, and each scene's subdivision",
                        description="Search a design space (--space, or the built-in one) for the one machine that "
                                    "runs a workload of scenes best under a hardware budget; the subdivision is "

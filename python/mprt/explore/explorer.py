@@ -24,26 +24,22 @@ geometric mean against cost.  A machine that deadlocks on any scene is infeasibl
 from __future__ import annotations
 
 import json
-import math
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 
-from ..errors import MprtError
 from .evaluate import DEADLOCK_CYCLES, Result
 from .hwcost import UnitCosts, config_breakdown, cost_breakdown, hardware_cost
-from .problem import INFEASIBLE, Problem
+from .problem import Problem
 from .runner import Runner, Task, register_scene
 from .search import compass, cost_range, exhaustive, search as run_search
 from .space import Design, Point, Space, default_space
 from . import subdivision as subdiv
+from .result import (BOUND_LEVEL, BOUND_SLACK, OBJECTIVES, ExploreResult, FidelitySettings,  # noqa: F401
+                     NoLiveDesignError, Resources, SearchSettings, aggregate, processor_table, settings,
+                     slack_bounds, speedup)
 
-OBJECTIVES = ("geomean", "total", "worst", "pareto")
-# A design's level-1 cycles bound its level-2 and -3 cycles from below, but not strictly: level 3
-# was up to 3.2% below level 1 on 150 random designs of tetra.  A design is ruled out only when
-# level 1 less this slack is slower than the incumbent.
-BOUND_LEVEL, BOUND_SLACK = 1, 0.10
 # Above this many pixels, a subdivision is chosen at full resolution on a sample of the frame's
 # tiles (PROBE_SAMPLE: one 16x16 tile in 16, stratified), and only the figures reported are the
 # whole frame's
@@ -51,47 +47,6 @@ PROBE_PIXELS, PROBE_SAMPLE = 256 * 256, "stratified:16:1"
 DESCENT_EVALS = 16         # grids a subdivision's descent tries, about (for the estimates)
 SEARCH_POLISH = 4          # the polish after a subdivision moved: this many x 8 steps a free variable
 TYPICAL_SEARCH = 300       # machines DIRECT-L and the polish evaluate on the built-in space (for the estimate)
-
-
-@dataclass(frozen=True)
-class SearchSettings:
-    """What is searched for and how."""
-    objective: str = "geomean"
-    budget: float | None = None
-    algorithm: str = "direct-l"
-    polish: str = "lattice"
-    max_evals: int = 1000
-    seed: int = 1
-    budgets: int = 6                 # pareto: budgets swept
-    verify: int = 4                  # best machines of the search re-evaluated at full resolution
-    own_evals: int | None = None     # per scene, the polish of its own best machine (default 8 a free variable)
-    exhaustive: int = 200            # at most this many machines: every one is evaluated
-    bound: bool = True               # levels 2 and 3: level-1 bounds rule designs out
-
-    def __post_init__(self):
-        if self.objective not in OBJECTIVES:
-            raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, not {self.objective!r}")
-
-
-@dataclass(frozen=True)
-class FidelitySettings:
-    """At which level, and on which traces."""
-    level: int | str = "auto"
-    tolerance: float = 0.01
-    fraction: int | None = None      # search on traces at 1/fraction of each scene's frame (default ~64 px)
-
-
-@dataclass(frozen=True)
-class Resources:
-    """Where the evaluations run (``runner.Runner``)."""
-    workers: int | None = 1
-    client: object = None            # a Dask client
-    cache: str | None = None         # a folder: every evaluation kept, a killed run resumes
-    threads: int = 1
-
-
-class NoLiveDesignError(MprtError, RuntimeError):
-    """No design the explorer evaluated runs every scene to the end at its level."""
 
 
 @dataclass
@@ -108,57 +63,6 @@ class SceneState:
     ref_low: float = None            # the 3MPPE at its own best subdivision, low resolution
     ref_dims: tuple = None           # that subdivision
     ref_full: float = None           # the 3MPPE at its own best subdivision, full resolution
-
-
-@dataclass
-class ExploreResult:
-    """The answer: ``best`` (the machine), ``per_scene`` (a row per scene, in order), ``front``
-    (pareto), ``references``, ``history`` and the run's figures; ``to_json()`` is ``mprt
-    explore --json``'s document."""
-    best: dict
-    per_scene: list
-    references: dict
-    front: list
-    history: list
-    report: dict = field(default_factory=dict)
-    machine: object = None           # the answer as a SystemConfig (``machine_toml`` writes its file)
-
-    def to_json(self) -> dict:
-        return {**self.report, "best": self.best, "per_scene": self.per_scene, "references": self.references,
-                "front": self.front, "history": self.history}
-
-    def machine_toml(self) -> str:
-        """The answer as a machine file (``mprt simulate --config`` runs it as it is)."""
-        from ..machine.config import config_toml
-
-        rows = [f"  {r['scene']}: subdivision {'x'.join(map(str, r['subdivision']))} at "
-                f"{r['resolution'][0]}x{r['resolution'][1]}, level {r['level']}: {r['cycles']:,.0f} cycles"
-                for r in self.per_scene]
-        head = (f"mprt explore's answer ({self.report.get('objective')}"
-                + (f", budget {self.report['budget']:g} kGE" if self.report.get("budget") else "")
-                + f"): {self.best['cost']:.0f} kGE\n{self.best['described']}\n"
-                + "mprt simulate SCENE --config THIS --grid NX,NY,NZ --res WxH --level L gives, per scene:\n"
-                + "\n".join(rows))
-        return config_toml(self.machine, head)
-
-
-def _aggregate(objective: str, cycles: list, weights: list, refs: list) -> float:
-    """The workload's figure of a machine from its scenes' cycles (lower is better)."""
-    if any(c >= DEADLOCK_CYCLES for c in cycles):
-        return DEADLOCK_CYCLES
-    w = np.asarray(weights, float)
-    c = np.asarray(cycles, float)
-    if objective == "total":
-        return float((w * c).sum())
-    if objective == "worst":
-        return float(max(ci / ri for ci, ri in zip(c, refs)))
-    return float(np.exp((w * np.log(np.maximum(c, 1.0))).sum() / w.sum()))
-
-
-def _speedup(ref, cycles):
-    if ref is None or cycles is None or not cycles or cycles >= DEADLOCK_CYCLES or ref >= DEADLOCK_CYCLES:
-        return None
-    return ref / cycles
 
 
 class _Explorer:
@@ -257,7 +161,7 @@ class _Explorer:
         for i, p in enumerate(points):
             rows = got[i * n:(i + 1) * n]
             self.per_scene_memo[(p.design.key(), dims)] = rows
-            agg = _aggregate(self.opts.objective, [r.cycles for r in rows], self.workload.weights,
+            agg = aggregate(self.opts.objective, [r.cycles for r in rows], self.workload.weights,
                              [s.ref_low for s in self.scenes])
             dead = [self.scenes[j].entry.name for j, r in enumerate(rows) if r.deadlocked]
             out.append(Result(cycles=agg, level=level, cost=self.cost(p.design),
@@ -457,7 +361,7 @@ class _Explorer:
             scored = []
             for i, d in enumerate(cands):
                 rows = got[i * n:(i + 1) * n]
-                agg = _aggregate(self.opts.objective, [r.cycles for r in rows], self.workload.weights,
+                agg = aggregate(self.opts.objective, [r.cycles for r in rows], self.workload.weights,
                                  [s.ref_full for s in self.scenes])
                 feasible = self.opts.budget is None or self.cost(d) <= self.opts.budget * (1 + 1e-12)
                 scored.append((not feasible, agg, i))
@@ -488,7 +392,6 @@ class _Explorer:
         low-resolution one); models M and S at the 3MPPE's subdivision."""
         out = {}
         any_full = any(s.full != s.low for s in self.scenes)
-        t = time.perf_counter()
         dims3 = []
         for s in self.scenes:
             d = s.ref_dims
@@ -544,7 +447,6 @@ class _Explorer:
         own = [None] * len(self.scenes)
         if multi:
             r = self.runner.per_replay(lv)
-            evals = self.opts.own_evals if self.opts.own_evals is not None else 8 * len(problem.free)
             t = self.runner.per_trace()
             est = None if r is None or t is None else len(self.scenes) * (4 * len(problem.free) * r + sum(
                 s.full[0] * s.full[1] / (s.low[0] * s.low[1]) for s in self.scenes) / len(self.scenes) * (t + r))
@@ -556,7 +458,7 @@ class _Explorer:
         for s, (dims, r), o, ref in zip(self.scenes, full_rows, own, refs["3mppe"]["per_scene"]):
             row = {"scene": s.entry.name, "weight": s.entry.weight, "resolution": list(s.full),
                    "subdivision": list(dims), "level": lv, "cycles": r.cycles,
-                   "speedup": _speedup(ref["cycles"], r.cycles), "bottleneck": r.bottleneck,
+                   "speedup": speedup(ref["cycles"], r.cycles), "bottleneck": r.bottleneck,
                    "utilisation": r.utilisation, "engine": r.engine}
             if o is not None and o[2].cycles < r.cycles:
                 od, odims, orr = o
@@ -601,29 +503,6 @@ class _Explorer:
         return ExploreResult(best, per_scene, refs, front_rows, history, report, cfg)
 
 
-def slack_bounds(results) -> list:
-    """Lower bounds for a search at level 2 or 3 from level-1 results: the cycles less BOUND_SLACK
-    (none, 0 cycles, where level 1 deadlocks)."""
-    return [replace(r, cycles=0.0 if r.cycles >= DEADLOCK_CYCLES else float(np.floor(r.cycles * (1 - BOUND_SLACK))))
-            for r in results]
-
-
-def processor_table(cfg) -> list:
-    """The machine's processors as a table: per stage its subtasks, copies, units and FIFOs, its
-    memories, and the count over the PEs."""
-    rows = []
-    for st in cfg.stages:
-        mems = []
-        for tag, mem in (("IC", cfg.ic_memory), ("SC", cfg.sc_memory)):
-            if tag in st.subtasks and mem is not None:
-                mems.append(f"{tag}: cache {mem.cache.size >> 10 if mem.cache else 0} KiB, "
-                            f"resident {mem.resident >> 10} KiB")
-        rows.append({"stage": st.name, "copies_per_pe": st.replicas, "units": dict(st.processor.units),
-                     "send_fifo": st.send_fifo, "receive_fifo": st.receive_fifo, "feed": st.feed,
-                     "memories": "; ".join(mems), "processors": st.replicas * cfg.pes})
-    return rows
-
-
 class _Silent:
     """Phases told to no one (``explore`` without ``phases``)."""
     n = 0
@@ -661,19 +540,6 @@ def _cache(folder):
         return None
     from .distributed import DiskCache
     return DiskCache(folder)
-
-
-def settings(workload, grid=None, loaded=None) -> dict:
-    """What made a report: the scenes (each with its content's hash), the subdivision when it was
-    fixed (``grid``: None when searched), the version."""
-    from ..options import threshold_setting, version
-    scenes = []
-    for e in workload:
-        d = e.to_dict()
-        d["threshold"] = threshold_setting(d["rules"], e.threshold)       # the cutoff the traces had
-        d["scene_sha256"] = (loaded[len(scenes)] if loaded else e.load()).content_hash()
-        scenes.append(d)
-    return {"scenes": scenes, "grid": None if grid is None else list(grid), "mprt_version": version()}
 
 
 def explore(workload, space: Space | None = None, search: SearchSettings = SearchSettings(),

@@ -52,17 +52,17 @@ def check_explore(scene, width: int, height: int, space, grid, fraction, sample,
     return e
 
 
-PROBE_TILES = 16          # tiles of 16x16 a workload's memory probe traces per scene (stratified)
+PROBE_PIXELS = 64         # the memory probe's frame: about this many pixels across
 
 
 def check_workload(workload, workers: int, grid=None) -> Estimate:
     """Before any work: the explorer's processes each hold, at the full-resolution phase, one
     scene's whole frame traced (records, costs, the compiled replay's state) beside the search's
     low-resolution traces.  The records a frame makes are measured, not guessed: each scene is
-    traced on about PROBE_TILES of its 16x16 tiles at the subdivision the search starts from, and
-    its visits and rays per sample scaled to the frame.  The largest scene, held by every worker
+    traced whole at about PROBE_PIXELS across at the subdivision the search starts from, and its
+    visits and rays per sample scaled to the frame.  The largest scene, held by every worker
     (and the explorer), must fit the memory available; else MemoryRefused with the figures."""
-    from ..fidelity import trace_sample
+    from .prepass import low_resolution
     from .subdivision import start_dims
 
     worst, worst_name = None, ""
@@ -70,13 +70,13 @@ def check_workload(workload, workers: int, grid=None) -> Estimate:
         scene = e.load()
         w, h = e.res or scene.info()["resolution"]
         dims = tuple(grid) if grid is not None else start_dims(scene)
-        tiles = -(-w // 16) * -(-h // 16)
-        st = trace_sample(scene.grid(dims), f"stratified:{max(tiles // PROBE_TILES, 1)}:1", w, h,
-                          **e.trace_options())
-        scale = 1.0 / st.fraction
-        visits, rays = len(st.trace.visits) * scale, len(st.trace.rays) * scale
+        lw, lh = low_resolution(w, h, max(1, min(w, h) // PROBE_PIXELS))
+        _, tr = scene.grid(dims).trace(lw, lh, **e.trace_options())
+        scale = (w * h) / (lw * lh)                   # records per sample as the probe's
+        visits, rays = len(tr.visits) * scale, len(tr.rays) * scale
         est = Estimate(f"for {e.name}'s {w}x{h} frame", floor=False)
         est.add("visits", visits * VISIT).add("rays", rays * RAY).add("costs", visits * (COSTS + COMPILED))
+        est.add("samples", w * h * 24)
         est.add("grid", int(np.prod(dims)) * 8 + scene.info()["prims"] * 12)
         if worst is None or est.total > worst.total:
             worst, worst_name = est, e.name

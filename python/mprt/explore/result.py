@@ -1,0 +1,147 @@
+"""The explorer's vocabulary: its settings (what is searched for, at which fidelity, where it
+runs), the workload objective, and its answer (``ExploreResult``) with the machine's table."""
+from __future__ import annotations
+
+from dataclasses import dataclass, field, replace
+
+import numpy as np
+
+from ..errors import MprtError
+from .evaluate import DEADLOCK_CYCLES
+
+OBJECTIVES = ("geomean", "total", "worst", "pareto")
+# A design's level-1 cycles bound its level-2 and -3 cycles from below, but not strictly: level 3
+# was up to 3.2% below level 1 on 150 random designs of tetra.  A design is ruled out only when
+# level 1 less this slack is slower than the incumbent.
+BOUND_LEVEL, BOUND_SLACK = 1, 0.10
+
+@dataclass(frozen=True)
+class SearchSettings:
+    """What is searched for and how."""
+    objective: str = "geomean"
+    budget: float | None = None
+    algorithm: str = "direct-l"
+    polish: str = "lattice"
+    max_evals: int = 1000
+    seed: int = 1
+    budgets: int = 6                 # pareto: budgets swept
+    verify: int = 4                  # best machines of the search re-evaluated at full resolution
+    own_evals: int | None = None     # per scene, the polish of its own best machine (default 8 a free variable)
+    exhaustive: int = 200            # at most this many machines: every one is evaluated
+    bound: bool = True               # levels 2 and 3: level-1 bounds rule designs out
+
+    def __post_init__(self):
+        if self.objective not in OBJECTIVES:
+            raise ValueError(f"objective must be one of {', '.join(OBJECTIVES)}, not {self.objective!r}")
+
+
+@dataclass(frozen=True)
+class FidelitySettings:
+    """At which level, and on which traces."""
+    level: int | str = "auto"
+    tolerance: float = 0.01
+    fraction: int | None = None      # search on traces at 1/fraction of each scene's frame (default ~64 px)
+
+
+@dataclass(frozen=True)
+class Resources:
+    """Where the evaluations run (``runner.Runner``)."""
+    workers: int | None = 1
+    client: object = None            # a Dask client
+    cache: str | None = None         # a folder: every evaluation kept, a killed run resumes
+    threads: int = 1
+
+
+class NoLiveDesignError(MprtError, RuntimeError):
+    """No design the explorer evaluated runs every scene to the end at its level."""
+
+
+@dataclass
+class ExploreResult:
+    """The answer: ``best`` (the machine), ``per_scene`` (a row per scene, in order), ``front``
+    (pareto), ``references``, ``history`` and the run's figures; ``to_json()`` is ``mprt
+    explore --json``'s document."""
+    best: dict
+    per_scene: list
+    references: dict
+    front: list
+    history: list
+    report: dict = field(default_factory=dict)
+    machine: object = None           # the answer as a SystemConfig (``machine_toml`` writes its file)
+
+    def to_json(self) -> dict:
+        return {**self.report, "best": self.best, "per_scene": self.per_scene, "references": self.references,
+                "front": self.front, "history": self.history}
+
+    def machine_toml(self) -> str:
+        """The answer as a machine file (``mprt simulate --config`` runs it as it is)."""
+        from ..machine.config import config_toml
+
+        rows = [f"  {r['scene']}: subdivision {'x'.join(map(str, r['subdivision']))} at "
+                f"{r['resolution'][0]}x{r['resolution'][1]}, level {r['level']}: {r['cycles']:,.0f} cycles"
+                for r in self.per_scene]
+        head = (f"mprt explore's answer ({self.report.get('objective')}"
+                + (f", budget {self.report['budget']:g} kGE" if self.report.get("budget") else "")
+                + f"): {self.best['cost']:.0f} kGE\n{self.best['described']}\n"
+                + "mprt simulate SCENE --config THIS --grid NX,NY,NZ --res WxH --level L gives, per scene:\n"
+                + "\n".join(rows))
+        return config_toml(self.machine, head)
+
+
+def aggregate(objective: str, cycles: list, weights: list, refs: list) -> float:
+    """The workload's figure of a machine from its scenes' cycles (lower is better)."""
+    if any(c >= DEADLOCK_CYCLES for c in cycles):
+        return DEADLOCK_CYCLES
+    w = np.asarray(weights, float)
+    c = np.asarray(cycles, float)
+    if objective == "total":
+        return float((w * c).sum())
+    if objective == "worst":
+        return float(max(ci / ri for ci, ri in zip(c, refs)))
+    return float(np.exp((w * np.log(np.maximum(c, 1.0))).sum() / w.sum()))
+
+
+def speedup(ref, cycles):
+    if ref is None or cycles is None or not cycles or cycles >= DEADLOCK_CYCLES or ref >= DEADLOCK_CYCLES:
+        return None
+    return ref / cycles
+
+
+def slack_bounds(results) -> list:
+    """Lower bounds for a search at level 2 or 3 from level-1 results: the cycles less BOUND_SLACK
+    (none, 0 cycles, where level 1 deadlocks)."""
+    return [replace(r, cycles=0.0 if r.cycles >= DEADLOCK_CYCLES else float(np.floor(r.cycles * (1 - BOUND_SLACK))))
+            for r in results]
+
+
+def processor_table(cfg) -> list:
+    """The machine's processors as a table: per stage its subtasks, copies, units and FIFOs, its
+    memories, and the count over the PEs."""
+    rows = []
+    for st in cfg.stages:
+        mems = []
+        for tag, mem in (("IC", cfg.ic_memory), ("SC", cfg.sc_memory)):
+            if tag in st.subtasks and mem is not None:
+                mems.append(f"{tag}: cache {mem.cache.size >> 10 if mem.cache else 0} KiB, "
+                            f"resident {mem.resident >> 10} KiB")
+        rows.append({"stage": st.name, "copies_per_pe": st.replicas, "units": dict(st.processor.units),
+                     "send_fifo": st.send_fifo, "receive_fifo": st.receive_fifo, "feed": st.feed,
+                     "memories": "; ".join(mems), "processors": st.replicas * cfg.pes})
+    return rows
+
+
+def settings(workload, grid=None, loaded=None) -> dict:
+    """What made a report: the scenes (each with its content's hash), the subdivision when it was
+    fixed (``grid``: None when searched), the version."""
+    from ..options import threshold_setting, version
+    scenes = []
+    for e in workload:
+        d = e.to_dict()
+        d["threshold"] = threshold_setting(d["rules"], e.threshold)       # the cutoff the traces had
+        d["scene_sha256"] = (loaded[len(scenes)] if loaded else e.load()).content_hash()
+        scenes.append(d)
+    return {"scenes": scenes, "grid": None if grid is None else list(grid), "mprt_version": version()}
+
+
+__all__ = ["BOUND_LEVEL", "BOUND_SLACK", "ExploreResult", "FidelitySettings", "NoLiveDesignError", "OBJECTIVES",
+           "Resources", "SearchSettings", "aggregate", "processor_table", "settings", "slack_bounds", "speedup"]
