@@ -28,7 +28,7 @@ from mprt.explore.explorer import FidelitySettings, Resources, SearchSettings, e
 from mprt.explore.hwcost import hardware_cost
 from mprt.explore.space import Design
 from mprt.explore.workload import workload_of
-from mprt.machine.config import builtin, config_toml, load_config
+from mprt.machine.config import builtin, load_config
 
 aggregate = getattr(_explorer, "aggregate", None) or _explorer._aggregate   # (result.py's, as it moves)
 DATA = Path(__file__).parent / "data" / "explore"
