@@ -33,9 +33,6 @@ def _markdown_files():
 
 FILES = _markdown_files()
 GUIDES = [p for p in FILES if not p.startswith("studies/")]
-# The explorer's guide is being rewritten to this standard by another hand (issue 36 item 1);
-# until then its figures are expected to be found here (xfail, not strict: it passes once done).
-BEING_REWRITTEN = {"python/mprt/explore/README.md"}
 
 LINK = re.compile(r"(?<!!)\[[^\]]*\]\(([^)\s]+)(?:\s+\"[^\"]*\")?\)")
 # A commit-hash-like word: 7 to 40 lower-case hex digits with at least one letter and one digit,
@@ -99,8 +96,7 @@ def test_relative_links_resolve(path):
     assert not broken, "links to nothing:\n" + "\n".join(broken)
 
 
-@pytest.mark.parametrize("path", [pytest.param(p, marks=pytest.mark.xfail(reason="being rewritten", strict=False))
-                                  if p in BEING_REWRITTEN else p for p in GUIDES])
+@pytest.mark.parametrize("path", GUIDES)
 def test_guides_carry_no_commit_hashes_or_load_figures(path):
     """Measurements (at a commit, under a load) go to the studies, history to CHANGELOG.md."""
     found = findings(path)
