@@ -13,31 +13,21 @@ PACKAGE = os.path.join(os.path.dirname(os.path.dirname(os.path.abspath(__file__)
 
 ORDER = [
     "_build",      # cffi builder of the extensions (imports none of the package)
+    "_aliases",    # the modules' former paths (mprt.tracefile, mprt.options, ...), found by name, importing nothing
     "errors",      # exceptions
-    "atomic",      # outputs written whole (a temporary renamed into place)
+    "util",        # atomic outputs, paged arrays, figures read at a glance (none imports the package)
     "progress",    # phase lines and clock-driven bars on stderr (tqdm)
-    "pages",       # arrays read in chunks, memory-mapped pages released, sparse zeroed arrays
     "_lowlevel",   # the only importer of the compiled extensions: one wrapper per C call, enums, record dtypes
     "scene",       # Scene
     "grid",        # Grid (adds Scene.grid), render, intersect, camera rays, per-tile calls
-    "recordcheck",  # a trace's records checked in C in one pass (ranges and invariants)
-    "tracevalid",  # the one validation of a trace: meta schema, dtypes, shapes, ranges
-    "tracecheck",  # trace invariants (named in Python)
-    "tracefile",   # the .npz format of (meta, arrays)
-    "tracewriter", # a trace file written while tracing (records past the page cache)
-    "stats",       # the paper's statistics of a trace
-    "trace",       # Trace, load_trace, the record enums and dtypes
-    "tracing",     # trace(grid, ...) -> (image, Trace) (adds Grid.trace)
+    "trace",       # the trace: recording, Trace, the file format and writer, validation, invariants, statistics
     "options",     # the command line's options, validated once for every subcommand
     "memory_estimate",  # peak memory of simulate, explore and sweep, against the memory available
-    "figures",     # figures read at a glance: readable defaults, a checker of text size, overlaps, clipping
     "report",      # self-contained HTML pages of explore, simulate and sweep (from their JSON and plots)
     "cost",        # operation costs of stage visits (takes a Trace)
-    "replay",      # costed trace -> per-PE ray streams
     "machine",     # the SimPy machine model (takes a Trace, never a Grid)
     "fidelity",    # levels of model detail
     "explore",     # design-space exploration
-    "prepass",     # low-resolution tracing to choose a subdivision
     "cli",         # the mprt command
     "__init__",    # the package's public names
     "__main__",    # python -m mprt
@@ -121,13 +111,13 @@ def test_module_imports_only_layers_below_it(layer, rel):
 
 
 @pytest.mark.parametrize("layer, rel, source, words", [
-    ("grid", "grid.py", "def f():\n    from .tracing import trace\n", "grid imports tracing, a layer above"),
+    ("grid", "grid.py", "def f():\n    from .trace.tracing import trace\n", "grid imports trace, a layer above"),
     ("scene", "scene.py", "from . import grid\n", "scene imports grid"),
-    ("trace", "trace.py", "from mprt import Scene\n", "trace imports __init__"),
-    ("stats", "stats.py", "from . import _mprt\n", "only _lowlevel"),
+    ("trace", os.path.join("trace", "core.py"), "from mprt import Scene\n", "trace imports __init__"),
+    ("trace", os.path.join("trace", "stats.py"), "from .. import _mprt\n", "only _lowlevel"),
     ("machine", os.path.join("machine", "pe.py"), "from ..explore import run\n", "machine imports explore"),
     ("newthing", "newthing.py", "", "no place"),
-    ("tracing", "tracing.py", "from .elsewhere import x\n", "'elsewhere', which has no place"),
+    ("trace", os.path.join("trace", "tracing.py"), "from ..elsewhere import x\n", "'elsewhere', which has no place"),
     ("grid", "grid.py", "from cffi import FFI\n", "only _build imports cffi"),
 ], ids=["lazy import upward", "from-package import of a module", "package root", "extension", "subpackage",
         "unplaced module", "unplaced import", "cffi"])

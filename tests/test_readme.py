@@ -95,8 +95,8 @@ COMPONENTS = {
     "explorer": "python/mprt/explore",
     "prepass": "python/mprt/explore",
     "cost model": "python/mprt/cost",
-    "per-ray stage traces": "python/mprt/tracing.py",
-    "per-ray traces": "python/mprt/tracing.py",
+    "per-ray stage traces": "python/mprt/trace/tracing.py",
+    "per-ray traces": "python/mprt/trace/tracing.py",
 }
 
 

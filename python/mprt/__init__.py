@@ -11,19 +11,27 @@ intersection calculation (IC) and shading calculation (SC).
     >>> image, counters = grid.render(width=64, height=64)
     >>> image, trace = grid.trace(32, 32)
 
-The package is built in layers, each module importing only those before it
-(tests/test_layers.py checks the order): _lowlevel (the C calls), errors,
-scene, grid, tracefile, tracecheck, stats, trace, tracing, then the models
-and the command line.
+The package is built in layers, each importing only those below it
+(tests/test_layers.py checks the order): errors and util/ (atomic outputs,
+paged arrays, figures), _lowlevel (the C calls), scene, grid, trace/ (recording,
+the file format, validation, invariants, statistics), settings and
+memory_estimate, then the models (cost/, machine/, fidelity/, explore/), and
+last cli/, the ``mprt`` command, which nothing in the library imports.  The
+modules' former paths (``mprt.tracefile``, ``mprt.options``, ...) still import
+(``_aliases``).
 """
 from __future__ import annotations
 
-from . import tracing
-from ._lowlevel import EXT_VERSION, KINDS, Kind, Outcome, RayKind, Rules, Stage
-from .errors import InvalidArgument, MprtError, SceneParseError, SceneStateError, TraceError, WorkLimitError
-from .grid import Grid, write_png
-from .scene import SPD_DEFAULT_SIZES, SPD_SCENES, Scene
-from .trace import Trace, load_trace
+from . import _aliases
+
+_aliases.install()
+
+from .trace import tracing  # noqa: E402
+from ._lowlevel import EXT_VERSION, KINDS, Kind, Outcome, RayKind, Rules, Stage  # noqa: E402
+from .errors import InvalidArgument, MprtError, SceneParseError, SceneStateError, TraceError, WorkLimitError  # noqa: E402
+from .grid import Grid, write_png  # noqa: E402
+from .scene import SPD_DEFAULT_SIZES, SPD_SCENES, Scene  # noqa: E402
+from .trace import Trace, load_trace  # noqa: E402
 
 __version__ = EXT_VERSION
 
@@ -37,6 +45,15 @@ if PACKAGE_VERSION != __version__:
         f"mprt: the compiled extension is version {__version__} but the package is {PACKAGE_VERSION}; "
         "rebuild with 'pip install -e .' (make install)"
     )
+
+
+def __getattr__(name: str):
+    """A module's former path as an attribute (``mprt.tracefile``): the module it moved to."""
+    module = _aliases.attribute(__name__, name)
+    if module is None:
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
+    return module
+
 
 __all__ = [
     "KINDS",

@@ -23,7 +23,7 @@ import numpy as np
 
 from . import _mprt, _mprt32
 from .errors import CapacityError, InvalidArgument, MprtError, SceneParseError, SceneStateError, WorkLimitError
-from .pages import sparse_zeros
+from .util.pages import sparse_zeros
 
 _FFI = _mprt.ffi
 

@@ -21,14 +21,15 @@ import zlib
 
 import numpy as np
 
-from . import options, tracefile
+from . import options
+from .trace import tracefile
 from .errors import MprtError
 from .grid import render_desc, write_png
 from .options import UsageError
 from .scene import SPD_SCENES
 from .trace import load_trace
-from .tracing import select_tiles, trace, trace_records
-from .atomic import open_replacing
+from .trace.tracing import select_tiles, trace, trace_records
+from .util.atomic import open_replacing
 
 EPILOG = options.EXIT_STATUS
 

@@ -16,7 +16,7 @@ import numpy as np
 from ._lowlevel import RULES, binding
 from .errors import InvalidArgument, WorkLimitError
 from .scene import Scene
-from .atomic import replacing
+from .util.atomic import replacing
 
 
 # How a grid lists primitives in voxels (mprt_listing).

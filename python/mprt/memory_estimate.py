@@ -30,7 +30,7 @@ import zipfile
 
 import numpy as np
 
-from . import tracefile, tracevalid
+from .trace import tracefile, tracevalid
 from ._lowlevel import RAY_DTYPE, VISIT_DTYPE
 from .options import UsageError
 

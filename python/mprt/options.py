@@ -42,7 +42,7 @@ from ._lowlevel import EXT_VERSION, RULES, binding
 from .errors import InvalidArgument, SceneParseError
 from .grid import LISTINGS
 from .scene import SPD_DEFAULT_SIZES, SPD_SCENES, Scene
-from .atomic import open_replacing
+from .util.atomic import open_replacing
 
 # The ranges the library accepts (render.c, grid.c, spd.c; tests/test_cli_options.py
 # checks each against the library), except where the command line is stricter:
@@ -188,7 +188,7 @@ def sample_arg(text: str) -> str:
     """--sample of mprt trace: a sample of the tiles in the grammar of every --sample
     (``tracing.SAMPLE_GRAMMAR``: random:N:SEED, stratified:K:SEED, regular:K; N is checked
     against the image's tiles later); runs, a replay's sample, are refused here."""
-    from .tracing import Sampling
+    from .trace.tracing import Sampling
 
     try:
         s = Sampling.parse(text)

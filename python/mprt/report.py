@@ -19,8 +19,8 @@ import shlex
 import sys
 import time
 
-from . import figures
-from .atomic import open_replacing
+from .util import figures
+from .util.atomic import open_replacing
 
 # The content is figures.CONTENT_PX wide in a 1280-px window (its figures are drawn for that width
 # and checked at it); body text figures.BODY_PX; an image wider than the content is scaled down

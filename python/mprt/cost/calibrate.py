@@ -33,7 +33,7 @@ import numpy as np
 from .errors import CostModelError
 from .kernels import KERNELS, OP_CLASSES
 from .model import DEFAULT_FILE, STAGE_KERNELS, STAGES, CostModel, trace_kernel_counts
-from ..atomic import open_replacing
+from ..util.atomic import open_replacing
 
 HERE = os.path.dirname(os.path.abspath(__file__))
 COUNTS_FILE = os.path.join(HERE, "calibration_counts.csv")

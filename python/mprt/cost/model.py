@@ -21,7 +21,7 @@ from .errors import CostModelError, int_table
 from .kernels import HIT_KERNELS, KERNEL_STAGE, KERNELS, OP_CLASSES, TEST_KERNELS
 from .packets import STAGES, packet_flits
 from .schedule import ProcessorConfig, schedule_cycles
-from ..atomic import open_replacing
+from ..util.atomic import open_replacing
 
 DEFAULT_FILE = os.path.join(os.path.dirname(os.path.abspath(__file__)), "default_model.json")
 

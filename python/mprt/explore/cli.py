@@ -402,7 +402,7 @@ def run_explore(a) -> int:
         opt.write_json(a.json, rep, indent=1)
         print(f"wrote   {a.json}")
     if a.machine_out:
-        from ..atomic import open_replacing
+        from ..util.atomic import open_replacing
         with open_replacing(a.machine_out, "w") as f:
             f.write(res.machine_toml())
         print(f"wrote   {a.machine_out} (mprt simulate SCENE --config {a.machine_out} --grid NX,NY,NZ --res WxH "

@@ -22,7 +22,7 @@ import logging
 import os
 import signal
 
-from ..atomic import open_replacing
+from ..util.atomic import open_replacing
 
 CACHE_VERSION = 1
 

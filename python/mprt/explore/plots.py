@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..atomic import replacing
+from ..util.atomic import replacing
 
 FONT = 12          # points; at 100 dpi and the report's width the text is at least body size
 

@@ -45,7 +45,7 @@ import numpy as np
 
 from .distributed import DiskCache, cache_key, client, map_cached
 from .space import SHAPES, Design, SpaceError
-from ..atomic import open_replacing, replacing
+from ..util.atomic import open_replacing, replacing
 
 _KEYS = {"scene", "scenes", "res", "subdivisions", "shape", "level", "batch", "designs", "rules"}
 _DESIGN_FIELDS = ("mapping", "replication", "feed", "units", "fifo", "cache", "resident", "pes")
@@ -357,7 +357,7 @@ def _plot(rows, spec, path):
     of each design against the subdivision on a log scale, a deadlock an x on the axis and a gap in
     the line; one legend.  Over 8 designs: the 8 fastest (report.sweep_answer's ranking) in colour,
     the rest grey and unnamed."""
-    from .. import figures
+    from ..util import figures
     from ..report import sweep_answer
 
     scenes, names = spec["scenes"], list(spec["designs"])

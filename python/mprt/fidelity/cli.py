@@ -33,7 +33,7 @@ import time
 
 import numpy as np
 
-from .. import pages
+from ..util import pages
 from ..errors import InvalidArgument
 from ..machine import cli as machine_cli
 from ..machine.errors import ConfigError

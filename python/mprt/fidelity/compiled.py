@@ -35,7 +35,7 @@ from ..errors import InvalidArgument
 from ..machine.config import DIS_POLICIES, FEEDS, SUBTASKS, SystemConfig, builtin, check_config
 from ..machine.errors import ConfigError
 from ..trace import RAY_KINDS, TraceError
-from ..tracevalid import check_trace
+from ..trace.tracevalid import check_trace
 from .memdata import MemoryData
 from .views import SystemView
 

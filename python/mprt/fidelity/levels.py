@@ -25,7 +25,7 @@ from ..machine.errors import ConfigError
 from .analytical import Analytical
 from .compiled import Compiled, costs_for, priced_for, unsupported
 from .memdata import MemoryData
-from ..tracevalid import check_trace
+from ..trace.tracevalid import check_trace
 
 LEVELS = (0, 1, 2, 3)
 ENGINES = ("auto", "analytical", "compiled", "simpy")

@@ -21,7 +21,7 @@ import numpy as np
 from .._lowlevel import binding
 from ..cost.fast import usable as fast_usable
 from ..machine.memory import CELL_BYTES, MATERIAL_BYTES, DataLayout, cell_index
-from ..pages import sparse_zeros
+from ..util.pages import sparse_zeros
 from ..trace import IC, SC
 
 SCAN = 1 << 22

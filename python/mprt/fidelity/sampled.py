@@ -47,7 +47,7 @@ from ..errors import InvalidArgument
 from ..trace import PRIMARY, Trace
 # The sample specifications and the choice of tiles are the tracer's (mprt trace --sample takes
 # the same ones): re-exported here, where they began.
-from ..tracing import RUN_TREES, Sampling, block_shape, blocks, choose  # noqa: F401
+from ..trace.tracing import RUN_TREES, Sampling, block_shape, blocks, choose  # noqa: F401
 
 RUN_SCALE_WINDOWS = 3   # runs: level 0's chunks when scaling (windows; smooths like the FIFOs do)
 _EXTRA = ("voxel_start", "voxel_ids", "prim_kind", "prim_words", "prim_material", "samples")
@@ -218,7 +218,7 @@ def trace_sample(grid, sampling: Sampling | str, width: int = 0, height: int = 0
                  **options) -> SampledTrace:
     """Trace only the chosen tiles of a frame (``options`` as ``Grid.trace``'s)."""
     from ..grid import render_desc
-    from ..tracing import trace as trace_grid
+    from ..trace.tracing import trace as trace_grid
 
     sampling = Sampling.parse(sampling) if isinstance(sampling, str) else sampling
     if sampling.method == "runs":

@@ -70,7 +70,7 @@ def _wants_memory_keys(a) -> bool:
 def _load_source(a):
     """(trace, settings) from a trace file or a scene traced now."""
     from ..trace import load_trace
-    from ..tracing import trace as trace_grid
+    from ..trace.tracing import trace as trace_grid
 
     src = a.source
     if src.endswith(".npz"):

@@ -27,7 +27,7 @@ from collections import defaultdict
 
 import numpy as np
 
-from ..pages import sparse_zeros
+from ..util.pages import sparse_zeros
 from ..trace import IC, SC
 
 CELL_BYTES = 8

@@ -24,7 +24,7 @@ import dataclasses
 
 from ..errors import TraceError
 from ..trace import IC, PRIMARY, SC
-from ..tracevalid import mark_derived
+from ..trace.tracevalid import mark_derived
 
 PAGE_BITS = 14
 PAGE = 1 << PAGE_BITS

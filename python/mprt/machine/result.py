@@ -4,7 +4,7 @@ from __future__ import annotations
 import json
 from dataclasses import dataclass, field
 
-from ..atomic import replacing
+from ..util.atomic import replacing
 
 SUBTASKS = ("OS", "IC", "SC")
 CATEGORIES = ("processing", "communication", "waiting")
@@ -177,7 +177,7 @@ class SimResult:
         FIFOs' occupancy (over time where the engine logs it, SimPy's; else each FIFO's mean and
         most, as the compiled replay counts them).  As wide as a report page, its text at least
         the page's body size (mprt.figures)."""
-        from .. import figures
+        from ..util import figures
 
         tl = self.timeline
         nplots = 3 if tl is not None else 1

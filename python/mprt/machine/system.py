@@ -8,7 +8,7 @@ import simpy
 from simpy.core import EmptySchedule
 
 from ..trace import RAY_KINDS
-from ..tracevalid import check_trace
+from ..trace.tracevalid import check_trace
 from .config import SUBTASKS, SystemConfig, check_config
 from .errors import ConfigError, DeadlockError
 from .memory import Cache, DataLayout, GlobalMemory, LocalMemory, StageMemory

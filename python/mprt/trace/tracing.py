@@ -26,10 +26,10 @@ from dataclasses import dataclass
 import numpy as np
 
 from . import tracefile, tracevalid, tracewriter
-from ._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Rules, binding
-from .errors import InvalidArgument
-from .grid import CONVENTIONS, Grid, render_desc
-from .trace import OUTCOMES, RAY_KINDS, STAGES, Trace
+from .._lowlevel import KINDS, RAY_DTYPE, VISIT_DTYPE, Rules, binding
+from ..errors import InvalidArgument
+from ..grid import CONVENTIONS, Grid, render_desc
+from .core import OUTCOMES, RAY_KINDS, STAGES, Trace
 
 
 # ---- sample specifications: one grammar for every --sample (trace, simulate, explore) -------------

@@ -30,11 +30,11 @@ from types import SimpleNamespace
 
 import numpy as np
 
-from ._lowlevel import binding
-from .atomic import replacing
-from .errors import TraceError
+from .._lowlevel import binding
+from ..util.atomic import replacing
+from ..errors import TraceError
 from . import tracecheck, tracevalid
-from .pages import chunks, release  # noqa: F401  (tracefile.chunks, tracefile.release: kept for callers)
+from ..util.pages import chunks, release  # noqa: F401  (tracefile.chunks, tracefile.release: kept for callers)
 
 FORMAT = "mprt-trace"
 FORMAT_VERSION = 4

@@ -24,10 +24,10 @@ import sys
 
 import numpy as np
 
-from ._lowlevel import KINDS, RAY_DTYPE, RULES, VISIT_DTYPE, Outcome, RayKind, Stage
-from .errors import TraceError
+from .._lowlevel import KINDS, RAY_DTYPE, RULES, VISIT_DTYPE, Outcome, RayKind, Stage
+from ..errors import TraceError
 from . import recordcheck
-from .pages import chunks, release
+from ..util.pages import chunks, release
 
 GRID_MAX = 1024             # voxels per axis (options.GRID_MAX)
 RES_MAX = 65536             # width, height (options.RES_MAX)

@@ -34,8 +34,8 @@ from concurrent.futures import ThreadPoolExecutor
 import numpy as np
 
 from . import tracefile
-from ._lowlevel import RAY_DTYPE, VISIT_DTYPE, binding
-from .atomic import temporary
+from .._lowlevel import RAY_DTYPE, VISIT_DTYPE, binding
+from ..util.atomic import temporary
 from .tracefile import (FORMAT, FORMAT_VERSION, MEMBERS, RECORDS, _stored, _write_array, as_bytes, file_members,
                         npy_header, signature)
 

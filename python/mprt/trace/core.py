@@ -27,8 +27,8 @@ import numpy as np
 
 from . import stats as _stats
 from . import tracecheck, tracefile, tracevalid
-from ._lowlevel import KINDS, RAY_DTYPE, RULES, VISIT_DTYPE, Outcome, RayKind, Stage, binding
-from .errors import TraceError
+from .._lowlevel import KINDS, RAY_DTYPE, RULES, VISIT_DTYPE, Outcome, RayKind, Stage, binding
+from ..errors import TraceError
 from .tracefile import ARRAYS, FORMAT_VERSION
 
 __all__ = ["Trace", "load_trace", "RAY_DTYPE", "VISIT_DTYPE", "Stage", "Outcome", "RayKind", "KINDS", "ARRAYS",

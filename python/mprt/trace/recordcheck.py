@@ -20,8 +20,8 @@ import threading
 
 import numpy as np
 
-from ._lowlevel import RAY_DTYPE, VISIT_DTYPE, binding
-from .pages import release
+from .._lowlevel import RAY_DTYPE, VISIT_DTYPE, binding
+from ..util.pages import release
 
 CHUNK = 1 << 20     # visits a call (48 MB of records): their pages are let go after each
 SOUND, RANGE, INVARIANT, REDO = 0, 1, 2, 3     # mprt_trace_checker's fault kinds (REDO: check in one part)

@@ -35,9 +35,9 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._lowlevel import Outcome, RayKind, Stage
-from .errors import TraceError
-from .pages import chunks, release
+from .._lowlevel import Outcome, RayKind, Stage
+from ..errors import TraceError
+from ..util.pages import chunks, release
 
 OS, IC, SC = Stage.OS, Stage.IC, Stage.SC
 O = Outcome

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ._lowlevel import KINDS, Outcome, RayKind, Stage
+from .._lowlevel import KINDS, Outcome, RayKind, Stage
 from .tracefile import chunks
 
 OS, IC, SC = Stage.OS, Stage.IC, Stage.SC
