@@ -368,7 +368,7 @@ def test_a_second_run_reuses_every_evaluation_and_another_version_none(tmp_path,
     ea, eb = a["evaluations"], b["evaluations"]
     assert ea["replayed"] == _entries(cache) > 20      # (one asked twice in a run is found the second time)
     assert eb["replayed"] == 0 and eb["reused_from_cache"] == ea["replayed"] + ea["reused_from_cache"]
-    monkeypatch.setattr(mprt.options, "version", lambda: "0.0.0-another")
+    monkeypatch.setattr(mprt.settings, "version", lambda: "0.0.0-another")
     c = explore_json(tmp_path, "c", *CACHED, "--cache", cache)
     assert c["evaluations"] == ea                           # nothing of the other version's used
     assert _entries(cache) == 2 * ea["replayed"]

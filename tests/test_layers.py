@@ -16,22 +16,21 @@ ORDER = [
     "_aliases",    # the modules' former paths (mprt.tracefile, mprt.options, ...), found by name, importing nothing
     "errors",      # exceptions
     "util",        # atomic outputs, paged arrays, figures read at a glance (none imports the package)
-    "progress",    # phase lines and clock-driven bars on stderr (tqdm)
     "_lowlevel",   # the only importer of the compiled extensions: one wrapper per C call, enums, record dtypes
     "scene",       # Scene
     "grid",        # Grid (adds Scene.grid), render, intersect, camera rays, per-tile calls
     "trace",       # the trace: recording, Trace, the file format and writer, validation, invariants, statistics
-    "options",     # the command line's options, validated once for every subcommand
+    "settings",    # ranges, defaults and text forms of the settings; TOML; what a JSON output records
     "memory_estimate",  # peak memory of simulate, explore and sweep, against the memory available
-    "report",      # self-contained HTML pages of explore, simulate and sweep (from their JSON and plots)
     "cost",        # operation costs of stage visits (takes a Trace)
     "machine",     # the SimPy machine model (takes a Trace, never a Grid)
     "fidelity",    # levels of model detail
-    "explore",     # design-space exploration
-    "cli",         # the mprt command
+    "explore",     # design-space exploration: the explorer, prepass, sweep
+    "cli",         # the application: the mprt command's parsers, printing, progress, reports
     "__init__",    # the package's public names
     "__main__",    # python -m mprt
 ]
+APPLICATION = {"cli", "__main__"}    # the rest is the library: it never imports these, nor argparse
 EXTENSIONS = {"_mprt", "_mprt32"}   # compiled; imported by _lowlevel alone
 LAYER = {name: i for i, name in enumerate(ORDER)}
 
@@ -125,6 +124,43 @@ def test_the_check_catches_a_broken_order(layer, rel, source, words):
     """The checker reports an upward import, an import of the extensions outside _lowlevel and an unplaced module."""
     found = violations(layer, rel, source)
     assert any(words in v for v in found), found
+
+
+def library_violations(layer: str, rel: str, source: str):
+    """The imports that tie a library module (any but APPLICATION's) to the command line: the
+    cli package, or argparse."""
+    if layer in APPLICATION:
+        return []
+    out = [f"{rel}:{line}: the library imports the command line ({target})"
+           for line, target in imported_layers(source, rel) if target in APPLICATION]
+    for n in ast.walk(ast.parse(source)):
+        names = [a.name for a in n.names] if isinstance(n, ast.Import) else \
+            [n.module or ""] if isinstance(n, ast.ImportFrom) and n.level == 0 else []
+        out += [f"{rel}:{n.lineno}: the library imports argparse" for m in names if m.split(".")[0] == "argparse"]
+    return out
+
+
+@pytest.mark.parametrize("layer, rel", module_files(), ids=[r for _, r in module_files()])
+def test_the_library_never_imports_the_command_line(layer, rel):
+    """Nothing outside cli/ (and __main__) imports cli/ or argparse: the library reads without them."""
+    with open(os.path.join(PACKAGE, rel)) as f:
+        assert library_violations(layer, rel, f.read()) == []
+
+
+@pytest.mark.parametrize("layer, rel, source", [
+    ("explore", os.path.join("explore", "sweep.py"), "def f():\n    from ..cli import report\n"),
+    ("__init__", "__init__.py", "from .cli import main\n"),
+    ("machine", os.path.join("machine", "config.py"), "import argparse\n"),
+    ("settings", "settings.py", "def f():\n    from argparse import ArgumentTypeError\n"),
+], ids=["lazy import of cli", "package root", "import argparse", "from argparse"])
+def test_the_library_check_catches_the_command_line(layer, rel, source):
+    assert library_violations(layer, rel, source)
+
+
+def test_the_command_line_may_import_the_library_and_argparse():
+    rel = os.path.join("cli", "explore.py")
+    assert library_violations("cli", rel, "import argparse\nfrom ..explore import sweep\n") == []
+    assert violations("cli", rel, "import argparse\nfrom ..explore import sweep\nfrom . import options\n") == []
 
 
 def test_subpackage_modules_may_import_each_other_and_lower_layers():

@@ -27,6 +27,7 @@ from . import _aliases
 _aliases.install()
 
 from .trace import tracing  # noqa: E402
+from . import settings  # noqa: E402,F401 (mprt.settings)
 from ._lowlevel import EXT_VERSION, KINDS, Kind, Outcome, RayKind, Rules, Stage  # noqa: E402
 from .errors import InvalidArgument, MprtError, SceneParseError, SceneStateError, TraceError, WorkLimitError  # noqa: E402
 from .grid import Grid, write_png  # noqa: E402

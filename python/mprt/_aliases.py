@@ -25,6 +25,12 @@ MOVED = {
     "mprt.tracecheck": "mprt.trace.tracecheck",
     "mprt.recordcheck": "mprt.trace.recordcheck",
     "mprt.stats": "mprt.trace.stats",
+    "mprt.options": "mprt.cli.options",
+    "mprt.progress": "mprt.cli.progress",
+    "mprt.report": "mprt.cli.report",
+    "mprt.explore.cli": "mprt.cli.explore",
+    "mprt.fidelity.cli": "mprt.cli.fidelity",
+    "mprt.machine.cli": "mprt.cli.simulate",
 }
 
 

@@ -33,3 +33,8 @@ class CapacityError(MprtError, RuntimeError):
 
 class TraceError(MprtError, ValueError):
     """A trace file or trace object is malformed, truncated, tampered or of an unknown version."""
+
+
+class UsageError(InvalidArgument):
+    """An option or a setting is out of range, options contradict each other, or an output cannot
+    be written: found before any work (``mprt`` exits with status 2)."""

@@ -32,7 +32,7 @@ import numpy as np
 
 from .trace import tracefile, tracevalid
 from ._lowlevel import RAY_DTYPE, VISIT_DTYPE
-from .options import UsageError
+from .errors import UsageError
 
 ENV = "MPRT_MEMORY_LIMIT"
 GiB = 1 << 30

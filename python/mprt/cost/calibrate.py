@@ -14,25 +14,22 @@ are fitted by bounded least squares (scipy) on the cells' relative errors,
 with a weak pull toward the nominal latencies (it only decides directions
 the cells do not), then rounded to whole cycles by a local search.
 
-    python -m mprt.cost.calibrate                      # fit on the shipped counts, print residuals
-    python -m mprt.cost.calibrate --trace --res 256    # re-trace the 15 cells first
-    python -m mprt.cost.calibrate --write              # re-trace, fit, write the shipped model + counts
-    python -m mprt.cost.calibrate --scenes balls       # fit on balls only, residuals for all
+    python -m mprt.cli.calibrate                      # fit on the shipped counts, print residuals
+    python -m mprt.cli.calibrate --trace --res 256    # re-trace the 15 cells first
+    python -m mprt.cli.calibrate --write              # re-trace, fit, write the shipped model + counts
+    python -m mprt.cli.calibrate --scenes balls       # fit on balls only, residuals for all
 """
 from __future__ import annotations
 
-import argparse
 import csv
-import json
 import os
-import sys
 from typing import NamedTuple, Sequence
 
 import numpy as np
 
 from .errors import CostModelError
 from .kernels import KERNELS, OP_CLASSES
-from .model import DEFAULT_FILE, STAGE_KERNELS, STAGES, CostModel, trace_kernel_counts
+from .model import DEFAULT_FILE, STAGE_KERNELS, STAGES, CostModel, trace_kernel_counts  # noqa: F401 (DEFAULT_FILE: the CLI's)
 from ..util.atomic import open_replacing
 
 HERE = os.path.dirname(os.path.abspath(__file__))
@@ -149,7 +146,7 @@ def read_counts(path=COUNTS_FILE) -> list:
         missing = [c for c in cols if c not in (rd.fieldnames or [])]
         if missing:
             raise CostModelError(f"{path}: columns missing: {', '.join(missing)} (regenerate with "
-                                 "'python -m mprt.cost.calibrate --write')")
+                                 "'python -m mprt.cli.calibrate --write')")
         rows = []
         for line, r in enumerate(rd, start=2):
             try:
@@ -291,7 +288,7 @@ def fit(rows, scenes: Sequence[str] | None = None, fit_latency: Sequence[str] = 
                     if c < best - 1e-12:
                         theta, best, improved = t, c, True
     names = list(OP_CLASSES) + [f"overhead_{s}" for s in STAGES] + [f"scale_{s}" for s in STAGES]
-    info = {"source": "python -m mprt.cost.calibrate", "scenes": list(scenes),
+    info = {"source": "python -m mprt.cli.calibrate", "scenes": list(scenes),
             "resolution": sorted({f"{r['width']}x{r['height']}" for r in use}),
             "fit_latency": list(fit_latency), "free_scale": free_scale,
             "loss": loss, "f_scale": f_scale, "prior_weight": PRIOR_WEIGHT,
@@ -376,48 +373,3 @@ def kernel_report(model: CostModel | None = None) -> str:
         lines.append(f"| {name} | {KERNEL_STAGE[name]} | {len(g)} | " + " | ".join(str(c[k]) for k in OP_CLASSES)
                      + " | " + " | ".join(str(model.kernel_cycles(name, p)) for p in procs.values()) + " |")
     return "\n".join(lines)
-
-
-def main(argv=None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m mprt.cost.calibrate", description=__doc__.split("\n\n")[0])
-    ap.add_argument("--scenes", default=None, help="comma-separated scenes to fit on (default: all five)")
-    ap.add_argument("--trace", action="store_true", help="trace the cells anew instead of the shipped counts")
-    ap.add_argument("--res", type=int, default=256, help="trace resolution (square; default 256)")
-    ap.add_argument("--threads", type=int, default=2)
-    ap.add_argument("--counts", default=None, help="counts CSV to fit (default: the shipped one)")
-    ap.add_argument("--fixed-scale", action="store_true",
-                    help="keep the stage scales at 100%% (fit latencies and per-visit overheads only)")
-    ap.add_argument("--write", action="store_true",
-                    help="trace, fit on all five scenes and write the shipped model and counts")
-    ap.add_argument("--check", default=None, metavar="SCENE:N:RES,RES,...",
-                    help="print the per-unit averages of one cell traced at several resolutions "
-                         "with the shipped model, e.g. balls:50:128,256,512, and exit")
-    ap.add_argument("--kernels", action="store_true",
-                    help="print every kernel's operation counts and cycles with the shipped model, and exit")
-    args = ap.parse_args(argv)
-    if args.kernels:
-        print(kernel_report())
-        return 0
-    if args.check:
-        return resolution_check(args.check, args.threads)
-    scenes = tuple(s for s in args.scenes.split(",") if s) if args.scenes else None
-    if args.trace or args.write:
-        rows = collect(SCENES, SUBDIVISIONS, args.res, args.threads, progress=lambda m: print(m, file=sys.stderr))
-    else:
-        rows = read_counts(args.counts or COUNTS_FILE)
-    cal = fit(rows, None if args.write else scenes, free_scale=not args.fixed_scale)
-    cal.model.info["command"] = "python -m mprt.cost.calibrate --write" if args.write else \
-        "python -m mprt.cost.calibrate " + " ".join(argv if argv is not None else sys.argv[1:])
-    print(json.dumps({"latency": cal.model.latency, "visit_overhead": cal.model.visit_overhead,
-                      "scale": cal.model.scale}))
-    print(residual_table(cal.residuals, scenes))
-    if args.write:
-        write_counts(rows)
-        cal.model.info["residuals"] = [[r.scene, r.grid, r.stage, r.paper, round(r.ours, 4)] for r in cal.residuals]
-        cal.model.save(DEFAULT_FILE)
-        print(f"wrote {DEFAULT_FILE} and {COUNTS_FILE}", file=sys.stderr)
-    return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

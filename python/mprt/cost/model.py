@@ -272,5 +272,5 @@ def _cycles(name, proc, latency_items):
 @lru_cache(maxsize=1)
 def _load_default():
     if not os.path.exists(DEFAULT_FILE):
-        raise CostModelError(f"{DEFAULT_FILE} is missing: regenerate it with 'python -m mprt.cost.calibrate --write'")
+        raise CostModelError(f"{DEFAULT_FILE} is missing: regenerate it with 'python -m mprt.cli.calibrate --write'")
     return CostModel.load(DEFAULT_FILE)

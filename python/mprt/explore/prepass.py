@@ -237,7 +237,7 @@ AXIS_STEP = 1.25       # the per-axis descent's step: n x or / this, rounded (at
 def _per_axis(f, ratio: float = AXIS_STEP, rounds: int = 8) -> None:
     """From the best subdivision ``f`` has seen, each axis in turn one step up and down (x or /
     ``AXIS_STEP``) while the time falls, until no axis moves (a coordinate descent)."""
-    from ..options import GRID_MAX
+    from ..settings import GRID_MAX
 
     def live_best():
         live = [kv for kv in f.seen.items() if not _dead(kv[1])]
@@ -270,7 +270,7 @@ def _per_axis(f, ratio: float = AXIS_STEP, rounds: int = 8) -> None:
 def settings(scene, width, height, threads, rules: str = "paper", threshold=None, grid=None) -> dict:
     """What made a prepass report: the scene and its content hash, the image, the rules and cutoff of
     its traces, the subdivision when it was fixed, the version."""
-    from ..options import threshold_setting, version
+    from ..settings import threshold_setting, version
     return {"scene": scene.name, "scene_sha256": scene.content_hash(), "resolution": [width, height],
             "rules": rules, "threshold": threshold_setting(rules, threshold),
             "grid": None if grid is None else ([grid] * 3 if isinstance(grid, int) else list(grid)),

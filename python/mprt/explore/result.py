@@ -133,7 +133,7 @@ def processor_table(cfg) -> list:
 def settings(workload, grid=None, loaded=None) -> dict:
     """What made a report: the scenes (each with its content's hash), the subdivision when it was
     fixed (``grid``: None when searched), the version."""
-    from ..options import threshold_setting, version
+    from ..settings import threshold_setting, version
     scenes = []
     for e in workload:
         d = e.to_dict()

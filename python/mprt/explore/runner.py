@@ -170,7 +170,7 @@ class Runner:
             self.pool.close()
 
     def _key(self, task: Task, machine) -> str:
-        from ..options import version
+        from ..settings import version
         from .distributed import cache_key
 
         return cache_key("evaluation", version(), task.trace_key(), task.level, repr(task.unit_costs),

@@ -35,9 +35,9 @@ no cycles) and DIR/sweep.png (cycles against subdivision).
 """
 from __future__ import annotations
 
-import argparse
 import csv
 import dataclasses
+import math
 import os
 import time
 
@@ -56,7 +56,7 @@ def load_spec(path, skip_unknown: bool = False) -> dict:
     ``skip_unknown``: the default of the scenes that do not say (``--skip-unknown``).
     "scenes": the scene names as given, "entries": their ``workload.SceneEntry``s (each with
     its res and rules, the spec's where it gives none), "designs": name -> Design or SystemConfig."""
-    from ..options import GRID_MAX, read_toml, resolution_arg
+    from ..settings import GRID_MAX, BadValue, read_toml, resolution
     from .workload import RULES, WorkloadError, scene_entries
 
     path = os.fspath(path)
@@ -75,8 +75,8 @@ def load_spec(path, skip_unknown: bool = False) -> dict:
             raise SpaceError(f"{w(k)}: missing")
     res = doc.get("res", "32x32")
     try:
-        width, height = resolution_arg(str(res))
-    except argparse.ArgumentTypeError as e:
+        width, height = resolution(str(res))
+    except BadValue as e:
         raise SpaceError(f"{w('res')}: {e}") from None
     rules = doc.get("rules", "paper")
     if rules not in RULES:
@@ -296,7 +296,7 @@ def run_sweep(spec: dict, out_dir, scheduler=None, workers=None, progress=None, 
     """Every design on every scene entry at every subdivision (load_spec's ``spec``), to
     ``out_dir``/sweep.csv and sweep.png through its cache; ``note(text)``: an NFF reader's notes
     (entities skipped, ...), one call each (default: none shown)."""
-    from ..options import command_line_note
+    from ..settings import command_line_note
     from .evaluate import grid_dims
 
     t0 = time.perf_counter()
@@ -352,13 +352,42 @@ def _entries_of(spec: dict) -> list:
             for s in spec["scenes"]]
 
 
+def row_cycles(v):
+    """A sweep row's cycles as a number, None where the design deadlocked ("" in the CSV)."""
+    return None if v in ("", None) else float(v)
+
+
+def _geomean(xs) -> float:
+    return math.exp(sum(math.log(x) for x in xs) / len(xs))
+
+
+def sweep_answer(rows) -> dict:
+    """What a sweep found, from its rows (dicts with scene, subdivision, design and cycles, "" or
+    None where the design deadlocked; the CSV's or run_sweep's): "best", per (scene, design) its
+    fewest cycles and the row that has them (its best subdivision); "geomean", per design the
+    geometric mean over the scenes of those cycles (None if it deadlocks at every subdivision of
+    some scene); "ranked", the designs with a geometric mean, fewest cycles first (ties in the
+    spec's order); "scenes", "designs" in their order."""
+    scenes = list(dict.fromkeys(r["scene"] for r in rows))
+    designs = list(dict.fromkeys(r["design"] for r in rows))
+    best: dict = {}
+    for r in rows:
+        c = row_cycles(r["cycles"])
+        k = (r["scene"], r["design"])
+        if c is not None and (k not in best or c < best[k][0]):
+            best[k] = (c, r)
+    geo = {d: _geomean([best[(s, d)][0] for s in scenes]) if all((s, d) in best for s in scenes) else None
+           for d in designs}
+    ranked = sorted((d for d in designs if geo[d] is not None), key=lambda d: (geo[d], designs.index(d)))
+    return {"scenes": scenes, "designs": designs, "best": best, "geomean": geo, "ranked": ranked}
+
+
 def _plot(rows, spec, path):
     """sweep.png, and the Figure: per scene (two panels a row, as wide as a report page) the cycles
     of each design against the subdivision on a log scale, a deadlock an x on the axis and a gap in
-    the line; one legend.  Over 8 designs: the 8 fastest (report.sweep_answer's ranking) in colour,
+    the line; one legend.  Over 8 designs: the 8 fastest (sweep_answer's ranking) in colour,
     the rest grey and unnamed."""
     from ..util import figures
-    from ..report import sweep_answer
 
     scenes, names = spec["scenes"], list(spec["designs"])
     ranked = sweep_answer(rows)["ranked"]

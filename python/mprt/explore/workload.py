@@ -122,7 +122,7 @@ def _int_in(v, lo, hi, where):
 def scene_entry(item, where: str, folder: str | None = None) -> SceneEntry:
     """One scene entry: a name (string) or a table of ``ENTRY_KEYS``; ``folder``: where a
     relative NFF path is read from first (the file's folder), else the current folder."""
-    from ..options import DEPTH_MAX, MAX_RAYS_MAX, resolution_arg
+    from ..settings import DEPTH_MAX, MAX_RAYS_MAX, resolution as resolution_arg
 
     if isinstance(item, str):
         item = {"name": item}
@@ -141,10 +141,9 @@ def scene_entry(item, where: str, folder: str | None = None) -> SceneEntry:
             raise WorkloadError(f"{where}.weight: {w!r} is not a positive number")
         ch["weight"] = float(w)
     if "res" in item:
-        import argparse
         try:
             ch["res"] = tuple(resolution_arg(str(item["res"])))
-        except argparse.ArgumentTypeError as e:
+        except ValueError as e:                 # settings.BadValue
             raise WorkloadError(f"{where}.res: {e}") from None
     if "rules" in item:
         if item["rules"] not in RULES:
@@ -201,7 +200,7 @@ def scene_entries(items, where: str, folder: str | None = None) -> list:
 
 def load_workload(path) -> Workload:
     """A workload file: ``[[scene]]`` tables (see the module's text)."""
-    from ..options import read_toml
+    from ..settings import read_toml
 
     path = os.fspath(path)
     doc = read_toml(path, "workload", WorkloadError)

@@ -13,7 +13,7 @@ from __future__ import annotations
 import json
 import os
 
-from ..options import UsageError
+from ..errors import UsageError
 
 EXIT_MOVED = 3
 STAGE_FIGURES = ("processing", "communication", "waiting", "memory_stall", "rays_in")

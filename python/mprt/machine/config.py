@@ -599,7 +599,7 @@ def _ruled(cfg: SystemConfig) -> SystemConfig:
 
 def load_config(path) -> SystemConfig:
     """Read and check a machine configuration file (TOML)."""
-    from ..options import read_toml
+    from ..settings import read_toml
 
     path = os.fspath(path)
     return config_from_dict(read_toml(path, "configuration", ConfigError), source=path)

@@ -35,14 +35,14 @@ import numpy as np
 
 from ..util import pages
 from ..errors import InvalidArgument
-from ..machine import cli as machine_cli
+from . import simulate as machine_cli
 from ..machine.errors import ConfigError
 from ..trace import TraceError
-from .analytical import Analytical
-from .ladder import measure
-from .levels import ENGINES, Evaluator, native_level
-from .sampled import RUN_TREES as S_RUN
-from .sampled import Sampling, estimate, sample_trace, scaled_result, trace_sample
+from ..fidelity.analytical import Analytical
+from ..fidelity.ladder import measure
+from ..fidelity.levels import ENGINES, Evaluator, native_level
+from ..fidelity.sampled import RUN_TREES as S_RUN
+from ..fidelity.sampled import Sampling, estimate, sample_trace, scaled_result, trace_sample
 
 AUTO_SAMPLE = "runs:16:1"            # what --level auto measures on (a sixteenth of the frame's visits)
 AUTO_TILES = 32                      # frames of fewer tiles are measured whole
@@ -88,7 +88,7 @@ def _tolerance(text: str) -> float:
 def add_parser(subparsers) -> argparse.ArgumentParser:
     s = machine_cli.add_parser(subparsers)
     f = s.add_argument_group("fidelity")
-    from .. import options as opt
+    from . import options as opt
     opt.add_level(f, default=None, default_text="the configuration's own level",
                   extra="; auto: the cheapest within --tolerance")
     f.add_argument("--engine", choices=ENGINES, default="auto",
@@ -205,7 +205,7 @@ def _auto_level(trace, cfg, tolerance, sampled: bool) -> tuple:
 def _estimate_runs(st, e, an, cfg1, frame, ev):
     """A sample of runs scaled by the whole frame's level 0 (its costs the frame's, which
     the sample's are a slice of), the interval from a compiled level-1 replay's admissions."""
-    from .compiled import Compiled
+    from ..fidelity.compiled import Compiled
 
     fcosts = Evaluator(frame, ev.cost_model).costed(cfg1)["costs"]
     c1 = ev.costed(cfg1)
@@ -278,8 +278,8 @@ def _probe_sample(trace):
 def _probe(trace, cfg, level: int) -> dict:
     """Seconds each phase of a compiled replay of ``trace`` should take: the same phases timed on
     runs of its trees holding 1/PROBE_RUNS of its visits (sample_trace), scaled by the visits."""
-    from .compiled import Compiled, costs_for
-    from .levels import at_level
+    from ..fidelity.compiled import Compiled, costs_for
+    from ..fidelity.levels import at_level
 
     sample = _probe_sample(trace)
     cfg_l = at_level(cfg, level)
@@ -314,8 +314,8 @@ def _phased_replay(ev, trace, cfg, level: int, engine: str, timeline: bool):
     """The replay of a large trace in phases, each with a line on stderr (a bar against its
     estimate on a terminal): costing the visits, loading them into the engine, replaying (on the
     compiled engine the visits are priced as they load: two phases)."""
-    from ..progress import Phases
-    from .levels import at_level
+    from .progress import Phases
+    from ..fidelity.levels import at_level
 
     eng = ev.engine_for(cfg, level, engine)
     visits = len(trace.visits)
@@ -388,7 +388,7 @@ def _replay_at(trace, cfg, a):
     extra = {"level": level, "engine": e.engine, "sampled": 1.0, "cycles_interval": [res.cycles, res.cycles]}
     line = f"level {level} on the {e.engine} engine"
     if st is not None:
-        from .levels import at_level
+        from ..fidelity.levels import at_level
 
         c = ev.costed(at_level(cfg, level))
         an = c.get("analytical") or Analytical(trace, c["costs"])
@@ -414,8 +414,8 @@ def _plan(a, cfg, trace=None):
     take), --engine, with ``auto`` SimPy where the compiled replay refuses the caches (as
     ``Evaluator.engine_for``); None where the run will name a fault itself."""
     from .. import memory_estimate as me
-    from .levels import at_level, engine_for
-    from .memdata import MemoryData
+    from ..fidelity.levels import at_level, engine_for
+    from ..fidelity.memdata import MemoryData
 
     level = native_level(cfg) if a.level in (None, "auto") else int(a.level)
     try:
@@ -433,8 +433,8 @@ def _plan(a, cfg, trace=None):
 
 
 def run(a) -> int:
-    from . import baseline
-    from ..options import UsageError
+    from ..fidelity import baseline
+    from .options import UsageError
 
     try:
         if a.engine != "auto" and a.level == "auto":

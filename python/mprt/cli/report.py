@@ -19,8 +19,9 @@ import shlex
 import sys
 import time
 
-from .util import figures
-from .util.atomic import open_replacing
+from ..util import figures
+from ..explore.sweep import row_cycles as _cycles, sweep_answer  # noqa: F401 (report.sweep_answer: kept)
+from ..util.atomic import open_replacing
 
 # The content is figures.CONTENT_PX wide in a 1280-px window (its figures are drawn for that width
 # and checked at it); body text figures.BODY_PX; an image wider than the content is scaled down
@@ -132,7 +133,7 @@ def settings_table(settings: dict) -> str:
 
 
 def reproduce(argv, settings: dict) -> str:
-    from ._lowlevel import EXT_VERSION
+    from .._lowlevel import EXT_VERSION
     return (f"<p>Run again with (mprt {esc(EXT_VERSION)}, {time.strftime('%Y-%m-%d %H:%M UTC', time.gmtime())}):</p>"
             f"<pre>{esc(command_line(argv))}</pre>" + settings_table(settings))
 
@@ -313,36 +314,6 @@ def simulate_html(out: dict, argv=None, plot_path=None) -> str:
 
 
 # -- sweep -------------------------------------------------------------------------------------
-
-def _cycles(v):
-    """A sweep row's cycles as a number, None where the design deadlocked ("" in the CSV)."""
-    return None if v in ("", None) else float(v)
-
-
-def _geomean(xs) -> float:
-    return math.exp(sum(math.log(x) for x in xs) / len(xs))
-
-
-def sweep_answer(rows) -> dict:
-    """What a sweep found, from its rows (dicts with scene, subdivision, design and cycles, "" or
-    None where the design deadlocked; the CSV's or run_sweep's): "best", per (scene, design) its
-    fewest cycles and the row that has them (its best subdivision); "geomean", per design the
-    geometric mean over the scenes of those cycles (None if it deadlocks at every subdivision of
-    some scene); "ranked", the designs with a geometric mean, fewest cycles first (ties in the
-    spec's order); "scenes", "designs" in their order."""
-    scenes = list(dict.fromkeys(r["scene"] for r in rows))
-    designs = list(dict.fromkeys(r["design"] for r in rows))
-    best: dict = {}
-    for r in rows:
-        c = _cycles(r["cycles"])
-        k = (r["scene"], r["design"])
-        if c is not None and (k not in best or c < best[k][0]):
-            best[k] = (c, r)
-    geo = {d: _geomean([best[(s, d)][0] for s in scenes]) if all((s, d) in best for s in scenes) else None
-           for d in designs}
-    ranked = sorted((d for d in designs if geo[d] is not None), key=lambda d: (geo[d], designs.index(d)))
-    return {"scenes": scenes, "designs": designs, "best": best, "geomean": geo, "ranked": ranked}
-
 
 def _times(a, b) -> str:
     """How much faster a is than b (cycles): 1.23x, or 'as fast as'."""

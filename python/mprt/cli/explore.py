@@ -1,9 +1,9 @@
 """The ``explore``, ``prepass`` and ``sweep`` subcommands.
 
-``mprt/cli.py`` wires them with::
+``mprt.cli.build_parser`` wires them with::
 
-    from .explore import cli as explore_cli
-    explore_cli.add_parsers(sub)        # after the other sub.add_parser calls
+    from .explore import add_parsers
+    add_parsers(sub)        # after the other sub.add_parser calls
 
 Each parser's ``func`` is its ``run_*`` function, which returns the exit status.
 """
@@ -14,8 +14,10 @@ import os
 import sys
 import time
 
-from .. import options as opt
-from ..progress import Phases, eta_text
+from . import options as opt
+from .progress import Phases, eta_text
+from .sweep import _nonnegative_int, add_parser as add_sweep_parser
+from .sweep import check_output, run_sweep, sweep_progress  # noqa: F401 (mprt.explore.cli's names, kept)
 
 
 def _positive(kind):
@@ -75,17 +77,6 @@ def _sample(text: str):
         raise argparse.ArgumentTypeError(str(e)) from None
 
 
-def check_output(path) -> None:
-    """Fail before any work if an output file cannot be written."""
-    if path is None:
-        return
-    d = os.path.dirname(os.path.abspath(path))
-    if not os.path.isdir(d):
-        raise OSError(f"{path}: directory {d} does not exist")
-    if not os.access(d, os.W_OK):
-        raise OSError(f"{path}: directory {d} is not writable")
-
-
 def _common(p):
     opt.add_scene_argument(p)
     opt.add_res(p)
@@ -102,8 +93,8 @@ def _tracing(p, grid_default: str, grid_extra: str) -> None:
 
 def add_parsers(sub) -> None:
     from ..machine.config import BUILTIN
-    from .result import OBJECTIVES
-    from .search import GLOBAL_ALGORITHMS, POLISHES
+    from ..explore.result import OBJECTIVES
+    from ..explore.search import GLOBAL_ALGORITHMS, POLISHES
     e = sub.add_parser("explore", help="one machine for a workload of scenes, and each scene's subdivision",
                        description="Search a design space (--space, or the built-in one) for the one machine that "
                                    "runs a workload of scenes best under a hardware budget; the subdivision is "
@@ -220,70 +211,8 @@ def add_parsers(sub) -> None:
                    help="narrow the ladder's bracket by golden-section steps, by one parabola step (half the "
                         "candidates, less exact where time is jagged in n), or not at all (default: golden)")
     p.set_defaults(func=run_prepass)
+    add_sweep_parser(sub)
 
-    from .sweep import __doc__ as sweep_doc
-    w = sub.add_parser("sweep", help="scenes x subdivisions x designs on Dask, to a CSV and plots",
-                       description="Replay every design of SPEC.toml on every scene at every subdivision, on Dask "
-                                   "(a local cluster, or --scheduler), to DIR/sweep.csv and DIR/sweep.png; tasks "
-                                   "already in DIR's cache are not run again.",
-                       epilog=sweep_doc.split("\n\n", 1)[1].split("\nwrites")[0].strip("\n").replace(
-                           "The spec file::", "the spec file (TOML):") + "\n\n" + opt.EXIT_STATUS,
-                       formatter_class=argparse.RawDescriptionHelpFormatter)
-    w.add_argument("spec", metavar="SPEC.toml", help="the sweep: scenes, res, subdivisions, designs (below)")
-    w.add_argument("--out", required=True, metavar="DIR",
-                   help="directory for sweep.csv, sweep.png and the cache, made if missing (required)")
-    w.add_argument("--scheduler", metavar="ADDRESS", help="an existing Dask scheduler (default: a LocalCluster)")
-    w.add_argument("--report", metavar="OUT.html",
-                   help="also write one self-contained HTML page: the rows, the plot and the command "
-                        "(default: none)")
-    w.add_argument("--workers", type=_nonnegative_int, default=None, metavar="N",
-                   help="LocalCluster worker processes (default: one per core; 0: run in this process)")
-    opt.add_skip_unknown(w)     # the default of the scenes whose [[scene]] table does not say
-    w.set_defaults(func=run_sweep)
-
-
-def sweep_progress(stream=None, clock=time.perf_counter):
-    """The sweep's progress: "done/total tasks" with the time left (from the mean time of the
-    tasks done so far), on one line rewritten on a terminal, else a line at each tenth."""
-    stream = stream or sys.stderr
-    tty = stream.isatty()
-    state = {"start": None, "shown": -1, "open": False}
-
-    def tick(done: int, total: int):
-        if state["start"] is None:
-            state["start"] = clock()
-            if total == 0:
-                print("  every task is in the cache", file=stream, flush=True)
-                return
-        if total == 0:
-            return
-        spent = clock() - state["start"]
-        left = f", about {spent / done * (total - done):.0f} s left" if 0 < done < total else ""
-        text = f"  {done}/{total} tasks done, {spent:.0f} s{left}"
-        if tty:
-            print("\r" + text + " " * 8, end="", file=stream, flush=True)
-            state["open"] = True
-        elif done == total or done * 10 // total != state["shown"]:
-            state["shown"] = done * 10 // total
-            print(text, file=stream, flush=True)
-
-    def end():
-        if state["open"]:
-            print(file=stream, flush=True)
-            state["open"] = False
-
-    tick.end = end
-    return tick
-
-
-def _nonnegative_int(text: str) -> int:
-    try:
-        v = int(text)
-    except ValueError:
-        raise argparse.ArgumentTypeError(f"{text!r} is not a whole number") from None
-    if v < 0:
-        raise argparse.ArgumentTypeError(f"{text!r} must be 0 or more")
-    return v
 
 
 def _progress_printer(every: int = 25, total: int | None = None, stream=None):
@@ -324,7 +253,7 @@ def _progress_printer(every: int = 25, total: int | None = None, stream=None):
 def load_workload_arg(a):
     """The workload of the command line: --workload FILE or the SCENEs (not both), the options
     the defaults of what each scene leaves out."""
-    from .workload import WorkloadError, load_workload, workload_of
+    from ..explore.workload import WorkloadError, load_workload, workload_of
 
     if a.workload and a.scene:
         raise opt.UsageError("give the scenes or --workload FILE.toml, not both")
@@ -341,9 +270,9 @@ def load_workload_arg(a):
 def run_explore(a) -> int:
     from ..machine.config import load_config
     from ..machine.errors import ConfigError
-    from .explorer import FidelitySettings, Resources, SearchSettings, explore
-    from .plots import plot
-    from .space import SpaceError, default_space, load_space
+    from ..explore.explorer import FidelitySettings, Resources, SearchSettings, explore
+    from ..explore.plots import plot
+    from ..explore.space import SpaceError, default_space, load_space
 
     opt.check_outputs(("--json", a.json, "json"), ("--plot", a.plot, "png"), ("--report", a.report, "html"),
                       ("--machine-out", a.machine_out, "toml"))
@@ -365,10 +294,10 @@ def run_explore(a) -> int:
     if a.workers is not None and a.workers < 0:
         raise opt.UsageError(f"--workers {a.workers}: give 0 or more processes")
     grid = None if a.grid is None else ((a.grid,) * 3 if isinstance(a.grid, int) else tuple(a.grid))
-    from .runner import default_workers
+    from ..explore.runner import default_workers
     workers = default_workers() if a.workers is None else a.workers
     if not a.scheduler:     # before any work: the largest whole frame, in every process that may hold it
-        from .memory import check_workload
+        from ..explore.memory import check_workload
         check_workload(wl, workers, grid)
     names = ", ".join(e.name for e in wl)
     print(f"explore {len(wl)} scene(s) ({names}), objective {a.objective}"
@@ -380,14 +309,14 @@ def run_explore(a) -> int:
           + (f" (subdivision fixed at {_dims_text(grid)})" if grid is not None else "")
           + (f", evaluations on the Dask scheduler {a.scheduler}" if a.scheduler else "")
           + (f", cache {a.cache}" if a.cache else "") + "; each step is reported as it ends", flush=True)
-    show = _progress_printer(total=a.max_evals)
+    show = _progress_printer()       # (no "time left": how many machines DIRECT-L takes is not known ahead)
     search = SearchSettings(objective=a.objective, budget=a.budget, algorithm=a.algorithm, polish=a.polish,
                             max_evals=a.max_evals, seed=a.seed, verify=a.verify, exhaustive=a.exhaustive,
                             bound=a.bound)
     fidelity = FidelitySettings(level=a.level if a.level == "auto" else int(a.level), tolerance=a.tolerance,
                                 fraction=a.fraction)
     if a.scheduler:
-        from .distributed import client
+        from ..explore.distributed import client
         with client(a.scheduler) as c:
             res = explore(wl, space, search, fidelity, Resources(workers=1, client=c, cache=a.cache),
                           machine=machine, grid=grid, say=show.line, progress=show, phases=Phases(0))
@@ -413,7 +342,7 @@ def run_explore(a) -> int:
     if a.report:
         import tempfile
 
-        from .. import report
+        from . import report
         with tempfile.TemporaryDirectory() as d:
             png = a.plot or os.path.join(d, "explore.png")
             if not a.plot:
@@ -434,7 +363,7 @@ def _dims_text(grid) -> str:
 def check_budget(space, budget, objective) -> None:
     """Before any work: a budget below the cheapest design of the space is refused (UsageError,
     exit 2), naming that design's cost."""
-    from .hwcost import UnitCosts, cheapest_design
+    from ..explore.hwcost import UnitCosts, cheapest_design
 
     if budget is None or objective == "pareto":
         return
@@ -490,7 +419,7 @@ def print_report(rep: dict) -> None:
 
 
 def run_prepass(a) -> int:
-    from .prepass import prepass
+    from ..explore.prepass import prepass
 
     opt.check_outputs(("--json", a.json, "json"))
     opt.check_render_options(a)
@@ -524,35 +453,4 @@ def run_prepass(a) -> int:
     if a.json:
         opt.write_json(a.json, r, indent=1)
         print(f"wrote   {a.json}")
-    return 0
-
-
-def run_sweep(a) -> int:
-    from .space import SpaceError
-    from .sweep import check_memory, load_spec, run_sweep as sweep
-
-    try:
-        spec = load_spec(a.spec, skip_unknown=a.skip_unknown)
-    except SpaceError as e:
-        raise opt.UsageError(str(e)) from None
-    if a.report:
-        opt.check_outputs(("--report", a.report, "html"))
-    check_output(os.path.join(a.out, "x"))  if os.path.isdir(a.out) else check_output(a.out)
-    sizes = dict.fromkeys("x".join(map(str, e.res)) for e in spec["entries"])     # (each scene's own)
-    print(f"sweep   {len(spec['scenes'])} scene(s) x {len(spec['subdivisions'])} subdivision(s) x "
-          f"{len(spec['designs'])} design(s) at {', '.join(sizes)}, level {spec['level']}, on "
-          f"{'the Dask scheduler ' + a.scheduler if a.scheduler else 'a local Dask cluster'}; progress with an "
-          "estimate of the time left below", flush=True)
-    if not a.scheduler:     # before any work: every worker holds a traced frame
-        check_memory(spec, a.workers)
-    tick = sweep_progress()
-    r = sweep(spec, a.out, scheduler=a.scheduler, workers=a.workers, progress=tick,
-              note=lambda text: print(f"mprt: warning: {text}", file=sys.stderr))
-    tick.end()
-    print(f"sweep   {r['rows']} rows from {r['tasks']} tasks ({r['cached']} from the cache) in {r['seconds']:.1f} s")
-    print(f"wrote   {r['csv']}\nwrote   {r['png']}")
-    if a.report:
-        from .. import report
-        report.write(a.report, report.sweep_html(r, getattr(a, "argv", None)))
-        print(f"wrote   {a.report}")
     return 0

@@ -14,9 +14,9 @@ import sys
 import time
 
 from .. import memory_estimate
-from .. import options as opt
-from .config import BUILTIN, resolve
-from .errors import ConfigError, DeadlockError
+from . import options as opt
+from ..machine.config import BUILTIN, resolve
+from ..machine.errors import ConfigError, DeadlockError
 
 
 def add_parser(subparsers) -> argparse.ArgumentParser:
@@ -126,7 +126,7 @@ def run(a, load=None, replay=None, plan=None) -> int:
     and again with it."""
     from .._lowlevel import EXT_VERSION
     from ..errors import MprtError
-    from .system import System
+    from ..machine.system import System
 
     if a.source.endswith(".npz"):
         given = [f"--{k.replace('_', '-')}" for k in ("grid", "res", "rules", "threshold", "threads", "tile",
@@ -198,7 +198,7 @@ def run(a, load=None, replay=None, plan=None) -> int:
     if a.report:
         import tempfile
 
-        from .. import report
+        from . import report
         with tempfile.TemporaryDirectory() as d:
             png = a.plot or os.path.join(d, "simulate.png")
             if not a.plot:
