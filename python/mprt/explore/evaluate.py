@@ -40,6 +40,22 @@ LEVELS = (0, 1, 2, 3)
 KEEP_PROCESSORS = 8        # sets of processors whose costed trace a SceneEvaluator keeps per grid
 
 
+def is_deadlock(x) -> bool:
+    """The one test of a deadlock, for what the explorer and the sweep hold: a cycle count
+    (DEADLOCK_CYCLES or more, the stand-in that ranks a deadlocked design last), a ``Result``
+    or a row of one as a dict (its bottleneck "deadlock"), an evaluation (its ``result``); None
+    (nothing run) is no deadlock."""
+    if x is None:
+        return False
+    if isinstance(x, dict):
+        return x.get("bottleneck") == "deadlock"
+    if isinstance(x, (int, float, np.integer, np.floating)):
+        return x >= DEADLOCK_CYCLES
+    if hasattr(x, "bottleneck"):
+        return x.bottleneck == "deadlock"
+    return is_deadlock(getattr(x, "result", None))
+
+
 @dataclass
 class Result:
     """What one evaluation found: total cycles and per-processor figures."""
@@ -56,7 +72,7 @@ class Result:
     def deadlocked(self) -> bool:
         """The design deadlocked, even with one ray tree in flight: ``cycles`` is DEADLOCK_CYCLES,
         the stand-in that ranks it last, not a count (reports give it none)."""
-        return self.bottleneck == "deadlock"
+        return is_deadlock(self)
 
     def to_dict(self) -> dict:
         return {"cycles": self.cycles, "level": self.level, "cost": self.cost, "loads": self.loads,
@@ -362,5 +378,5 @@ class SceneEvaluator:
         return res
 
 
-__all__ = ["DEADLOCK_CYCLES", "Result", "SceneEvaluator", "TraceEvaluator", "evaluate", "grid_dims", "machine_config",
+__all__ = ["DEADLOCK_CYCLES", "Result", "is_deadlock", "SceneEvaluator", "TraceEvaluator", "evaluate", "grid_dims", "machine_config",
            "machine_fields", "trace_key", "STAGE_NAMES"]

@@ -32,7 +32,7 @@ import numpy as np
 
 from ..errors import MprtError
 from ..machine.config import builtin
-from .evaluate import DEADLOCK_CYCLES, TraceEvaluator, grid_dims, machine_config
+from .evaluate import TraceEvaluator, grid_dims, is_deadlock, machine_config
 from .hwcost import UnitCosts
 from .space import Design
 
@@ -51,8 +51,6 @@ _WHY = ("its FIFOs cannot hold this scene's ray trees with its DIS window; give 
         "smaller window (--config)")
 
 
-def _dead(cycles: float) -> bool:
-    return cycles >= DEADLOCK_CYCLES       # (the evaluator's stand-in for a run that deadlocked)
 
 
 def _name(cfg) -> str:
@@ -169,7 +167,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
             _per_axis(f, ratio)
 
     cands = sorted(f.seen.items(), key=lambda kv: kv[0])
-    live = [kv for kv in cands if not _dead(kv[1])]
+    live = [kv for kv in cands if not is_deadlock(kv[1])]
     if not live:
         raise PrepassDeadlockError(
             f"machine {_name(f.design)} deadlocks at level {level} on every subdivision tried at {w}x{h} "
@@ -187,7 +185,7 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
         for dims, _ in sorted(live, key=lambda kv: (kv[1], kv[0]))[:check]:
             checked[dims] = full.run(Point(dims, f.design)).cycles
             full._held.clear()
-        ran = [kv for kv in checked.items() if not _dead(kv[1])]
+        ran = [kv for kv in checked.items() if not is_deadlock(kv[1])]
         if not ran:
             raise PrepassDeadlockError(
                 f"machine {_name(f.design)} deadlocks at level {level} at {width}x{height} (on "
@@ -199,10 +197,10 @@ def prepass(scene, width: int = 512, height: int = 512, candidates=None, n_range
             "settings": settings(scene, width, height, threads, rules, threshold),
             "per_axis": bool(axes and not candidates),
             # (a subdivision where the machine deadlocks: no cycles, "deadlock" true)
-            "candidates": [dict({"subdivision": list(d), "predicted_cycles": None if _dead(c) else c * scale,
-                                 "deadlock": _dead(c)},
-                                **({"sampled_cycles": None if _dead(checked[d]) else checked[d],
-                                    "sampled_deadlock": _dead(checked[d])} if d in checked else {}))
+            "candidates": [dict({"subdivision": list(d), "predicted_cycles": None if is_deadlock(c) else c * scale,
+                                 "deadlock": is_deadlock(c)},
+                                **({"sampled_cycles": None if is_deadlock(checked[d]) else checked[d],
+                                    "sampled_deadlock": is_deadlock(checked[d])} if d in checked else {}))
                            for d, c in cands],
             "check_sample": check_sample if check > 0 else None,
             "low_resolution": [w, h], "full_resolution": [width, height], "machine": f.design.name,
@@ -240,7 +238,7 @@ def _per_axis(f, ratio: float = AXIS_STEP, rounds: int = 8) -> None:
     from ..settings import GRID_MAX
 
     def live_best():
-        live = [kv for kv in f.seen.items() if not _dead(kv[1])]
+        live = [kv for kv in f.seen.items() if not is_deadlock(kv[1])]
         return min(live, key=lambda kv: (kv[1], kv[0]))[0] if live else None
     best = live_best()
     if best is None:

@@ -27,8 +27,10 @@ class Evaluation:
 
 
 def deadlocked(e: Evaluation) -> bool:
-    """The evaluation's design deadlocked (``evaluate.Result.deadlocked``)."""
-    return bool(getattr(e.result, "deadlocked", False))
+    """The evaluation's design deadlocked (``evaluate.is_deadlock`` of its result)."""
+    from .evaluate import is_deadlock
+
+    return is_deadlock(e.result)
 
 
 def front_of(evals) -> list[Evaluation]:

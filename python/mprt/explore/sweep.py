@@ -44,6 +44,7 @@ import time
 import numpy as np
 
 from .distributed import DiskCache, cache_key, client, map_cached
+from .evaluate import is_deadlock
 from .space import SHAPES, Design, SpaceError
 from ..util.atomic import open_replacing, replacing
 
@@ -325,7 +326,7 @@ def run_sweep(spec: dict, out_dir, scheduler=None, workers=None, progress=None, 
     for (sc, sub, dims, part), res in zip(where, results):
         for name, r in zip(part, res):
             row = {"scene": sc, "subdivision": "x".join(map(str, dims)), "n": sub[0] if len(sub) == 1 else "",
-                   "design": name, "cycles": "" if r["bottleneck"] == "deadlock" else r["cycles"],   # (no count)
+                   "design": name, "cycles": "" if is_deadlock(r) else r["cycles"],   # (no count)
                    "cost": r["cost"], "bottleneck": r["bottleneck"],
                    "level": r["level"], "costs": r["costs"]}
             for p, u in r["utilisation"].items():
