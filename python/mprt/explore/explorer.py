@@ -46,7 +46,7 @@ from .result import (BOUND_LEVEL, BOUND_SLACK, OBJECTIVES, ExploreResult, Fideli
 PROBE_PIXELS, PROBE_SAMPLE = 256 * 256, "stratified:16:1"
 DESCENT_EVALS = 16         # grids a subdivision's descent tries, about (for the estimates)
 SEARCH_POLISH = 4          # the polish after a subdivision moved: this many x 8 steps a free variable
-TYPICAL_SEARCH = 300       # machines DIRECT-L and the polish evaluate on the built-in space (for the estimate)
+TYPICAL_SEARCH = 220       # machines DIRECT-L and the polish replay at the level on the built-in space (estimate)
 
 
 @dataclass
@@ -139,11 +139,10 @@ class _Explorer:
         return dims, cyc
 
     def space_axis_values(self) -> tuple:
+        """The subdivision's lattice: nx, ny and nz's values each (or the one n's, every axis)."""
         names = {v.name: v for v in self.space.variables}
         if "subdivision.nx" in names:
-            vals = set(names["subdivision.nx"].values) | set(names["subdivision.ny"].values) | \
-                set(names["subdivision.nz"].values)
-            return tuple(sorted(vals))
+            return tuple(tuple(sorted(names[f"subdivision.n{a}"].values)) for a in "xyz")
         return tuple(sorted(names["subdivision.n"].values)) if "subdivision.n" in names else subdiv.AXIS_VALUES
 
     def start(self, k: int) -> tuple:
@@ -184,6 +183,17 @@ class _Explorer:
             return None
         return len(self.scenes) * traces * (t * scale + r * scale)
 
+    def _est_ladder(self, first: float, starts, designs: int) -> float:
+        """The ladder: a trace of each scene at its start (the first scene's, timed, scaled by the
+        square root of each one's pixels or voxels over the first's) and its designs' replays."""
+        s0 = self.scenes[0]
+        out = 0.0
+        for s, st in zip(self.scenes, starts):
+            size = (s.low[0] * s.low[1]) / (s0.low[0] * s0.low[1])
+            grid = float(np.prod(st)) / max(float(np.prod(starts[0])), 1.0)
+            out += first * max(size, grid) ** 0.5
+        return out * max(designs / 5, 1)
+
     def _est_search(self, hw: Space, lv: int) -> float | None:
         """The search (every machine of a small space, else about TYPICAL_SEARCH: DIRECT-L stops once
         idle long before ``max_evals`` on a lattice), each on every scene, the scenes spread over
@@ -198,19 +208,45 @@ class _Explorer:
         search = (machines + 4 * free) * len(self.scenes) * r / parallel
         return search + (self._est_descents(lv, traces=DESCENT_EVALS // 2) or 0.0)
 
+    def _frame(self, s, dims=None) -> tuple:
+        """(voxels, visits of the whole frame, of a probe) of scene ``s`` at ``dims`` (default its
+        search's): the low-resolution trace's visits scaled by the pixels."""
+        dims = tuple(dims or s.dims)
+        low = self.runner.visits.get((s.hash, repr(s.entry.trace_options()), s.low[0], s.low[1], dims, None))
+        if low is None:
+            low = max([v for k, v in self.runner.visits.items() if k[0] == s.hash and k[2:4] == s.low] or [0])
+        full = low * s.full[0] * s.full[1] / (s.low[0] * s.low[1])
+        probe = full / 16 if s.full[0] * s.full[1] > PROBE_PIXELS else full
+        return float(np.prod(dims)), full, probe
+
     def _est_full(self, lv: int) -> float | None:
-        """References, checks and the answer at full resolution: whole frames and probes."""
-        t, r = self.runner.per_trace(), self.runner.per_replay(lv)
-        if t is None or r is None:
+        """References, checks and the answer on the full frames: per scene three whole frames
+        traced (the references', the checks', the answer's), their replays (3 references, the
+        verify machines, the answer), and two descents of about DESCENT_EVALS / 2 probes each;
+        each trace and replay timed by the runner's model of what it made so far."""
+        if self.runner.trace_time(1, 1) is None or self.runner.replay_time(lv, 1) is None:
             return None
         out = 0.0
+        any_full = any(s.full != s.low for s in self.scenes)     # (else no checks and no descents there)
+        probes = DESCENT_EVALS // 2 if self.grid is None and any_full else 0
+        wholes, replays = (3, 3 + self.opts.verify + 1) if any_full else (2, 4)
         for s in self.scenes:
-            ratio = s.full[0] * s.full[1] / (s.low[0] * s.low[1])
-            if ratio == 1:
-                out += 3 * (t + r)
-                continue
-            probe = ratio / 16 if s.full[0] * s.full[1] > PROBE_PIXELS else ratio
-            out += 3 * (t + 4 * r) * ratio + 2 * DESCENT_EVALS // 2 * (t + r) * probe
+            vox, full, probe = self._frame(s)
+            out += wholes * self.runner.trace_time(vox, full) + 2 * probes * self.runner.trace_time(vox, probe)
+            out += self.runner.replay_time(lv, full) * replays + self.runner.replay_time(lv, probe) * 2 * probes
+        return out
+
+    def _est_own(self, lv: int, free: int) -> float | None:
+        """Each scene's own best: a short walk at low resolution, then its frame traced and replayed."""
+        if self.runner.trace_time(1, 1) is None or self.runner.replay_time(lv, 1) is None:
+            return None
+        out = 0.0
+        any_full = any(s.full != s.low for s in self.scenes)   # (else each frame's trace is still held)
+        for s in self.scenes:
+            vox, full, _ = self._frame(s)
+            low = full * s.low[0] * s.low[1] / (s.full[0] * s.full[1])
+            out += free * self.runner.replay_time(lv, low) + self.runner.replay_time(lv, full) + \
+                (self.runner.trace_time(vox, full) if any_full else 0.0)
         return out
 
     def explore(self) -> ExploreResult:
@@ -230,8 +266,12 @@ class _Explorer:
             return got, time.perf_counter() - t
         said: list = []
         if lv_level == "auto":
-            with ph.step(f"ladder: {len(ladder_designs(hw, self.opts.seed))} designs at levels "
-                         f"{', '.join(map(str, LADDER_LEVELS))} on each scene's low-resolution trace"):
+            designs = ladder_designs(hw, self.opts.seed)
+            t0 = time.perf_counter()
+            self.run([(0, starts[0], designs[0])], 0)        # (the first trace, timed for the estimate)
+            first = time.perf_counter() - t0
+            with ph.step(f"ladder: {len(designs)} designs at levels {', '.join(map(str, LADDER_LEVELS))} on "
+                         f"each scene's low-resolution trace", self._est_ladder(first, starts, len(designs))):
                 levels = choose_level(lv_level, self.fid.tolerance, names, ladder_run, hw, self.opts.seed,
                                       said.append)
         else:
@@ -446,10 +486,7 @@ class _Explorer:
 
         own = [None] * len(self.scenes)
         if multi:
-            r = self.runner.per_replay(lv)
-            t = self.runner.per_trace()
-            est = None if r is None or t is None else len(self.scenes) * (4 * len(problem.free) * r + sum(
-                s.full[0] * s.full[1] / (s.low[0] * s.low[1]) for s in self.scenes) / len(self.scenes) * (t + r))
+            est = self._est_own(lv, len(problem.free))
             with self.phases.step("own best: each scene's own best machine under the budget, for its sharing",
                                   est):
                 own = self.own_best(problem, lv, full_rows)
@@ -493,6 +530,7 @@ class _Explorer:
                   "evaluations": {"machines": len({(r.get("phase"), json.dumps(r.get("design"), sort_keys=True))
                                                    for r in history if r.get("phase") in ("search", "polish")}),
                                   "replayed": self.runner.ran, "reused_from_cache": self.runner.reused,
+                                  "repeated": self.runner.repeated,
                                   "worker_restarts": self.runner.pool.restarts if self.runner.pool else 0},
                   "workers": self.runner.workers,
                   "space": {"source": self.space.source,

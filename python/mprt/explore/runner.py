@@ -24,6 +24,8 @@ import signal
 import time
 from dataclasses import dataclass
 
+import numpy as np
+
 from .evaluate import Result
 
 _SCENES: dict = {}          # scene hash -> Scene (set before the fork; loaded on demand in a Dask worker)
@@ -123,8 +125,9 @@ def run_task(task: Task) -> list:
     rows = [ev.run(Point(tuple(task.dims), _machine(m)), task.level).to_dict() for m in task.machines]
     _trim()
     spent = ev.trace_seconds - traced
+    held = ev._held.get(tuple(task.dims))
     return {"rows": rows, "trace_seconds": spent, "traced": spent > 0,
-            "replay_seconds": time.perf_counter() - t0 - spent}
+            "replay_seconds": time.perf_counter() - t0 - spent, "visits": held[0].visits if held else 0}
 
 
 def _trim() -> None:
@@ -158,12 +161,17 @@ class Runner:
         self.cache = cache
         self.say = say or (lambda text: None)
         self.pool = LocalPool(self.workers, self.say) if client is None and self.workers > 1 else None
-        self.reused = 0             # machine results found in the cache
+        self.reused = 0             # machine results found in the cache (put there by an earlier run)
+        self._made: set = set()     # cache keys this run put there
+        self.repeated = 0           # machine results asked for again in this run (found where it put them)
         self.ran = 0                # machine results computed
         self.seconds = 0.0
         self.traces = 0             # traces made (by whichever process ran the task)
         self.trace_seconds = 0.0    # their seconds, summed over the processes
         self.replay_seconds = {}    # level -> (replays, seconds), summed over the processes
+        self.replay_visits = {}     # level -> (visits replayed, seconds)
+        self.trace_samples = []     # (voxels, visits, seconds) of each trace made
+        self.visits = {}            # trace key -> its visits (what each trace held)
 
     def close(self) -> None:
         if self.pool is not None:
@@ -184,10 +192,14 @@ class Runner:
         for i, t in enumerate(tasks):
             miss = []
             for j, m in enumerate(t.machines):
-                hit = self.cache.get(self._key(t, m)) if self.cache is not None else None
+                key = self._key(t, m) if self.cache is not None else None
+                hit = self.cache.get(key) if key is not None else None
                 if hit is not None:
                     out[i][j] = Result.from_dict(hit)
-                    self.reused += 1
+                    if key in self._made:      # (what this run put there itself, asked for again)
+                        self.repeated += 1
+                    else:
+                        self.reused += 1
                 else:
                     miss.append(j)
             if miss:
@@ -207,10 +219,18 @@ class Runner:
                 self.trace_seconds += done["trace_seconds"]
                 n, secs = self.replay_seconds.get(tasks[i].level, (0, 0.0))
                 self.replay_seconds[tasks[i].level] = (n + len(rows), secs + done["replay_seconds"])
+                v = done.get("visits", 0)
+                self.visits[tasks[i].trace_key()] = v
+                if done["traced"]:
+                    self.trace_samples.append((float(np.prod(tasks[i].dims)), float(v), done["trace_seconds"]))
+                nv, sv = self.replay_visits.get(tasks[i].level, (0.0, 0.0))
+                self.replay_visits[tasks[i].level] = (nv + v * len(rows), sv + done["replay_seconds"])
                 for j, row in zip(miss, rows):
                     out[i][j] = Result.from_dict(row)
                     if self.cache is not None:
-                        self.cache.put(self._key(tasks[i], tasks[i].machines[j]), row)
+                        key = self._key(tasks[i], tasks[i].machines[j])
+                        self.cache.put(key, row)
+                        self._made.add(key)
                     self.ran += 1
         self.seconds += time.perf_counter() - t0
         return out
@@ -218,6 +238,27 @@ class Runner:
     def per_trace(self) -> float | None:
         """Mean seconds of a trace made so far (None: none made)."""
         return self.trace_seconds / self.traces if self.traces else None
+
+    def trace_time(self, voxels: float, visits: float) -> float | None:
+        """A trace's seconds from those made so far: a least-squares fit (non-negative) of their
+        seconds on their grids' voxels (the grid's build) and their visits (the rays' walk)."""
+        from scipy.optimize import nnls
+
+        if not self.trace_samples:
+            return None
+        a = np.array([(vox, vis) for vox, vis, _ in self.trace_samples])
+        b = np.array([t for _, _, t in self.trace_samples])
+        scale = np.maximum(a.max(axis=0), 1.0)
+        coef, _ = nnls(a / scale, b)
+        coef = coef / scale
+        if not coef.any():
+            return self.per_trace()
+        return float(coef[0] * voxels + coef[1] * visits)
+
+    def replay_time(self, level: int, visits: float) -> float | None:
+        """One machine's replay of ``visits`` visits at a level, at the rate measured so far."""
+        nv, secs = self.replay_visits.get(level, (0.0, 0.0))
+        return secs / nv * visits if nv else None
 
     def per_replay(self, level: int) -> float | None:
         """Mean seconds of one machine's replay at a level so far (None: none)."""

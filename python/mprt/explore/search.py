@@ -358,8 +358,8 @@ def search(problem: Problem, algorithm: str = "direct-l", polish: str = "lattice
         tasks.append((sp, problem.objective, problem.budget, algorithm, max(share, 1), seed, known))
     for rows, calls in (run_starts or _local_starts(problem))(tasks):
         problem.calls += calls
-        for point, r, bound in rows:
-            if problem.add(point, r, bound) is not None and problem.progress:
+        for point, r, bound in rows:       # (run here, the starts told the progress as they ran)
+            if problem.add(point, r, bound) is not None and problem.progress and run_starts is not None:
                 problem.progress(problem)
     n1 = len(problem.memo)
     best = problem.best()

@@ -24,14 +24,22 @@ AXIS_VALUES = (1, 2, 3, 4, 6, 8, 12, 16, 24, 32, 48, 64, 96, 128, 192, 256, 384,
 MAX_ROUNDS = 8
 
 
+def lattices(values) -> tuple:
+    """Three sorted per-axis lists from ``values``: one list for every axis, or three (nx, ny, nz)."""
+    if len(values) == 3 and all(isinstance(v, (tuple, list)) for v in values):
+        return tuple(tuple(sorted(int(x) for x in v)) for v in values)
+    one = tuple(sorted(int(x) for x in values))
+    return (one, one, one)
+
+
 def proportional(extent, n: int, values=AXIS_VALUES) -> tuple:
-    """The rung of ``values`` nearest (in ratio) n x the extent over the longest, per axis."""
+    """Per axis, the rung of its lattice nearest (in ratio) n x the extent over the longest."""
     ext = np.maximum(np.asarray(extent, float), 0.0)
     longest = float(ext.max()) or 1.0
     out = []
-    for e in ext:
+    for e, vals in zip(ext, lattices(values)):
         want = max(n * e / longest, 1.0)
-        out.append(min(values, key=lambda v: (abs(np.log(v / want)), v)))
+        out.append(min(vals, key=lambda v: (abs(np.log(v / want)), v)))
     return tuple(int(v) for v in out)
 
 
@@ -46,10 +54,11 @@ def start_dims(scene, values=AXIS_VALUES) -> tuple:
 
 def descend(cycles_of, start, extent, values=AXIS_VALUES, say=None) -> tuple:
     """(dims, cycles, evaluated): the bottom ``descend`` finds from ``start`` (a point of the
-    lattice ``values`` per axis).  ``cycles_of(list of dims) -> list of cycles`` evaluates a
-    batch (the neighbours of a step together, so they may run in parallel); ``evaluated`` maps
-    every dims tried to its cycles."""
-    values = tuple(sorted(values))
+    lattice: ``values`` for every axis, or one list per axis).  ``cycles_of(list of dims) -> list
+    of cycles`` evaluates a batch (the neighbours of a step together, so they may run in
+    parallel); ``evaluated`` maps every dims tried to its cycles."""
+    axes = lattices(values)
+    line = tuple(sorted(set().union(*axes)))
     seen: dict = {}
 
     def run(cands):
@@ -63,31 +72,31 @@ def descend(cycles_of, start, extent, values=AXIS_VALUES, say=None) -> tuple:
     best = run([start])
     # 1. the rule's line: n along the longest axis, up and down from the start
     longest = max(start)
-    rung = values.index(longest) if longest in values else int(np.argmin([abs(v - longest) for v in values]))
+    rung = int(np.argmin([abs(np.log(v / longest)) for v in line]))
     for step in (1, -1):
         r = rung
-        while 0 <= r + step < len(values):
+        while 0 <= r + step < len(line):
             r += step
-            cand = proportional(extent, values[r], values)
+            cand = proportional(extent, line[r], axes)
             if cand in seen and seen[cand] > seen[best]:
                 break
             if run([best, cand]) != cand:
                 break
             best = cand
     # 2. per axis, one rung at a time, until no axis moves
-    idx = {v: i for i, v in enumerate(values)}
     for _ in range(MAX_ROUNDS):
         moved = False
         for axis in range(3):
+            vals = axes[axis]
             while True:
-                i = idx.get(best[axis])
-                if i is None:
+                if best[axis] not in vals:
                     break
+                i = vals.index(best[axis])
                 cands = []
                 for j in (i - 1, i + 1):
-                    if 0 <= j < len(values):
+                    if 0 <= j < len(vals):
                         c = list(best)
-                        c[axis] = values[j]
+                        c[axis] = vals[j]
                         cands.append(tuple(c))
                 nxt = run([best] + cands)
                 if nxt == best:
@@ -108,4 +117,4 @@ def scan(cycles_of, xy_values, z_values) -> tuple:
     return cands[k], float(got[k])
 
 
-__all__ = ["AXIS_VALUES", "descend", "proportional", "scan", "start_dims"]
+__all__ = ["AXIS_VALUES", "descend", "lattices", "proportional", "scan", "start_dims"]
