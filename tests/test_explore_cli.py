@@ -77,6 +77,24 @@ def test_explore_pareto_front(tmp_path):
     assert all(h["cycles"] is not None for h in ran)
     for f in front:
         assert not any(h["cost"] <= f["cost"] and h["cycles"] < f["objective"] for h in ran)
+    # the knee marked once, the answer; each row shows the design fields that differ along the front
+    (knee,) = [f for f in front if f["knee"]]
+    assert r["best"]["design"] == knee["design"]
+    keys = set(front[0]["differs"])
+    assert keys and all(set(f["differs"]) == keys for f in front)
+    assert all(len({repr(f["differs"][k]) for f in front}) > 1 for k in keys)
+    assert not any(f["budget_best"] for f in front)             # (no budget given)
+
+
+def test_explore_pareto_marks_the_budgets_best(tmp_path, capsys):
+    out = tmp_path / "p.json"
+    assert run("explore", "balls:1", "--res", "16x16", "--space", SMALL, "--objective", "pareto", "--budget", "300",
+               "--json", out, "--max-evals", "60", "--level", "1", "--workers", "0") == 0
+    front = json.loads(out.read_text())["front"]
+    (best,) = [f for f in front if f["budget_best"]]
+    assert best["objective"] == min(f["objective"] for f in front if f["cost"] <= 300)
+    text = capsys.readouterr().out
+    assert "+ the best within the budget" in text and "* the knee" in text
 
 
 @pytest.mark.parametrize("argv, message", [
@@ -196,3 +214,17 @@ def test_prepass_then_descends_each_axis_to_a_point_no_axis_step_improves(name):
                 nb = list(best)
                 nb[axis] = k
                 assert tuple(nb) in got and got[tuple(nb)] >= got[best]
+
+
+@pytest.mark.parametrize("objective", ["geomean", "pareto"])
+def test_the_explore_figure_reads_at_a_glance(tmp_path, objective):
+    """The figure on a report page (1160 px of content): no text under 12 px, no overlapping
+    labels, nothing past its edges (mprt.util.figures.check), for a workload and for the front."""
+    from mprt.explore.plots import figure
+    from mprt.util import figures
+    out = tmp_path / "e.json"
+    assert run("explore", "tetra:1", "balls:1", "--res", "16x16", "--space", SMALL, "--budget", "400", "--level", "1",
+               "--objective", objective, "--max-evals", "40", "--workers", "0", "--json", out) == 0
+    fig = figure(json.loads(out.read_text()))
+    assert figures.check(fig) == []
+    assert fig.get_figwidth() * figures.DPI <= figures.CONTENT_PX + 1      # shown at its natural size

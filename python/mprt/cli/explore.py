@@ -411,9 +411,12 @@ def print_report(rep: dict) -> None:
         cyc = ", ".join("deadlocks" if r["cycles"] is None else f"{r['cycles']:,.0f}" for r in ref["per_scene"])
         print(f"ref     {title:12s} cost {ref['cost']:6,.0f} kGE; cycles {cyc}")
     if rep.get("front"):
-        print(f"front   {len(rep['front'])} machines (cost, geometric-mean figure):")
+        print(f"front   {len(rep['front'])} machines, cheapest first (cost, geometric mean of cycles, what differs; "
+              f"* the knee, where the figure stops falling fast for the cost added" + ("; + the best within the budget" if rep.get("budget") else "") + "):")
         for f in rep["front"]:
-            print(f"        {f['cost']:7,.0f} kGE {f['objective']:14,.0f}  {f['described']}")
+            mark = ("*" if f["knee"] else " ") + ("+" if f["budget_best"] else " ")
+            print(f"     {mark} {f['cost']:7,.0f} kGE {f['objective']:14,.0f}  "
+                  + ", ".join(f"{k} {v}" for k, v in f["differs"].items()))
     print(f"search  {ev['machines']} machines; {ev['replayed']:,} scene replays, {ev['reused_from_cache']:,} "
           f"from the cache; {rep['seconds']:.1f} s")
 

@@ -244,9 +244,15 @@ def explore_html(rep: dict, argv, plot_path) -> str:
     plots = file_png(plot_path, "search history, cost against the objective, per-scene speed-ups")
     front = ""
     if rep.get("front"):
-        front = "<h3>Pareto front</h3>" + table(("cost (kGE)", "geometric mean of cycles", "machine"),
-                                               [(num(f["cost"]), num(f["objective"]), f["described"])
-                                                for f in rep["front"]])
+        keys = list(rep["front"][0]["differs"])
+        front = ("<h3>Pareto front</h3><p>Cheapest first; the answer is the front, its knee (where the figure stops falling fast for the cost added) marked"
+                 + (", and the best within the budget is marked" if rep.get("budget") else "")
+                 + "; the columns are what differs between the machines.</p>"
+                 + table(("cost (kGE)", "geometric mean of cycles", *keys, ""),
+                         [(num(f["cost"]), num(f["objective"]), *(str(f["differs"][k]) for k in keys),
+                           " ".join(w for w, on in (("knee: the answer", f["knee"]),
+                                                    ("best within the budget", f["budget_best"])) if on))
+                          for f in rep["front"]]))
     st = rep.get("settings") or {}
     settings = {"objective": rep["objective"], "budget": rep.get("budget"), "space": rep["space"]["source"],
                 "grid": st.get("grid"), "mprt_version": st.get("mprt_version")}

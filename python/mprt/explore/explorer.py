@@ -37,7 +37,8 @@ from .search import compass, cost_range, exhaustive, search as run_search
 from .space import Design, Point, Space, default_space
 from . import subdivision as subdiv
 from .result import (BOUND_LEVEL, BOUND_SLACK, OBJECTIVES, ExploreResult, FidelitySettings,  # noqa: F401
-                     NoLiveDesignError, Resources, SearchSettings, aggregate, processor_table, settings,
+                     NoLiveDesignError, Resources, SearchSettings, aggregate, front_rows, knee_of,
+                     processor_table, settings,
                      slack_bounds, speedup)
 
 # Above this many pixels, a subdivision is chosen at full resolution on a sample of the frame's
@@ -365,7 +366,7 @@ class _Explorer:
         if self.opts.objective == "pareto":
             if not front:
                 raise NoLiveDesignError(self._dead_message(problem, lv))
-            best = min(front, key=lambda e: (e.cycles * e.cost, e.serial))      # the knee
+            best = knee_of(front)
         else:
             best = problem.best()
         how = ("every machine of the space" if n is not None and n <= self.opts.exhaustive else
@@ -520,8 +521,7 @@ class _Explorer:
                 "speedup_geomean": geo, "speedup_worst": min(sp) if all(sp) else None,
                 "total_cycles": float(sum(w * r.cycles for w, (_, r) in zip(weights, full_rows))),
                 "sharing_geomean": float(np.exp((weights * np.log(share)).sum() / weights.sum()))}
-        front_rows = [{"design": e.point.design.to_dict(), "described": e.point.design.describe(),
-                       "cost": e.cost, "objective": e.cycles} for e in front]
+        fronts = front_rows(front, self.opts.budget, knee_of(front))
         report = {"workload": self.workload.to_dict(), "objective": self.opts.objective, "budget": self.opts.budget,
                   "level": levels, "tolerance": self.fid.tolerance,
                   "search_resolution": [list(s.low) for s in self.scenes],
@@ -538,7 +538,7 @@ class _Explorer:
                             "unit_costs": self.unit_costs.to_dict()},
                   "settings": settings(self.workload, self.grid, [s.scene for s in self.scenes]),
                   "seconds": time.perf_counter() - self.t0}
-        return ExploreResult(best, per_scene, refs, front_rows, history, report, cfg)
+        return ExploreResult(best, per_scene, refs, fronts, history, report, cfg)
 
 
 class _Silent:

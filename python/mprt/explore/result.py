@@ -106,6 +106,42 @@ def aggregate(objective: str, cycles: list, weights: list, refs: list) -> float:
     return float(np.exp((w * np.log(np.maximum(c, 1.0))).sum() / w.sum()))
 
 
+def knee_of(front):
+    """The front's knee: in log cost against log figure, each scaled to [0, 1] over the front, the
+    machine farthest from the straight line between its cheapest and its fastest (where the
+    figure stops falling fast for the cost added); the only one of a front of one or two, the
+    fastest."""
+    rows = sorted(front, key=lambda e: (e.cost, e.cycles))
+    if len(rows) <= 2:
+        return min(rows, key=lambda e: (e.cycles, e.cost)) if rows else None
+    x = np.log([e.cost for e in rows])
+    y = np.log([e.cycles for e in rows])
+    x = (x - x[0]) / ((x[-1] - x[0]) or 1.0)
+    y = (y - y[-1]) / ((y[0] - y[-1]) or 1.0)
+    # the chord from (0, 1) to (1, 0): distance below it is 1 - x - y (over sqrt 2)
+    return rows[int(np.argmax(1.0 - x - y))]
+
+
+def front_rows(front, budget=None, knee=None) -> list:
+    """The Pareto front as rows, cheapest first: each machine's cost, figure and design, which of
+    them is the knee (least figure x cost: the answer) and the best within ``budget``, and
+    ``differs``: the design fields that are not the same on every row (what a reader compares)."""
+    def flat(d, pre=""):
+        out = {}
+        for k, v in d.items():
+            out.update(flat(v, f"{pre}{k}.") if isinstance(v, dict) else {f"{pre}{k}": v})
+        return out
+    rows = sorted(front, key=lambda e: (e.cost, e.cycles))
+    fields = [flat(e.point.design.to_dict()) for e in rows]
+    keys = sorted({k for f in fields for k in f})
+    varying = [k for k in keys if len({repr(f.get(k, 0)) for f in fields}) > 1]
+    within = [e for e in rows if budget is None or e.cost <= budget]
+    best = min(within, key=lambda e: (e.cycles, e.cost)) if budget is not None and within else None
+    return [{"design": e.point.design.to_dict(), "described": e.point.design.describe(), "cost": e.cost,
+             "objective": e.cycles, "knee": e is knee, "budget_best": e is best,
+             "differs": {k: f.get(k, 0) for k in varying}} for e, f in zip(rows, fields)]
+
+
 def speedup(ref, cycles):
     if ref is None or cycles is None or not cycles or cycles >= DEADLOCK_CYCLES or ref >= DEADLOCK_CYCLES:
         return None
@@ -149,4 +185,4 @@ def settings(workload, grid=None, loaded=None) -> dict:
 
 
 __all__ = ["BOUND_LEVEL", "BOUND_SLACK", "ExploreResult", "FidelitySettings", "NoLiveDesignError", "OBJECTIVES",
-           "Resources", "SearchSettings", "aggregate", "processor_table", "settings", "slack_bounds", "speedup"]
+           "Resources", "SearchSettings", "aggregate", "front_rows", "knee_of", "processor_table", "settings", "slack_bounds", "speedup"]
