@@ -1,8 +1,9 @@
 """Every message suggests only options that exist (issue 36, item 4): each ``--option`` written in
 a string of the package's Python sources (messages, help, docstrings) or in a C string literal of
 the library is an option of a parser ``mprt.cli.build_parser()`` builds; in the modules of one
-subcommand (``mprt simulate``: machine/cli.py, fidelity/cli.py), an option of that subcommand;
-in ``mprt.cost.calibrate`` or a string naming it, an option of calibrate's own parser."""
+subcommand (``mprt simulate``: cli/simulate.py, cli/fidelity.py), an option of that subcommand;
+in ``mprt.cost.calibrate`` and its command ``mprt.cli.calibrate`` or a string naming either, an option of
+calibrate's own parser."""
 import argparse
 import ast
 import pathlib
@@ -17,7 +18,7 @@ PACKAGE = ROOT / "python" / "mprt"
 HINT = re.compile(r"(?<![\w-])--([a-z][a-z0-9]*(?:-[a-z0-9]+)*)")
 C_STRING = re.compile(r'"((?:[^"\\\n]|\\.)*)"')
 # the modules whose messages are shown by one subcommand only
-SUBCOMMAND_OF = {"machine/cli.py": "simulate", "fidelity/cli.py": "simulate"}
+SUBCOMMAND_OF = {"cli/simulate.py": "simulate", "cli/fidelity.py": "simulate"}
 
 
 def _parsers(p, name="mprt"):
@@ -33,7 +34,7 @@ def _options(p) -> set:
 
 
 def _calibrate_options(capsys) -> set:
-    from mprt.cost import calibrate
+    from mprt.cli import calibrate
 
     with pytest.raises(SystemExit):
         calibrate.main(["--help"])
@@ -63,7 +64,7 @@ def test_the_collector_finds_hints_and_options():
     """The collector sees the hints it is meant to check (a message naming --skip-unknown, the
     budget error's --max-depth) and the options of every subcommand (--max-depth among them)."""
     found = {(path, opt) for path, _, opt, _ in python_hints()}
-    assert ("options.py", "--skip-unknown") in found and ("grid.py", "--max-depth") in found
+    assert ("cli/options.py", "--skip-unknown") in found and ("grid.py", "--max-depth") in found
     parsers = dict(_parsers(cli.build_parser()))
     assert {"render", "trace", "simulate", "explore", "prepass", "sweep"} <= set(parsers)
     for command in ("render", "trace", "simulate"):
@@ -76,7 +77,8 @@ def test_every_hinted_option_exists(capsys):
     calibrate = _calibrate_options(capsys)
     missing = []
     for path, line, opt, text in list(python_hints()) + list(c_hints()):
-        if path == "cost/calibrate.py" or "mprt.cost.calibrate" in text:
+        if path in ("cost/calibrate.py", "cli/calibrate.py") or "mprt.cost.calibrate" in text \
+                or "mprt.cli.calibrate" in text:
             known = calibrate
         elif path in SUBCOMMAND_OF:
             known = _options(parsers[SUBCOMMAND_OF[path]])

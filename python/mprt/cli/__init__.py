@@ -5,7 +5,7 @@ Nothing in the library imports this package (tests/test_layers.py checks it).  H
 stats), ``simulate`` and ``fidelity`` (simulate and its ladder options), ``explore`` and
 ``sweep`` (explore, prepass, sweep), ``calibrate`` (``python -m mprt.cli.calibrate``), and
 their helpers: ``options`` (every option, validated once), ``progress`` (phase lines and
-bars on stderr), ``report`` (the HTML pages of ``--report``).
+bars on stderr), ``report`` (the self-contained HTML report pages).
 
 Every subcommand follows the same rules (``mprt.cli.options`` holds the shared
 parts): each option is validated once with its range in the message and in
