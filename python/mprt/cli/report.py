@@ -202,7 +202,9 @@ def explore_html(rep: dict, argv, plot_path) -> str:
     names = ", ".join(r["scene"] for r in rows)
     budget = f" within {rep['budget']:g} kGE" if rep.get("budget") else ""
     geo = b.get("speedup_geomean")
-    answer = (f'<p class="answer{"" if b["feasible"] else " warn"}">One machine for {esc(names)}{esc(budget)}: '
+    what = (f"The front of {len(rep['front'])} machines for {esc(names)} (the table below); its knee"
+            if rep.get("front") else f"One machine for {esc(names)}{esc(budget)}")
+    answer = (f'<p class="answer{"" if b["feasible"] else " warn"}">{what}: '
               f'<b>{esc(b["described"])}</b>, {num(b["cost"])} kGE; '
               + (f"{geo:.2f}x the paper's 3MPPE (weighted geometric mean)" if geo else "no speed-up figure")
               + f", at level {lv['search']}"
