@@ -17,6 +17,7 @@ ORDER = [
     "errors",      # exceptions
     "util",        # atomic outputs, paged arrays, figures read at a glance (none imports the package)
     "_lowlevel",   # the only importer of the compiled extensions: one wrapper per C call, enums, record dtypes
+                   # (a package: core, scene, grid, records, replay; the rest imports the package, never its modules)
     "scene",       # Scene
     "grid",        # Grid (adds Scene.grid), render, intersect, camera rays, per-tile calls
     "trace",       # the trace: recording, Trace, the file format and writer, validation, invariants, statistics
@@ -31,7 +32,7 @@ ORDER = [
     "__main__",    # python -m mprt
 ]
 APPLICATION = {"cli", "__main__"}    # the rest is the library: it never imports these, nor argparse
-EXTENSIONS = {"_mprt", "_mprt32"}   # compiled; imported by _lowlevel alone
+EXTENSIONS = {"_mprt", "_mprt32"}   # compiled; imported by _lowlevel's modules alone
 LAYER = {name: i for i, name in enumerate(ORDER)}
 
 
@@ -53,9 +54,9 @@ def is_module(name: str) -> bool:
         or os.path.isdir(os.path.join(PACKAGE, name))
 
 
-def imported_layers(source: str, rel: str):
-    """(line, layer imported) for every import of the package's own modules in a file's source
-    (function bodies included); rel is the file's path relative to the package."""
+def imported_paths(source: str, rel: str):
+    """(line, dotted path as a list, "mprt" first) of every import of the package's own modules in
+    a file's source (function bodies included); rel is the file's path relative to the package."""
     package = ["mprt"] + rel.split(os.sep)[:-1]       # the file's package, as a dotted path
     found = []
     for node in ast.walk(ast.parse(source)):
@@ -64,15 +65,19 @@ def imported_layers(source: str, rel: str):
         elif isinstance(node, ast.ImportFrom):
             base = package[: len(package) - node.level + 1] if node.level else []
             mod = base + (node.module.split(".") if node.module else [])
-            # 'from mprt import name': name is a module of the package, or one of its public names
-            targets = [mod + [a.name if is_module(a.name) else "__init__"] if mod == ["mprt"] else mod
-                       for a in node.names]
+            # 'from mprt import name': name is a module of the package, or one of its public names;
+            # 'from mprt.sub import name': name may be a module of the subpackage
+            targets = [mod + [a.name if is_module(a.name) else "__init__"] if mod == ["mprt"] else
+                       mod + [a.name] if is_module(os.path.join(*mod[1:], a.name)) else mod for a in node.names]
         else:
             continue
-        for t in targets:
-            if t[0] == "mprt":
-                found.append((node.lineno, t[1] if len(t) > 1 else "__init__"))
+        found += [(node.lineno, t) for t in targets if t[0] == "mprt"]
     return found
+
+
+def imported_layers(source: str, rel: str):
+    """(line, layer imported) for every import of the package's own modules in a file's source."""
+    return [(line, t[1] if len(t) > 1 else "__init__") for line, t in imported_paths(source, rel)]
 
 
 def violations(layer: str, rel: str, source: str):
@@ -91,6 +96,9 @@ def violations(layer: str, rel: str, source: str):
             out.append(f"{where}: imports itself")
         elif LAYER[target] > LAYER[layer]:
             out.append(f"{where}: {layer} imports {target}, a layer above it")
+    if layer != "_lowlevel":
+        out += [f"{rel}:{line}: imports {'.'.join(t)}; import from mprt._lowlevel, not its modules"
+                for line, t in imported_paths(source, rel) if len(t) > 2 and t[1] == "_lowlevel"]
     tops = set()
     for n in ast.walk(ast.parse(source)):
         if isinstance(n, ast.Import):
@@ -118,8 +126,12 @@ def test_module_imports_only_layers_below_it(layer, rel):
     ("newthing", "newthing.py", "", "no place"),
     ("trace", os.path.join("trace", "tracing.py"), "from ..elsewhere import x\n", "'elsewhere', which has no place"),
     ("grid", "grid.py", "from cffi import FFI\n", "only _build imports cffi"),
+    ("trace", os.path.join("trace", "core.py"), "from .._lowlevel.core import RAY_DTYPE\n", "not its modules"),
+    ("cost", os.path.join("cost", "fast.py"), "from .._lowlevel import replay\n", "not its modules"),
+    ("scene", "scene.py", "import mprt._lowlevel.scene\n", "not its modules"),
 ], ids=["lazy import upward", "from-package import of a module", "package root", "extension", "subpackage",
-        "unplaced module", "unplaced import", "cffi"])
+        "unplaced module", "unplaced import", "cffi", "a _lowlevel module", "a _lowlevel module by name",
+        "a _lowlevel module imported"])
 def test_the_check_catches_a_broken_order(layer, rel, source, words):
     """The checker reports an upward import, an import of the extensions outside _lowlevel and an unplaced module."""
     found = violations(layer, rel, source)
@@ -161,6 +173,18 @@ def test_the_command_line_may_import_the_library_and_argparse():
     rel = os.path.join("cli", "explore.py")
     assert library_violations("cli", rel, "import argparse\nfrom ..explore import sweep\n") == []
     assert violations("cli", rel, "import argparse\nfrom ..explore import sweep\nfrom . import options\n") == []
+
+
+def test_the_binding_package_alone_imports_the_extensions():
+    """_lowlevel is a package: its modules (and only they) import the compiled extensions and
+    each other; every other layer imports the package itself."""
+    mods = [rel for layer, rel in module_files() if layer == "_lowlevel"]
+    assert os.path.join("_lowlevel", "__init__.py") in mods and os.path.join("_lowlevel", "core.py") in mods
+    for rel in mods:
+        assert violations("_lowlevel", rel, "from .. import _mprt, _mprt32\nfrom .core import Calls\n"
+                                            "from ..errors import MprtError\n") == []
+    assert violations("grid", "grid.py", "from ._lowlevel import RULES, binding\n") == []
+    assert violations("grid", "grid.py", "from . import _mprt\n")
 
 
 def test_subpackage_modules_may_import_each_other_and_lower_layers():

@@ -35,7 +35,7 @@ def test_an_extension_of_another_version_is_refused_at_import():
     # the extension's module loaded first, under a stand-in package (mprt's __init__ not run),
     # as if built at another version; then the package is imported over it
     code = ("import importlib.util, os, sys, types\n"
-            "import mprt._lowlevel as _\n"          # (only to find the sources)
+            "import mprt as _\n"                    # (only to find the sources)
             "d = os.path.dirname(_.__file__)\n"
             "for k in [k for k in sys.modules if k == 'mprt' or k.startswith('mprt.')]: del sys.modules[k]\n"
             "pkg = types.ModuleType('mprt'); pkg.__path__ = [d]; sys.modules['mprt'] = pkg\n"
