@@ -25,7 +25,7 @@ from __future__ import annotations
 
 import json
 import time
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -36,6 +36,8 @@ from .runner import Runner, Task, register_scene
 from .search import compass, cost_range, exhaustive, search as run_search
 from .space import Design, Point, Space, default_space
 from . import subdivision as subdiv
+from .compare import Compare
+from .estimates import Estimates
 from .result import (BOUND_LEVEL, BOUND_SLACK, OBJECTIVES, ExploreResult, FidelitySettings,  # noqa: F401
                      NoLiveDesignError, Resources, SearchSettings, aggregate, front_rows, knee_of,
                      processor_table, settings,
@@ -45,9 +47,7 @@ from .result import (BOUND_LEVEL, BOUND_SLACK, OBJECTIVES, ExploreResult, Fideli
 # tiles (PROBE_SAMPLE: one 16x16 tile in 16, stratified), and only the figures reported are the
 # whole frame's
 PROBE_PIXELS, PROBE_SAMPLE = 256 * 256, "stratified:16:1"
-DESCENT_EVALS = 16         # grids a subdivision's descent tries, about (for the estimates)
 SEARCH_POLISH = 4          # the polish after a subdivision moved: this many x 8 steps a free variable
-TYPICAL_SEARCH = 220       # machines DIRECT-L and the polish replay at the level on the built-in space (estimate)
 
 
 @dataclass
@@ -66,8 +66,10 @@ class SceneState:
     ref_full: float = None           # the 3MPPE at its own best subdivision, full resolution
 
 
-class _Explorer:
+class _Explorer(Estimates, Compare):
     """One exploration's state (``explore`` is its front door)."""
+    PROBE_PIXELS = PROBE_PIXELS
+    distinct = staticmethod(lambda space: _distinct(space))
 
     def __init__(self, workload, space, search, fidelity, resources, machine, grid, say, progress, phases=None):
         self.workload, self.space, self.opts, self.fid, self.res = workload, space, search, fidelity, resources
@@ -175,81 +177,6 @@ class _Explorer:
         return slack_bounds(self.workload_points(points, BOUND_LEVEL))
 
     # -- the phases ---------------------------------------------------------------------------------
-    # -- estimates (from what the runner has measured so far; None before anything ran) -------------
-    def _est_descents(self, lv: int, scale: float = 1.0, traces: int = DESCENT_EVALS) -> float | None:
-        """Descents of every scene's subdivision: ``traces`` grids each, traced and replayed, at
-        ``scale`` times the low resolution's pixels."""
-        t, r = self.runner.per_trace(), self.runner.per_replay(lv)
-        if t is None or r is None:
-            return None
-        return len(self.scenes) * traces * (t * scale + r * scale)
-
-    def _est_ladder(self, first: float, starts, designs: int) -> float:
-        """The ladder: a trace of each scene at its start (the first scene's, timed, scaled by the
-        square root of each one's pixels or voxels over the first's) and its designs' replays."""
-        s0 = self.scenes[0]
-        out = 0.0
-        for s, st in zip(self.scenes, starts):
-            size = (s.low[0] * s.low[1]) / (s0.low[0] * s0.low[1])
-            grid = float(np.prod(st)) / max(float(np.prod(starts[0])), 1.0)
-            out += first * max(size, grid) ** 0.5
-        return out * max(designs / 5, 1)
-
-    def _est_search(self, hw: Space, lv: int) -> float | None:
-        """The search (every machine of a small space, else about TYPICAL_SEARCH: DIRECT-L stops once
-        idle long before ``max_evals`` on a lattice), each on every scene, the scenes spread over
-        the workers; then each scene's subdivision again and a short polish."""
-        r = self.runner.per_replay(lv)
-        if r is None:
-            return None
-        n = _distinct(hw)
-        free = sum(v.size > 1 for v in hw.variables)
-        machines = n if n is not None and n <= self.opts.exhaustive else min(self.opts.max_evals, TYPICAL_SEARCH)
-        parallel = min(max(self.runner.workers, 1), len(self.scenes))
-        search = (machines + 4 * free) * len(self.scenes) * r / parallel
-        return search + (self._est_descents(lv, traces=DESCENT_EVALS // 2) or 0.0)
-
-    def _frame(self, s, dims=None) -> tuple:
-        """(voxels, visits of the whole frame, of a probe) of scene ``s`` at ``dims`` (default its
-        search's): the low-resolution trace's visits scaled by the pixels."""
-        dims = tuple(dims or s.dims)
-        low = self.runner.visits.get((s.hash, repr(s.entry.trace_options()), s.low[0], s.low[1], dims, None))
-        if low is None:
-            low = max([v for k, v in self.runner.visits.items() if k[0] == s.hash and k[2:4] == s.low] or [0])
-        full = low * s.full[0] * s.full[1] / (s.low[0] * s.low[1])
-        probe = full / 16 if s.full[0] * s.full[1] > PROBE_PIXELS else full
-        return float(np.prod(dims)), full, probe
-
-    def _est_full(self, lv: int) -> float | None:
-        """References, checks and the answer on the full frames: per scene three whole frames
-        traced (the references', the checks', the answer's), their replays (3 references, the
-        verify machines, the answer), and two descents of about DESCENT_EVALS / 2 probes each;
-        each trace and replay timed by the runner's model of what it made so far."""
-        if self.runner.trace_time(1, 1) is None or self.runner.replay_time(lv, 1) is None:
-            return None
-        out = 0.0
-        any_full = any(s.full != s.low for s in self.scenes)     # (else no checks and no descents there)
-        probes = DESCENT_EVALS // 2 if self.grid is None and any_full else 0
-        wholes, replays = (3, 3 + self.opts.verify + 1) if any_full else (2, 4)
-        for s in self.scenes:
-            vox, full, probe = self._frame(s)
-            out += wholes * self.runner.trace_time(vox, full) + 2 * probes * self.runner.trace_time(vox, probe)
-            out += self.runner.replay_time(lv, full) * replays + self.runner.replay_time(lv, probe) * 2 * probes
-        return out
-
-    def _est_own(self, lv: int, free: int) -> float | None:
-        """Each scene's own best: a short walk at low resolution, then its frame traced and replayed."""
-        if self.runner.trace_time(1, 1) is None or self.runner.replay_time(lv, 1) is None:
-            return None
-        out = 0.0
-        any_full = any(s.full != s.low for s in self.scenes)   # (else each frame's trace is still held)
-        for s in self.scenes:
-            vox, full, _ = self._frame(s)
-            low = full * s.low[0] * s.low[1] / (s.full[0] * s.full[1])
-            out += free * self.runner.replay_time(lv, low) + self.runner.replay_time(lv, full) + \
-                (self.runner.trace_time(vox, full) if any_full else 0.0)
-        return out
-
     def explore(self) -> ExploreResult:
         from .ladder import LADDER_LEVELS, choose_level, ladder_designs
 
@@ -427,60 +354,6 @@ class _Explorer:
         raise NoLiveDesignError(f"explore: each of the {len(order)} best machines deadlocks on a whole frame at "
                                 f"level {lv} (on {', '.join(dict.fromkeys(dead))}): give the FIFOs more room in "
                                 f"the space")
-
-    def references(self, lv: int) -> dict:
-        """The 3MPPE at each scene's own best subdivision (descended at full resolution from its
-        low-resolution one); models M and S at the 3MPPE's subdivision."""
-        out = {}
-        any_full = any(s.full != s.low for s in self.scenes)
-        dims3 = []
-        for s in self.scenes:
-            d = s.ref_dims
-            if any_full:
-                d, _ = self.descend(s.index, self.refs["3mppe"], lv, s.ref_dims, full=True)
-            dims3.append(d)
-        for name, cfg in self.refs.items():
-            got = self.run([(s.index, d, cfg) for s, d in zip(self.scenes, dims3)], lv, "full")
-            out[name] = {"machine": cfg.to_dict(), "cost": self.cost(cfg), "cost_breakdown": self.breakdown(cfg),
-                         "per_scene": [{"scene": s.entry.name, "subdivision": list(d),
-                                        "cycles": None if r.deadlocked else r.cycles, "deadlock": r.deadlocked,
-                                        "utilisation": r.utilisation, "bottleneck": r.bottleneck}
-                                       for s, d, r in zip(self.scenes, dims3, got)]}
-            if len(self.scenes) == 1:
-                out[name]["cycles"] = out[name]["per_scene"][0]["cycles"]
-        for s, row, m in zip(self.scenes, out["3mppe"]["per_scene"], out["M"]["per_scene"]):
-            s.ref_full = row["cycles"] if row["cycles"] is not None else m["cycles"]
-        return out
-
-    def own_best(self, problem, lv: int, full_rows) -> list:
-        """Per scene: the best machine of the search's for that scene alone under the budget, walked
-        a little further on that scene alone (``own_evals``), at full resolution."""
-        if problem is None:
-            return [None] * len(self.scenes)
-        out = []
-        hw = problem.space
-        evals = self.opts.own_evals if self.opts.own_evals is not None else 8 * len(problem.free)
-        for j, s in enumerate(self.scenes):
-            if len(self.scenes) == 1:
-                out.append(None)        # the answer is its own best
-                continue
-            single = Problem(hw, lambda pts, j=j: [self.run([(j, self.scenes[j].dims, p.design)], lv)[0]
-                                                   for p in pts], "time", self.opts.budget,
-                             cost_of=lambda p: hardware_cost(p.design, self.unit_costs))
-            for e in problem.memo.values():
-                rows = self.per_scene_memo.get((e.point.design.key(), tuple(x.dims for x in self.scenes)))
-                if rows is not None and not e.bound:
-                    single.add(e.point, replace(rows[j], cost=e.cost))
-            start = single.best()
-            if start is None:
-                out.append(None)
-                continue
-            if evals > 0:
-                compass(single, start.index, evals)
-            d = single.best().point.design
-            r = self.run([(j, full_rows[j][0], d)], lv, "full")[0]
-            out.append((d, full_rows[j][0], r))
-        return out
 
     def answer(self, machine, full_rows, lv, levels, history, front, problem, refs, multi) -> ExploreResult:
         from .evaluate import machine_config
