@@ -18,6 +18,9 @@ Parts (each prints its table and writes DIR/<part>.md; timings vary, answers do 
              answer, the time and the share of evaluations reused
   memory     explore balls at 4096x4096 and 8192x8192: the answer or the refusal, its time and
              peak memory
+  kill_worker  the workers' run with one worker killed (SIGKILL) at about half its time: in the
+             local pool (--workers 2) and on a local Dask cluster of two (its nanny restarts it):
+             the same answer
   estimates  each phase's estimate against the time it took: `mprt explore SCENE --res 512x512
              --budget 800` for each SPD scene, and the demo's command (make demo)
 --quick: tetra:1 and balls:1 at 16x16, the small test space, level 1 (the committed ref/: the
@@ -36,7 +39,7 @@ from _common import command_env, study_args  # noqa: E402
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
 SPD6 = ["balls", "gears", "mount", "rings", "tetra", "tree"]
-PARTS = ("workload", "per_scene", "leave_out", "workers", "resume", "memory", "estimates")
+PARTS = ("workload", "per_scene", "leave_out", "workers", "resume", "memory", "estimates", "kill_worker")
 
 
 def mprt(*args, env=None, check=True, timeout=None):
@@ -136,6 +139,45 @@ def part_workers(d, res):
 def _same(a, b) -> str:
     keys = ("best", "per_scene", "references")
     return "yes" if all(a[k] == b[k] for k in keys) else "NO"
+
+
+def part_kill_worker(d, res):
+    scenes = ["balls", "gears", "tetra"]
+    whole, ref, _ = explore(scenes, res, os.path.join(d, "whole.json"), "--workers", "2")
+    rows = []
+    for how in ("local pool", "Dask"):
+        cluster = None
+        extra = ["--workers", "2"]
+        if how == "Dask":
+            from distributed import LocalCluster
+            cluster = LocalCluster(n_workers=2, threads_per_worker=1, processes=True, host="127.0.0.1",
+                                   dashboard_address=None)
+            extra = ["--scheduler", cluster.scheduler_address]
+        out = os.path.join(d, f"kill-{how}.json")
+        cmd = [sys.executable, "-m", "mprt", "explore", *scenes, "--res", f"{res}x{res}", "--budget", "800",
+               "--json", out, *extra]
+        t0 = time.perf_counter()
+        p = subprocess.Popen(cmd, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE, text=True, env=command_env())
+        time.sleep(whole / 2)
+        if how == "Dask":
+            pids = [w.process.process.pid for w in cluster.workers.values() if getattr(w, "process", None)]
+        else:
+            pids = [int(x) for x in subprocess.run(["pgrep", "-P", str(p.pid)], capture_output=True,
+                                                     text=True).stdout.split()]
+        killed = pids[0] if pids else None
+        if killed:
+            os.kill(killed, signal.SIGKILL)
+        _, err = p.communicate()
+        s = time.perf_counter() - t0
+        if cluster is not None:
+            cluster.close()
+        with open(out) as f:
+            rep = json.load(f)
+        said = [ln for ln in err.splitlines() if ln.startswith("worker")]
+        rows.append((how, killed or "-", f"{s:.1f}", _same(ref, rep), said[0][:120] if said else "-"))
+    return (f"{', '.join(scenes)} at {res}x{res} under 800 kGE; a run with two workers took {whole:.1f} s; one "
+            f"worker killed at {whole / 2:.1f} s.\n\n"
+            + table(rows, ("workers", "pid killed", "seconds", "same answer", "what it said")))
 
 
 def part_resume(d, res):
