@@ -1,6 +1,7 @@
 """The trace: every stage visit of every ray, the contract between the tracer and the machine models.
 
 - ``tracing``: ``trace(grid, ...) -> (image, Trace)`` (and ``Grid.trace``): tiles, samples, threads;
+  ``sampling``: the ``--sample`` grammar and the tiles a sample traces;
 - ``core``: ``Trace``, ``load_trace``, the record enums (``Stage``, ``Outcome``, ``RayKind``) and dtypes;
 - ``tracefile``: the ``.npz`` file format; ``tracewriter``: a file written while tracing;
 - ``tracevalid``: the one validation every reader runs; ``tracecheck`` and ``recordcheck``
