@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 DESCENT_EVALS = 16         # grids a subdivision's descent tries, about
-TYPICAL_SEARCH = 220       # machines DIRECT-L and the polish replay at the level on the built-in space
+TYPICAL_SEARCH = 180       # machines DIRECT-L and the polish replay at the level on the built-in space
 
 
 class Estimates:
@@ -22,16 +22,18 @@ class Estimates:
             return None
         return len(self.scenes) * traces * (t * scale + r * scale)
 
-    def _est_ladder(self, first: float, starts, designs: int) -> float:
-        """The ladder: a trace of each scene at its start (the first scene's, timed, scaled by the
-        square root of each one's pixels or voxels over the first's) and its designs' replays."""
+    def _est_ladder(self, trace: float, per_design: float, starts, designs: int) -> float:
+        """The ladder: each scene's trace at its start (the first scene's ``trace`` seconds, scaled
+        by the square root of each one's pixels or voxels over the first's) and its designs at
+        every level (``per_design`` seconds, the first design's on the first scene, so scaled)."""
         s0 = self.scenes[0]
         out = 0.0
-        for s, st in zip(self.scenes, starts):
+        for k, (s, st) in enumerate(zip(self.scenes, starts)):
             size = (s.low[0] * s.low[1]) / (s0.low[0] * s0.low[1])
             grid = float(np.prod(st)) / max(float(np.prod(starts[0])), 1.0)
-            out += first * max(size, grid) ** 0.5
-        return out * max(designs / 5, 1)
+            scale = max(size, grid) ** 0.5
+            out += (trace * scale if k else 0.0) + designs * per_design * size
+        return out
 
     def _est_search(self, hw, lv: int) -> float | None:
         """The search (every machine of a small space, else about TYPICAL_SEARCH: DIRECT-L stops once
@@ -67,7 +69,7 @@ class Estimates:
             return None
         out = 0.0
         any_full = any(s.full != s.low for s in self.scenes)     # (else no checks and no descents there)
-        probes = DESCENT_EVALS // 2 if self.grid is None and any_full else 0
+        probes = DESCENT_EVALS // 3 if self.grid is None and any_full else 0
         wholes, replays = (3, 3 + self.opts.verify + 1) if any_full else (2, 4)
         for s in self.scenes:
             vox, full, probe = self._frame(s)

@@ -196,10 +196,17 @@ class _Explorer(Estimates, Compare):
         if lv_level == "auto":
             designs = ladder_designs(hw, self.opts.seed)
             t0 = time.perf_counter()
-            self.run([(0, starts[0], designs[0])], 0)        # (the first trace, timed for the estimate)
-            first = time.perf_counter() - t0
+            self.run([(0, starts[0], designs[0])], 0)        # (the first trace and a design at each level,
+            first = time.perf_counter() - t0                 # timed for the estimate)
+            per_design = 0.0
+            for lv in LADDER_LEVELS:
+                t0 = time.perf_counter()
+                self.run([(0, starts[0], designs[0])], lv)
+                per_design += time.perf_counter() - t0
             with ph.step(f"ladder: {len(designs)} designs at levels {', '.join(map(str, LADDER_LEVELS))} on "
-                         f"each scene's low-resolution trace", self._est_ladder(first, starts, len(designs))):
+                         f"each scene's low-resolution trace",
+                         self._est_ladder(first - per_design / len(LADDER_LEVELS), per_design, starts,
+                                          len(designs))):
                 levels = choose_level(lv_level, self.fid.tolerance, names, ladder_run, hw, self.opts.seed,
                                       said.append)
         else:
