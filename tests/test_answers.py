@@ -8,21 +8,15 @@ from pathlib import Path
 
 import pytest
 
-from mprt import cli
 from mprt.explore import cli as explore_cli
 from mprt.explore.hwcost import UnitCosts, cheapest_design, hardware_cost
 from mprt.explore.space import default_space, parse_space
+from cli_run import cli_main
 
 SMALL = Path(__file__).parent / "data" / "explore" / "small_space.toml"
 
 
-def main(capsys, *args):
-    try:
-        code = cli.main([str(a) for a in args])
-    except SystemExit as e:
-        code = e.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
+main = cli_main
 
 
 def brute_force_cheapest(space):

@@ -14,19 +14,14 @@ import numpy as np
 import pytest
 
 import mprt
-from mprt import cli, options
+from mprt import options
 from mprt.scene import OVER_ONE_MAX_DEPTH
+from cli_run import cli_main
 
 GLASS = pathlib.Path(__file__).resolve().parent / "data" / "nff" / "classic_glass.nff"
 
 
-def mprt_main(capsys, *args):
-    try:
-        code = cli.main([str(a) for a in args])
-    except SystemExit as e:
-        code = e.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
+mprt_main = cli_main
 
 
 def warnings_of(err: str) -> list:

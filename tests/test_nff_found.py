@@ -6,7 +6,7 @@ tests/c/test_nff_found.c.)"""
 import pytest
 
 import mprt
-from mprt import cli
+from cli_run import cli_main
 
 # A classic glass scene: two glass balls (Ks + T = 1.8) and a third (1.4) over a tiled floor,
 # with the extension lines other tools write (Q, fp with its data, Z).
@@ -35,13 +35,7 @@ s -1.5 0.5 0.5 0.5
 EXTENSIONS = "Q 0\nfp 2\n1 2 3\n4 5 6\nZ 481\nQ 1\n"
 
 
-def mprt_main(capsys, *args):
-    try:
-        code = cli.main([str(a) for a in args])
-    except SystemExit as e:
-        code = e.code
-    out = capsys.readouterr()
-    return code, out.out, out.err
+mprt_main = cli_main
 
 
 def test_glass_over_one_is_read_with_one_note():
