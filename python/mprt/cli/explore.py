@@ -334,6 +334,12 @@ def run_explore(a) -> int:
         from ..util.atomic import open_replacing
         with open_replacing(a.machine_out, "w") as f:
             f.write(res.machine_toml())
+        stem, ext = os.path.splitext(a.machine_out)
+        for k, row in enumerate(rep["per_scene"] if res.scene_machines else []):   # (software per scene)
+            path = f"{stem}.{k + 1}{ext}"
+            with open_replacing(path, "w") as f:
+                f.write(res.machine_toml(k))
+            print(f"wrote   {path} ({row['scene']} with its software: {row['software']})")
         print(f"wrote   {a.machine_out} (mprt simulate SCENE --config {a.machine_out} --grid NX,NY,NZ --res WxH "
               f"--level {rep['per_scene'][0]['level']} gives each row's cycles)")
     if a.plot:

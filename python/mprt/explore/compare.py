@@ -49,7 +49,7 @@ class Compare:
             if len(self.scenes) == 1:
                 out.append(None)        # the answer is its own best
                 continue
-            single = Problem(hw, lambda pts, j=j: [self.run([(j, self.scenes[j].dims, p.design)], lv)[0]
+            single = Problem(hw, lambda pts, j=j: [self.per_scene([(j, self.scenes[j].dims, p.design)], lv)[0][0]
                                                    for p in pts], "time", self.opts.budget,
                              cost_of=lambda p: hardware_cost(p.design, self.unit_costs))
             for e in problem.memo.values():
@@ -63,7 +63,7 @@ class Compare:
             if evals > 0:
                 compass(single, start.index, evals)
             d = single.best().point.design
-            r = self.run([(j, full_rows[j][0], d)], lv, "full")[0]
+            r = self.per_scene([(j, full_rows[j][0], d)], lv, "full")[0][0]
             out.append((d, full_rows[j][0], r))
         return out
 

@@ -92,6 +92,7 @@ class _Explorer(Estimates, Compare):
         self.runner = Runner(resources.workers, resources.client,
                              _cache(resources.cache), say=say)
         self.per_scene_memo: dict = {}      # (design key, dims of every scene) -> [Result per scene]
+        self.chosen: dict = {}              # design key -> the design with each scene's software
         from ..machine.config import builtin
         self.refs = {name: builtin(name) for name in ("3mppe", "M", "S")}
 
@@ -153,24 +154,54 @@ class _Explorer(Estimates, Compare):
             return tuple(self.grid)
         return subdiv.start_dims(self.scenes[k].scene, self.space_axis_values())
 
+    def variants(self, machine) -> list:
+        """The machine with each choice of the space's software variables (a scene takes its best);
+        the machine alone where there are none, or where it is fixed (a SystemConfig)."""
+        if not self.space.software or not isinstance(machine, Design):
+            return [machine]
+        return [with_software(machine, choice) for choice in self.space.software_values()]
+
+    def per_scene(self, pairs, level: int, res: str = "low") -> list:
+        """Results of (scene index, dims, machine) pairs with each scene's software at its best:
+        (Result, the machine as that scene runs it) per pair."""
+        expanded, spans = [], []
+        for k, dims, m in pairs:
+            vs = self.variants(m)
+            spans.append((len(expanded), vs))
+            expanded += [(k, dims, v) for v in vs]
+        got = self.run(expanded, level, res)
+        out = []
+        for start, vs in spans:
+            rows = got[start:start + len(vs)]
+            i = min(range(len(vs)), key=lambda j: (rows[j].cycles, j))
+            out.append((rows[i], vs[i]))
+        return out
+
     def workload_points(self, points, level: int) -> list:
-        """The workload figures of points (the hardware space's: each scene at its own dims)."""
+        """The workload figures of points (the hardware space's: each scene at its own dims and with
+        its own software)."""
         dims = tuple(s.dims for s in self.scenes)
         pairs = [(s.index, s.dims, p.design) for p in points for s in self.scenes]
-        got = self.run(pairs, level)
+        got = self.per_scene(pairs, level)
         out = []
         n = len(self.scenes)
         for i, p in enumerate(points):
-            rows = got[i * n:(i + 1) * n]
+            rows = [r for r, _ in got[i * n:(i + 1) * n]]
             self.per_scene_memo[(p.design.key(), dims)] = rows
+            self.chosen[p.design.key()] = [v for _, v in got[i * n:(i + 1) * n]]
             agg = aggregate(self.opts.objective, [r.cycles for r in rows], self.workload.weights,
-                             [s.ref_low for s in self.scenes])
+                            [s.ref_low for s in self.scenes])
             dead = [self.scenes[j].entry.name for j, r in enumerate(rows) if r.deadlocked]
             out.append(Result(cycles=agg, level=level, cost=self.cost(p.design),
                               bottleneck="deadlock" if dead else rows[0].bottleneck,
                               engine=rows[0].engine, utilisation=rows[0].utilisation if n == 1 else {},
                               loads=rows[0].loads if n == 1 else {}))
         return out
+
+    def machine_for(self, k: int, machine):
+        """The machine as scene k runs it: with the software its last evaluation chose."""
+        got = self.chosen.get(machine.key()) if isinstance(machine, Design) else None
+        return got[k] if got else machine
 
     def bounds(self, points) -> list:
         """Level-1 bounds of points (``slack_bounds``)."""
@@ -182,7 +213,7 @@ class _Explorer(Estimates, Compare):
 
         ph = self.phases
         names = [s.entry.name for s in self.scenes]
-        hw = self.space.with_subdivision((1, 1, 1))
+        hw = self.space.hardware()
         lv_level = self.fid.level
         starts = [self.start(s.index) for s in self.scenes]
         multi = len(self.scenes) > 1 and self.fixed is None
@@ -245,7 +276,7 @@ class _Explorer(Estimates, Compare):
             for _ in range(2):
                 moved = False
                 for s in self.scenes:
-                    dims, _ = self.descend(s.index, best_machine, lv, s.dims)
+                    dims, _ = self.descend(s.index, self.machine_for(s.index, best_machine), lv, s.dims)
                     if dims != s.dims:
                         self.say(f"subdiv  {s.entry.name}: {'x'.join(map(str, s.dims))} -> "
                                  f"{'x'.join(map(str, dims))} for the search's best")
@@ -331,11 +362,14 @@ class _Explorer(Estimates, Compare):
         order = list(range(len(cands)))
         if any_full and len(cands) > 1:
             pairs = [(s.index, s.dims, d) for d in cands for s in self.scenes]
-            got = self.run(pairs, lv, "full")
+            both = self.per_scene(pairs, lv, "full")
+            got = [r for r, _ in both]
             n = len(self.scenes)
             scored = []
             for i, d in enumerate(cands):
                 rows = got[i * n:(i + 1) * n]
+                if isinstance(d, Design):       # each scene's software as its full frame chose it
+                    self.chosen[d.key()] = [v for _, v in both[i * n:(i + 1) * n]]
                 agg = aggregate(self.opts.objective, [r.cycles for r in rows], self.workload.weights,
                                  [s.ref_full for s in self.scenes])
                 feasible = self.opts.budget is None or self.cost(d) <= self.opts.budget * (1 + 1e-12)
@@ -348,10 +382,11 @@ class _Explorer(Estimates, Compare):
         for i in order:             # the best first; one that deadlocks on a whole frame gives way to the next
             machine, rows = cands[i], []
             for s in self.scenes:
-                dims, _ = self.descend(s.index, machine, lv, s.dims, full=any_full)
-                r = self.run([(s.index, dims, machine)], lv, "full")[0]
+                own = self.machine_for(s.index, machine)         # (with the scene's software)
+                dims, _ = self.descend(s.index, own, lv, s.dims, full=any_full)
+                r = self.run([(s.index, dims, own)], lv, "full")[0]
                 if r.deadlocked and dims != s.dims:      # (a probe's trees are not all of the frame's)
-                    dims, r = s.dims, self.run([(s.index, s.dims, machine)], lv, "full")[0]
+                    dims, r = s.dims, self.run([(s.index, s.dims, own)], lv, "full")[0]
                 if r.deadlocked:
                     dead.append(s.entry.name)
                     break
@@ -374,7 +409,13 @@ class _Explorer(Estimates, Compare):
         cfg = machine_config(machine) if isinstance(machine, Design) else machine
         per_scene = []
         for s, (dims, r), o, ref in zip(self.scenes, full_rows, own, refs["3mppe"]["per_scene"]):
-            row = {"scene": s.entry.name, "weight": s.entry.weight, "resolution": list(s.full),
+            if self.space.software and isinstance(machine, Design):
+                own = self.machine_for(s.index, machine)
+                soft = {"software": {n: getattr(own, n.split(".")[-1]) for n in self.space.software},
+                        "machine": machine_config(own).to_dict()}
+            else:
+                soft = {}
+            row = {**soft, "scene": s.entry.name, "weight": s.entry.weight, "resolution": list(s.full),
                    "subdivision": list(dims), "level": lv, "cycles": r.cycles,
                    "speedup": speedup(ref["cycles"], r.cycles), "bottleneck": r.bottleneck,
                    "utilisation": r.utilisation, "engine": r.engine}
@@ -418,7 +459,9 @@ class _Explorer(Estimates, Compare):
                             "unit_costs": self.unit_costs.to_dict()},
                   "settings": settings(self.workload, self.grid, [s.scene for s in self.scenes]),
                   "seconds": time.perf_counter() - self.t0}
-        return ExploreResult(best, per_scene, refs, fronts, history, report, cfg)
+        scene_machines = ([machine_config(self.machine_for(s.index, machine)) for s in self.scenes]
+                          if self.space.software and isinstance(machine, Design) else [])
+        return ExploreResult(best, per_scene, refs, fronts, history, report, cfg, scene_machines)
 
 
 class _Silent:
@@ -458,6 +501,14 @@ def _cache(folder):
         return None
     from .distributed import DiskCache
     return DiskCache(folder)
+
+
+def with_software(design: Design, choice: dict) -> Design:
+    """The design with software variables set (``replication.feed`` is the design's feed)."""
+    fields = design.to_dict()
+    for name, value in choice.items():
+        fields[name.split(".")[-1]] = value
+    return Design.from_dict(fields, "software")
 
 
 def explore(workload, space: Space | None = None, search: SearchSettings = SearchSettings(),

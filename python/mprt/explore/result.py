@@ -68,24 +68,31 @@ class ExploreResult:
     history: list
     report: dict = field(default_factory=dict)
     machine: object = None           # the answer as a SystemConfig (``machine_toml`` writes its file)
+    scene_machines: list = field(default_factory=list)   # per scene, with its software (software spaces)
 
     def to_json(self) -> dict:
         return {**self.report, "best": self.best, "per_scene": self.per_scene, "references": self.references,
                 "front": self.front, "history": self.history}
 
-    def machine_toml(self) -> str:
-        """The answer as a machine file (``mprt simulate --config`` runs it as it is)."""
+    def machine_toml(self, k: int | None = None) -> str:
+        """The answer as a machine file (``mprt simulate --config`` runs it as it is); ``k``: as
+        scene k runs it, with its software (a space with software variables: one file a scene)."""
         from ..machine.config import config_toml
 
-        rows = [f"  {r['scene']}: subdivision {'x'.join(map(str, r['subdivision']))} at "
-                f"{r['resolution'][0]}x{r['resolution'][1]}, level {r['level']}: {r['cycles']:,.0f} cycles"
-                for r in self.per_scene]
+        ks = range(len(self.per_scene)) if k is None else [k]
+        rows = [f"  {self.per_scene[i]['scene']}: subdivision {'x'.join(map(str, self.per_scene[i]['subdivision']))}"
+                f" at {self.per_scene[i]['resolution'][0]}x{self.per_scene[i]['resolution'][1]}, level "
+                f"{self.per_scene[i]['level']}: {self.per_scene[i]['cycles']:,.0f} cycles"
+                + (f" (software {self.per_scene[i]['software']})" if "software" in self.per_scene[i] else "")
+                for i in ks]
         head = (f"mprt explore's answer ({self.report.get('objective')}"
                 + (f", budget {self.report['budget']:g} kGE" if self.report.get("budget") else "")
                 + f"): {self.best['cost']:.0f} kGE\n{self.best['described']}\n"
-                + "mprt simulate SCENE --config THIS --grid NX,NY,NZ --res WxH --level L gives, per scene:\n"
+                + ("" if k is None else f"as {self.per_scene[k]['scene']} runs it (its software)\n")
+                + "mprt simulate SCENE --config THIS --grid NX,NY,NZ --res WxH --level L gives:\n"
                 + "\n".join(rows))
-        return config_toml(self.machine, head)
+        machine = self.machine if k is None or not self.scene_machines else self.scene_machines[k]
+        return config_toml(machine, head)
 
 
 def aggregate(objective: str, cycles: list, weights: list, refs: list) -> float:

@@ -241,8 +241,9 @@ class Space:
     """The variables of a design space, in a fixed order, and the mapping
     between index vectors and points."""
 
-    def __init__(self, variables: list[Var], shape: str, cost: dict, source: str):
+    def __init__(self, variables: list[Var], shape: str, cost: dict, source: str, software: tuple = ()):
         self.variables = variables
+        self.software = tuple(software)   # variables chosen per scene, like the subdivision (not hardware)
         self.shape = shape
         self.cost = cost              # the [cost] table (validated by hwcost.UnitCosts)
         self.source = source
@@ -335,7 +336,21 @@ class Space:
         else:
             fixed = [Var(f"subdivision.n{a}", (int(x),)) for a, x in zip("xyz", sub)]
             shape = "cube"
-        return Space(fixed + keep, shape, self.cost, self.source)
+        return Space(fixed + keep, shape, self.cost, self.source, self.software)
+
+    def hardware(self) -> "Space":
+        """The space the machine is searched in: the subdivision held (at 1, a placeholder: each scene
+        has its own) and each software variable at its first value (each scene chooses its own)."""
+        sp = self.with_subdivision((1, 1, 1))
+        return Space([Var(v.name, v.values[:1]) if v.name in self.software else v for v in sp.variables],
+                     sp.shape, sp.cost, sp.source, self.software)
+
+    def software_values(self) -> list:
+        """Every choice of the software variables' values, as {name: value} (one empty choice
+        where there are none)."""
+        import itertools
+        vars_ = [self.variables[self._pos[n]] for n in self.software]
+        return [dict(zip(self.software, combo)) for combo in itertools.product(*(v.values for v in vars_))]
 
     def subdivisions(self) -> list[tuple]:
         names = [v for v in self.variables if v.name.startswith("subdivision.")]

@@ -51,7 +51,10 @@ IC = { choices = [0, 16] }
 SC = { choices = [0, 16] }
 """
 
-_TOP = {"subdivision", "mapping", "replication", "units", "fifo", "cache", "resident", "pes", "cost"}
+_TOP = {"subdivision", "mapping", "replication", "units", "fifo", "cache", "resident", "pes", "cost", "software"}
+# Variables a space file may mark software (chosen per scene, as the subdivision always is): how a
+# processor's copies take their packets.  A software variable must not change what the chip costs.
+SOFTWARE = ("replication.feed",)
 
 
 MAX_LEAF = 1 << 40     # above every machine limit (mprt.machine.config.LIMITS); keeps arithmetic exact
@@ -180,7 +183,14 @@ def parse_space(text: str, source: str = "<space>") -> Space:
     _table(cost, w("cost"), set(_cost_fields()))
     from .hwcost import UnitCosts
     UnitCosts.from_table(cost, w("cost"))     # validate now, so errors name the file
-    return Space(variables, shape, cost, source)
+    software = doc.get("software", [])
+    if not isinstance(software, list) or not all(isinstance(x, str) for x in software):
+        raise SpaceError(f"{w('software')}: a list of variable names (may be: {', '.join(SOFTWARE)})")
+    for name in software:
+        if name not in SOFTWARE:
+            raise SpaceError(f"{w('software')}: {name!r} cannot be software (may be: {', '.join(SOFTWARE)}; the "
+                             f"subdivision always is)")
+    return Space(variables, shape, cost, source, tuple(dict.fromkeys(software)))
 
 
 def _cost_fields():
