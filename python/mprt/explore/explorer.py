@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .evaluate import DEADLOCK_CYCLES, Result
+from .evaluate import Result, is_deadlock
 from .hwcost import UnitCosts, config_breakdown, cost_breakdown, hardware_cost
 from .problem import Problem
 from .runner import Runner, Task, register_scene
@@ -254,7 +254,7 @@ class _Explorer(Estimates, Compare):
             for s, st in zip(self.scenes, starts):
                 s.dims, s.ref_low = self.descend(s.index, ref, lv, st)
                 s.ref_dims = s.dims
-                if s.ref_low >= DEADLOCK_CYCLES:
+                if is_deadlock(s.ref_low):
                     s.ref_low = self.run([(s.index, s.dims, self.refs["M"])], lv)[0].cycles
                 said.append(f"subdiv  {s.entry.name}: {'x'.join(map(str, s.dims))} at {s.low[0]}x{s.low[1]}")
         for text in said[len(said) - len(self.scenes):]:
@@ -325,7 +325,7 @@ class _Explorer(Estimates, Compare):
             run_search(problem, self.opts.algorithm, self.opts.polish, self.opts.max_evals, self.opts.seed)
         if self.progress is not None and hasattr(self.progress, "end"):
             self.progress.end()
-        live = [e for e in problem.memo.values() if not e.bound and e.cycles < DEADLOCK_CYCLES]
+        live = [e for e in problem.memo.values() if not e.bound and not is_deadlock(e.cycles)]
         if not live:
             raise NoLiveDesignError(self._dead_message(problem, lv))
         if self.opts.objective == "pareto":
@@ -355,7 +355,7 @@ class _Explorer(Estimates, Compare):
         subdivision descended there.  Returns (machine, [(dims, Result) per scene])."""
         cands = [best_machine]
         if problem is not None and self.opts.objective != "pareto":
-            ranked = [e for e in problem.ranked() if e.cycles < DEADLOCK_CYCLES][:self.opts.verify]
+            ranked = [e for e in problem.ranked() if not is_deadlock(e.cycles)][:self.opts.verify]
             cands += [e.point.design for e in ranked]
         cands = list({(d.key() if isinstance(d, Design) else repr(d)): d for d in cands}.values())
         any_full = any(s.full != s.low for s in self.scenes)
@@ -374,9 +374,9 @@ class _Explorer(Estimates, Compare):
                                  [s.ref_full for s in self.scenes])
                 feasible = self.opts.budget is None or self.cost(d) <= self.opts.budget * (1 + 1e-12)
                 scored.append((not feasible, agg, i))
-                history.append({"phase": "full", "design": d.to_dict(), "cycles": None if agg >= DEADLOCK_CYCLES
+                history.append({"phase": "full", "design": d.to_dict(), "cycles": None if is_deadlock(agg)
                                 else agg, "cost": self.cost(d), "feasible": feasible, "level": lv,
-                                "deadlock": agg >= DEADLOCK_CYCLES})
+                                "deadlock": is_deadlock(agg)})
             order = [i for _, _, i in sorted(scored)]
         dead: list = []
         for i in order:             # the best first; one that deadlocks on a whole frame gives way to the next

@@ -14,7 +14,7 @@ import time
 
 import numpy as np
 
-from .evaluate import DEADLOCK_CYCLES
+from .evaluate import is_deadlock
 from .space import Design, Space, model_m, model_s
 
 LADDER_LEVELS = (0, 1, 3)
@@ -48,7 +48,7 @@ def measure(run_level, names, designs: list, tolerance: float):
     for lv in LADDER_LEVELS:
         res, secs = run_level(designs, lv)
         for n, r in zip(names, res):
-            cycles[n, lv] = None if r.cycles >= DEADLOCK_CYCLES else r.cycles
+            cycles[n, lv] = None if is_deadlock(r) else r.cycles
         seconds[lv] = [secs / max(len(designs), 1)]
         engines[lv] = {r.engine for r in res if r.engine}
     table = tabulate(names, list(LADDER_LEVELS), cycles, seconds, engines)

@@ -7,7 +7,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from ..errors import MprtError
-from .evaluate import DEADLOCK_CYCLES
+from .evaluate import DEADLOCK_CYCLES, is_deadlock  # noqa: F401 (DEADLOCK_CYCLES: the figure of a deadlock)
 
 OBJECTIVES = ("geomean", "total", "worst", "pareto")
 # A design's level-1 cycles bound its level-2 and -3 cycles from below, but not strictly: level 3
@@ -101,7 +101,7 @@ def aggregate(objective: str, cycles: list, weights: list, refs: list) -> float:
     largest ratio of a scene's cycles to the 3MPPE's (``refs``), in units of the 3MPPE's own
     weighted geometric mean of cycles (so the figure ranks as the worst ratio does and stays a
     number of cycles: the search compares logarithms of figures of at least 1)."""
-    if any(c >= DEADLOCK_CYCLES for c in cycles):
+    if any(is_deadlock(c) for c in cycles):
         return DEADLOCK_CYCLES
     w = np.asarray(weights, float)
     c = np.asarray(cycles, float)
@@ -150,7 +150,7 @@ def front_rows(front, budget=None, knee=None) -> list:
 
 
 def speedup(ref, cycles):
-    if ref is None or cycles is None or not cycles or cycles >= DEADLOCK_CYCLES or ref >= DEADLOCK_CYCLES:
+    if ref is None or cycles is None or not cycles or is_deadlock(cycles) or is_deadlock(ref):
         return None
     return ref / cycles
 
@@ -158,7 +158,7 @@ def speedup(ref, cycles):
 def slack_bounds(results) -> list:
     """Lower bounds for a search at level 2 or 3 from level-1 results: the cycles less BOUND_SLACK
     (none, 0 cycles, where level 1 deadlocks)."""
-    return [replace(r, cycles=0.0 if r.cycles >= DEADLOCK_CYCLES else float(np.floor(r.cycles * (1 - BOUND_SLACK))))
+    return [replace(r, cycles=0.0 if is_deadlock(r.cycles) else float(np.floor(r.cycles * (1 - BOUND_SLACK))))
             for r in results]
 
 
