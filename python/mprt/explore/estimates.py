@@ -60,20 +60,30 @@ class Estimates:
         probe = full / 16 if s.full[0] * s.full[1] > self.PROBE_PIXELS else full
         return float(np.prod(dims)), full, probe
 
-    def _est_full(self, lv: int) -> float | None:
+    def _est_full(self, lv: int, pilot: float | None = None) -> float | None:
         """References, checks and the answer on the full frames: per scene three whole frames
         traced (the references', the checks', the answer's), their replays (3 references, the
-        verify machines, the answer), and two descents of about DESCENT_EVALS / 2 probes each;
-        each trace and replay timed by the runner's model of what it made so far."""
+        verify machines, the answer), and two descents of about DESCENT_EVALS / 3 probes each.
+        ``pilot``: the seconds of the first scene's whole frame traced and replayed once (the
+        whole frames' traces are scaled from it by their visits; the low-resolution traces alone
+        tell the visits poorly); else each trace and replay from the runner's models."""
         if self.runner.trace_time(1, 1) is None or self.runner.replay_time(lv, 1) is None:
             return None
         out = 0.0
         any_full = any(s.full != s.low for s in self.scenes)     # (else no checks and no descents there)
         probes = DESCENT_EVALS // 3 if self.grid is None and any_full else 0
         wholes, replays = (3, 3 + self.opts.verify + 1) if any_full else (2, 4)
-        for s in self.scenes:
+        rate = None
+        if pilot is not None:
+            _, full0, _ = self._frame(self.scenes[0], self.scenes[0].ref_dims)
+            if full0:
+                rate = max(pilot - self.runner.replay_time(lv, full0), 0.1 * pilot) / full0
+        for k, s in enumerate(self.scenes):
             vox, full, probe = self._frame(s)
-            out += wholes * self.runner.trace_time(vox, full) + 2 * probes * self.runner.trace_time(vox, probe)
+            whole = self.runner.trace_time(vox, full) if rate is None else rate * full
+            part = self.runner.trace_time(vox, probe) if rate is None else \
+                min(max(self.runner.trace_time(vox, probe), rate * probe), whole)
+            out += (wholes - (k == 0 and pilot is not None)) * whole + 2 * probes * part
             out += self.runner.replay_time(lv, full) * replays + self.runner.replay_time(lv, probe) * 2 * probes
         return out
 

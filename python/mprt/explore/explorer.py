@@ -293,8 +293,14 @@ class _Explorer(Estimates, Compare):
             self.say(f"search  done in {time.perf_counter() - t:.1f} s: {best_machine.describe()}, "
                      f"{self.cost(best_machine):.0f} kGE")
         # 4. full resolution: the references, the verify best, each scene's subdivision there
+        pilot = None
+        if any(x.full != x.low for x in self.scenes):     # one whole frame, timed for the estimate (the
+            s0 = self.scenes[0]                           # references' first, which keep its trace)
+            t0 = time.perf_counter()
+            self.run([(0, s0.ref_dims, self.refs["3mppe"])], lv, "full")
+            pilot = time.perf_counter() - t0
         with ph.step("full resolution: the references at their own subdivisions, the best machines, each "
-                     "scene's subdivision there", self._est_full(lv)):
+                     "scene's subdivision there", self._est_full(lv, pilot)):
             refs = self.references(lv)
             best_machine, full_rows = self.full_resolution(problem, best_machine, lv, history)
         return self.answer(best_machine, full_rows, lv, levels, history, front, problem, refs, multi)
