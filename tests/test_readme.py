@@ -18,6 +18,8 @@ import subprocess
 import sys
 import tomllib
 
+import pytest
+
 from mprt import cli
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
@@ -26,9 +28,9 @@ MARKER = re.compile(r"<!-- example: (run|skip: .+?)(?:; small: (.*?))? -->$")
 PAIR = re.compile(r'"([^"]*)" -> "([^"]*)"')
 
 
-def examples():
-    """(line, language, code, marker) of every sh/python block, in order."""
-    lines = open(README).read().splitlines()
+def examples(path=README):
+    """(line, language, code, marker) of every sh/python block of a README, in order."""
+    lines = open(path).read().splitlines()
     out = []
     for i, line in enumerate(lines):
         m = re.fullmatch(r"```(sh|python)", line.strip())
@@ -77,6 +79,29 @@ def test_the_examples_run(tmp_path, monkeypatch):
         ran += 1
     assert ran >= 4
     assert (tmp_path / "b.png").exists() and (tmp_path / "mount.png").exists() and (tmp_path / "t.npz").exists()
+
+
+GUIDES = [os.path.join(ROOT, "python", "mprt", "explore", "README.md")]
+
+
+@pytest.mark.parametrize("guide", GUIDES, ids=lambda p: os.path.relpath(p, ROOT))
+def test_the_guides_examples_run(guide, tmp_path, monkeypatch):
+    """A package guide's marked examples run too (small), in its order, in a folder of their own."""
+    monkeypatch.chdir(tmp_path)
+    namespace = {"__name__": "__guide__"}
+    shell_prelude = f'set -euo pipefail\nmprt() {{ "{sys.executable}" -m mprt "$@"; }}\n'
+    ran = 0
+    for line, lang, code, marker in examples(guide):
+        code = prepared(line, code, marker)
+        if code is None:
+            continue
+        if lang == "sh":
+            r = subprocess.run(["bash", "-c", shell_prelude + code], capture_output=True, text=True, cwd=tmp_path)
+            assert r.returncode == 0, f"{guide}:{line}:\n{code}\n{r.stdout}\n{r.stderr}"
+        else:
+            exec(compile(code, f"{guide}:{line}", "exec"), namespace)
+        ran += 1
+    assert ran >= 1
 
 
 def test_the_subcommands_the_readme_uses_exist():
