@@ -37,6 +37,7 @@ from .search import compass, cost_range, exhaustive, search as run_search
 from .space import Design, Point, Space, default_space
 from . import subdivision as subdiv
 from .compare import Compare
+from .software import Software, with_software  # noqa: F401 (with_software: a public name here too)
 from .estimates import Estimates
 from .result import (BOUND_LEVEL, BOUND_SLACK, OBJECTIVES, ExploreResult, FidelitySettings,  # noqa: F401
                      NoLiveDesignError, Resources, SearchSettings, aggregate, front_rows, knee_of,
@@ -66,7 +67,7 @@ class SceneState:
     ref_full: float = None           # the 3MPPE at its own best subdivision, full resolution
 
 
-class _Explorer(Estimates, Compare):
+class _Explorer(Estimates, Compare, Software):
     """One exploration's state (``explore`` is its front door)."""
     PROBE_PIXELS = PROBE_PIXELS
     distinct = staticmethod(lambda space: _distinct(space))
@@ -154,29 +155,6 @@ class _Explorer(Estimates, Compare):
             return tuple(self.grid)
         return subdiv.start_dims(self.scenes[k].scene, self.space_axis_values())
 
-    def variants(self, machine) -> list:
-        """The machine with each choice of the space's software variables (a scene takes its best);
-        the machine alone where there are none, or where it is fixed (a SystemConfig)."""
-        if not self.space.software or not isinstance(machine, Design):
-            return [machine]
-        return [with_software(machine, choice) for choice in self.space.software_values()]
-
-    def per_scene(self, pairs, level: int, res: str = "low") -> list:
-        """Results of (scene index, dims, machine) pairs with each scene's software at its best:
-        (Result, the machine as that scene runs it) per pair."""
-        expanded, spans = [], []
-        for k, dims, m in pairs:
-            vs = self.variants(m)
-            spans.append((len(expanded), vs))
-            expanded += [(k, dims, v) for v in vs]
-        got = self.run(expanded, level, res)
-        out = []
-        for start, vs in spans:
-            rows = got[start:start + len(vs)]
-            i = min(range(len(vs)), key=lambda j: (rows[j].cycles, j))
-            out.append((rows[i], vs[i]))
-        return out
-
     def workload_points(self, points, level: int) -> list:
         """The workload figures of points (the hardware space's: each scene at its own dims and with
         its own software)."""
@@ -197,11 +175,6 @@ class _Explorer(Estimates, Compare):
                               engine=rows[0].engine, utilisation=rows[0].utilisation if n == 1 else {},
                               loads=rows[0].loads if n == 1 else {}))
         return out
-
-    def machine_for(self, k: int, machine):
-        """The machine as scene k runs it: with the software its last evaluation chose."""
-        got = self.chosen.get(machine.key()) if isinstance(machine, Design) else None
-        return got[k] if got else machine
 
     def bounds(self, points) -> list:
         """Level-1 bounds of points (``slack_bounds``)."""
@@ -507,14 +480,6 @@ def _cache(folder):
         return None
     from .distributed import DiskCache
     return DiskCache(folder)
-
-
-def with_software(design: Design, choice: dict) -> Design:
-    """The design with software variables set (``replication.feed`` is the design's feed)."""
-    fields = design.to_dict()
-    for name, value in choice.items():
-        fields[name.split(".")[-1]] = value
-    return Design.from_dict(fields, "software")
 
 
 def explore(workload, space: Space | None = None, search: SearchSettings = SearchSettings(),
