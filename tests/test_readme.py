@@ -61,23 +61,30 @@ def test_every_example_has_a_marker():
         prepared(line, code, marker)
 
 
-def test_the_examples_run(tmp_path, monkeypatch):
-    """Every example not marked skip runs (small), shell and Python, in README order."""
-    monkeypatch.chdir(tmp_path)
+def run_examples(path, tmp_path) -> int:
+    """Run a README's examples not marked skip (small), shell and Python, in its order, in
+    ``tmp_path``; returns how many ran."""
     namespace = {"__name__": "__readme__"}
     shell_prelude = f'set -euo pipefail\nmprt() {{ "{sys.executable}" -m mprt "$@"; }}\n'
+    name = os.path.relpath(path, ROOT)
     ran = 0
-    for line, lang, code, marker in examples():
+    for line, lang, code, marker in examples(path):
         code = prepared(line, code, marker)
         if code is None:
             continue
         if lang == "sh":
             r = subprocess.run(["bash", "-c", shell_prelude + code], capture_output=True, text=True, cwd=tmp_path)
-            assert r.returncode == 0, f"README.md:{line}:\n{code}\n{r.stdout}\n{r.stderr}"
+            assert r.returncode == 0, f"{name}:{line}:\n{code}\n{r.stdout}\n{r.stderr}"
         else:
-            exec(compile(code, f"README.md:{line}", "exec"), namespace)
+            exec(compile(code, f"{name}:{line}", "exec"), namespace)
         ran += 1
-    assert ran >= 4
+    return ran
+
+
+def test_the_examples_run(tmp_path, monkeypatch):
+    """Every example not marked skip runs (small), shell and Python, in README order."""
+    monkeypatch.chdir(tmp_path)
+    assert run_examples(README, tmp_path) >= 4
     assert (tmp_path / "b.png").exists() and (tmp_path / "mount.png").exists() and (tmp_path / "t.npz").exists()
 
 
@@ -88,20 +95,7 @@ GUIDES = [os.path.join(ROOT, "python", "mprt", "explore", "README.md")]
 def test_the_guides_examples_run(guide, tmp_path, monkeypatch):
     """A package guide's marked examples run too (small), in its order, in a folder of their own."""
     monkeypatch.chdir(tmp_path)
-    namespace = {"__name__": "__guide__"}
-    shell_prelude = f'set -euo pipefail\nmprt() {{ "{sys.executable}" -m mprt "$@"; }}\n'
-    ran = 0
-    for line, lang, code, marker in examples(guide):
-        code = prepared(line, code, marker)
-        if code is None:
-            continue
-        if lang == "sh":
-            r = subprocess.run(["bash", "-c", shell_prelude + code], capture_output=True, text=True, cwd=tmp_path)
-            assert r.returncode == 0, f"{guide}:{line}:\n{code}\n{r.stdout}\n{r.stderr}"
-        else:
-            exec(compile(code, f"{guide}:{line}", "exec"), namespace)
-        ran += 1
-    assert ran >= 1
+    assert run_examples(guide, tmp_path) >= 1
 
 
 def test_the_subcommands_the_readme_uses_exist():

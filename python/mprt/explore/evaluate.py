@@ -20,8 +20,6 @@ window, down to 1; one that deadlocks even then is reported with
 """
 from __future__ import annotations
 
-import hashlib
-import json
 import time
 from collections import OrderedDict
 from dataclasses import dataclass, field
@@ -82,14 +80,6 @@ class Result:
     @classmethod
     def from_dict(cls, d) -> "Result":
         return cls(**d)
-
-
-def trace_key(trace) -> str:
-    """A hash naming a trace by what made it (scene content, grid, image,
-    rules, tiles): traces are deterministic, so equal keys mean equal traces."""
-    meta = {k: v for k, v in trace.meta.items() if k not in ("path",)}
-    text = json.dumps(meta, sort_keys=True, default=str) + f"|{len(trace.rays)}|{len(trace.visits)}"
-    return hashlib.sha256(text.encode()).hexdigest()[:32]
 
 
 @lru_cache(maxsize=1)
@@ -310,14 +300,6 @@ class SceneEvaluator:
         self.trace_seconds = 0.0
         self.traces_made = 0
 
-    def settings(self) -> dict:
-        """What makes this evaluator's results (the scene apart): a worker process builds its own
-        from these (one tracing thread each; the trace is the same whatever the threads)."""
-        return {"width": self.width, "height": self.height, "level": self.level, "shape": self.shape,
-                "unit_costs": self.unit_costs, "max_visits": self.max_visits, "rules": self.rules, "threads": 1,
-                "sample": self.sample, "threshold": self.threshold, "max_rays": self.max_rays,
-                "max_depth": self.max_depth}
-
     def evaluator(self, dims) -> tuple:
         """(TraceEvaluator, scale) of a grid's trace (made here once, kept while it fits)."""
         dims = tuple(dims)
@@ -379,4 +361,4 @@ class SceneEvaluator:
 
 
 __all__ = ["DEADLOCK_CYCLES", "Result", "is_deadlock", "SceneEvaluator", "TraceEvaluator", "evaluate", "grid_dims", "machine_config",
-           "machine_fields", "trace_key", "STAGE_NAMES"]
+           "machine_fields", "STAGE_NAMES"]

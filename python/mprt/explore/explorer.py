@@ -30,7 +30,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .evaluate import Result, is_deadlock
-from .hwcost import UnitCosts, config_breakdown, cost_breakdown, hardware_cost
+from .hwcost import UnitCosts, hardware_cost, machine_breakdown
 from .problem import Problem
 from .runner import Runner, Task, register_scene
 from .search import compass, cost_range, exhaustive, search as run_search
@@ -120,14 +120,10 @@ class _Explorer(Estimates, Compare, Software):
         return out
 
     def cost(self, machine) -> float:
-        if isinstance(machine, Design):
-            return hardware_cost(machine, self.unit_costs)
-        return float(sum(config_breakdown(machine, self.unit_costs).values()))
+        return float(sum(self.breakdown(machine).values()))
 
     def breakdown(self, machine) -> dict:
-        if isinstance(machine, Design):
-            return cost_breakdown(machine, self.unit_costs)
-        return config_breakdown(machine, self.unit_costs)
+        return machine_breakdown(machine, self.unit_costs)
 
     def descend(self, k: int, machine, level: int, start, full: bool = False) -> tuple:
         """Scene k's subdivision for a machine (``subdivision.descend``; held where --grid fixes it),

@@ -115,6 +115,11 @@ def config_breakdown(cfg, costs: UnitCosts | None = None) -> dict:
     return {k: v * cfg.pes for k, v in out.items()}
 
 
+def machine_breakdown(machine, costs: UnitCosts | None = None) -> dict:
+    """Cost by part of a design (``cost_breakdown``) or of any machine (``config_breakdown``)."""
+    return (cost_breakdown if isinstance(machine, Design) else config_breakdown)(machine, costs)
+
+
 def cheapest_design(space, costs: UnitCosts | None = None) -> tuple:
     """(cost, design): the cheapest design of a space, found without a trace.  Every unit cost
     is non-negative and every count (units, copies, FIFO words, KiB, PEs) multiplies one, so
@@ -137,4 +142,4 @@ def cheapest_design(space, costs: UnitCosts | None = None) -> tuple:
     return best
 
 
-__all__ = ["UnitCosts", "hardware_cost", "cost_breakdown", "config_breakdown", "cheapest_design"]
+__all__ = ["UnitCosts", "hardware_cost", "cost_breakdown", "config_breakdown", "machine_breakdown", "cheapest_design"]

@@ -26,32 +26,6 @@ def check_sweep(spec: dict, workers: int | None) -> Estimate:
     return e
 
 
-def check_explore(scene, width: int, height: int, space, grid, fraction, sample, workers) -> Estimate:
-    """An explorer's processes each hold the search's low-resolution frame and the full
-    resolution's (the samples of the whole frame; records of the sampled tiles, or of the
-    frame), at the largest subdivision of the space (or ``grid``)."""
-    from .evaluate import grid_dims
-    from .prepass import low_resolution
-
-    subs = [grid if isinstance(grid, tuple) else (grid,)] if grid is not None else space.subdivisions()
-    voxels = max(int(np.prod(grid_dims(scene, s, space.shape))) for s in subs)
-    prims = scene.info()["prims"]
-    f = max(1, min(width, height) // 64) if fraction is None else fraction
-    if sample == "auto":
-        sample = "stratified:16:1" if width * height > 256 * 256 and f > 1 else None
-    frames = [(*low_resolution(width, height, f), (voxels,), prims)] if f > 1 else []
-    e = for_frames("", frames + [(width, height, (voxels,), prims)], 1)
-    if f > 1 and sample:      # the full frame's samples, only a few tiles' records
-        traced = min(width * height, 16 * 16 * 16)
-        e.parts["visits"] -= (width * height - traced) * VISIT
-        e.parts["rays"] -= (width * height - traced) * RAY
-        e.parts["costs"] -= (width * height - traced) * (COSTS + COMPILED)
-    n = workers_of(workers)
-    e = e.scaled(n + 1, f"for {n} workers and the explorer") if n > 1 else e
-    e.check()
-    return e
-
-
 PROBE_PIXELS = 64         # the memory probe's frame: about this many pixels across
 
 

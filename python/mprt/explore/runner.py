@@ -96,11 +96,12 @@ def portable(task: Task) -> Task:
 
 def _machine(m):
     if isinstance(m, tuple) and len(m) == 2 and m[0] == "machine file":
-        return _config_of(m[1])
+        return config_of_text(m[1])
     return m
 
 
-def _config_of(text: str):
+def config_of_text(text: str):
+    """The SystemConfig of a machine file's text (the last few read, kept)."""
     import tomllib
 
     from ..machine.config import config_from_dict
@@ -395,4 +396,4 @@ def default_workers() -> int:
     return max(os.cpu_count() or 1, 1)
 
 
-__all__ = ["LocalPool", "Runner", "Task", "default_workers", "machine_key", "register_scene", "run_task"]
+__all__ = ["LocalPool", "Runner", "Task", "config_of_text", "default_workers", "machine_key", "register_scene", "run_task"]

@@ -213,7 +213,6 @@ def model_s() -> Design:
     return Design(mapping="OS+IC+SC", units={"OS": {"general": 1}, "IC": {"general": 1}, "SC": {"general": 1}})
 
 
-REFERENCE_DESIGNS = {"base": base_design, "M": model_m, "S": model_s}
 
 
 @dataclass(frozen=True)

@@ -215,19 +215,16 @@ def _portable(m):
 
 def _machine(p):
     """The Design or SystemConfig a task's ``_portable`` form stands for."""
-    if isinstance(p, dict):
-        return Design(**p)
-    import tomllib
+    from .runner import config_of_text
 
-    from ..machine.config import config_from_dict
-    return config_from_dict(tomllib.loads(p[1]), source="machine")
+    return Design(**p) if isinstance(p, dict) else config_of_text(p[1])
 
 
 def _cost(m) -> float:
     """A machine's hardware cost (kGE) at the default unit costs."""
-    from .hwcost import config_breakdown, cost_breakdown
+    from .hwcost import machine_breakdown
 
-    return float(sum((cost_breakdown if isinstance(m, Design) else config_breakdown)(m).values()))
+    return float(sum(machine_breakdown(m).values()))
 
 
 def load_scene(entry):
