@@ -37,10 +37,19 @@ def sweep_spec() -> str:
 NOISE = ("Traceback", "KeyboardInterrupt", "CancelledError", "Error", "Process ")
 
 
+def _as_at_a_terminal():
+    """In the child before it runs mprt: SIGINT delivered and handled by default, as a command
+    started at a terminal has it (a test run itself started in the background, or by a harness
+    that blocks Ctrl-C, would otherwise pass on an ignored or blocked SIGINT, which mprt keeps)."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+    signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGINT})
+
+
 def start(argv, cwd):
     """mprt with argv in a process group of its own (stdout, stderr piped)."""
     return subprocess.Popen([sys.executable, "-m", "mprt", *argv], cwd=cwd, stdout=subprocess.PIPE,
-                            stderr=subprocess.PIPE, text=True, start_new_session=True)
+                            stderr=subprocess.PIPE, text=True, start_new_session=True,
+                            preexec_fn=_as_at_a_terminal)
 
 
 def temporaries(d, name="t.npz"):
